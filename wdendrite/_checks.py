@@ -1,0 +1,138 @@
+"""Input validation shared by the public functions.
+
+Each helper raises ``ValueError`` (bad value or shape) or ``TypeError`` (bad
+type or dtype) with a message that names the parameter and what it received.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import warp as wp
+
+
+def lattice_shape(shape) -> tuple[int, ...]:
+    """Return ``shape`` as a tuple of 2 or 3 positive ints."""
+    try:
+        dims = tuple(shape)
+    except TypeError:
+        raise TypeError(f"Expected a tuple (H, W) or (D, H, W) for 'shape', but got {shape!r}") from None
+    if len(dims) not in (2, 3):
+        raise ValueError(f"Expected 'shape' of rank 2 (H, W) or 3 (D, H, W), but got {shape!r} (rank {len(dims)})")
+    out = []
+    for n in dims:
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)):
+            raise TypeError(f"Expected integer sizes in 'shape', but got {shape!r}")
+        if n <= 0:
+            raise ValueError(f"Expected positive sizes in 'shape', but got {shape!r}")
+        out.append(int(n))
+    if math.prod(out) >= 2**31:
+        raise ValueError(f"'shape' {shape!r} has {math.prod(out)} nodes; at most 2**31 - 1 are supported")
+    return tuple(out)
+
+
+def float_array(name: str, value, shape: tuple[int, ...], *, positive: bool = False) -> np.ndarray:
+    """Return ``value`` as a float32 array of ``shape`` whose entries are finite and >= 0 (> 0)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
+        raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
+    if arr.shape != tuple(shape):
+        raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
+    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries (first at {where})")
+    low = arr <= 0 if positive else arr < 0
+    if low.any():
+        where = tuple(int(i) for i in np.argwhere(low)[0])
+        kind = "positive" if positive else "non-negative"
+        raise ValueError(f"'{name}' must be {kind}, but has value {arr[where]} at index {where}")
+    return arr
+
+
+def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    """Return ``value`` as a C-contiguous bool array of ``shape``."""
+    arr = np.asarray(value)
+    if arr.dtype != np.bool_:
+        raise TypeError(f"Expected a bool array for '{name}', but got dtype {arr.dtype}")
+    if arr.shape != tuple(shape):
+        raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray | None = None) -> np.ndarray:
+    """Return ``value`` as a ``(G, ndim)`` int64 array of in-bounds, usable nodes."""
+    arr = np.asarray(value)
+    ndim = len(shape)
+    if arr.dtype.kind not in "iu" or arr.dtype == np.bool_:
+        if arr.size == 0 and arr.dtype.kind == "f":
+            arr = arr.astype(np.int64)
+        else:
+            raise TypeError(f"Expected integer coordinates for '{name}', but got dtype {arr.dtype}")
+    if arr.ndim != 2 or arr.shape[1] != ndim:
+        raise ValueError(
+            f"Expected '{name}' of shape (G, {ndim}) for a lattice of shape {shape}, but got shape {arr.shape}"
+            + (" (use [point] for a single point)" if arr.ndim == 1 and arr.shape[0] == ndim else "")
+        )
+    if arr.shape[0] == 0:
+        raise ValueError(f"'{name}' is empty: at least one node is needed")
+    arr = arr.astype(np.int64)
+    outside = np.any((arr < 0) | (arr >= np.asarray(shape)), axis=1)
+    if outside.any():
+        row = int(np.argmax(outside))
+        raise ValueError(f"'{name}' row {row} = {tuple(arr[row].tolist())} lies outside the lattice of shape {shape}")
+    if mask is not None:
+        blocked = ~mask[tuple(arr.T)]
+        if blocked.any():
+            row = int(np.argmax(blocked))
+            raise ValueError(f"'{name}' row {row} = {tuple(arr[row].tolist())} is a masked-out node")
+    return arr
+
+
+def nonnegative(name: str, value, *, allow_none: bool = True, allow_inf: bool = False) -> float | None:
+    """Return ``value`` as a float >= 0 (None passes through when allowed)."""
+    if value is None and allow_none:
+        return None
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+    if math.isnan(x) or x < 0 or (math.isinf(x) and not allow_inf):
+        raise ValueError(f"Expected a non-negative {'' if allow_inf else 'finite '}number for '{name}', but got {value!r}")
+    return x
+
+
+def positive(name: str, value) -> float:
+    """Return ``value`` as a finite float > 0."""
+    x = nonnegative(name, value, allow_none=False)
+    if x == 0:
+        raise ValueError(f"Expected a positive number for '{name}', but got {value!r}")
+    return x
+
+
+def available_bytes(device) -> int:
+    """Memory a new allocation on ``device`` can use, in bytes."""
+    device = wp.get_device(device)
+    if device.is_cuda:
+        return int(device.free_memory)
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
+
+
+def fits_in_memory(need: int, device, what: str) -> None:
+    """Raise ``MemoryError`` when ``need`` bytes exceed what ``device`` has free."""
+    have = available_bytes(device)
+    if need > have:
+        raise MemoryError(
+            f"{what} needs about {need / 2**30:.2f} GiB on device '{wp.get_device(device)}', "
+            f"but only {have / 2**30:.2f} GiB are available"
+        )

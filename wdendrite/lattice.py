@@ -1,0 +1,169 @@
+"""Regular 2D and 3D lattices with weighted, undirected edges and a node mask."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from . import _checks
+
+__all__ = ["Lattice", "half_offsets"]
+
+_ALLOWED = {2: (4, 8), 3: (6, 26)}
+
+
+def half_offsets(ndim: int, connectivity: int) -> np.ndarray:
+    """One offset per undirected edge direction, shape ``(K, ndim)`` int64.
+
+    Each direction appears once (the lexicographically positive one of the
+    pair ``o``/``-o``): K = 2, 4, 3, 13 for connectivity 4, 8, 6, 26.
+    """
+    if ndim not in _ALLOWED:
+        raise ValueError(f"Expected a lattice rank of 2 or 3, but got {ndim}")
+    if connectivity not in _ALLOWED[ndim]:
+        raise ValueError(
+            f"Expected 'connectivity' in {_ALLOWED[ndim]} for a {ndim}D lattice, but got {connectivity!r}"
+        )
+    full = connectivity in (8, 26)
+    out = []
+    for o in itertools.product((-1, 0, 1), repeat=ndim):
+        if not any(o) or o <= tuple([0] * ndim):
+            continue
+        if full or sum(map(abs, o)) == 1:
+            out.append(o)
+    # axis directions first, last axis (x) first: matches the papers' 4/6-neighbourhoods
+    out.sort(key=lambda o: (sum(map(abs, o)), [-abs(v) for v in reversed(o)], o))
+    return np.array(out, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class LatticeArrays:
+    """A lattice's arrays on one Warp device, as the kernels take them."""
+
+    shape3: wp.vec3i
+    """Lattice shape as ``(D, H, W)``; D = 1 for 2D lattices."""
+    offsets: wp.array
+    """Half-offsets as ``wp.vec3i`` ``(dz, dy, dx)``, shape (K,)."""
+    weights: wp.array
+    """Flat float32 weights, shape (K * N,), entry ``k * N + node``."""
+    mask: wp.array
+    """uint8 usable-node flags, shape (N,)."""
+
+
+class Lattice:
+    """A 2D or 3D lattice of nodes joined by weighted, undirected edges.
+
+    Args:
+        shape: ``(H, W)`` or ``(D, H, W)``, positive ints.
+        connectivity: 4 or 8 in 2D, 6 or 26 in 3D (default: 4 in 2D, 6 in 3D).
+        weights: a ``(K, *shape)`` array of non-negative, finite edge costs
+            (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``), or a
+            distribution from :mod:`wdendrite.weights` such as
+            ``wd.weights.Uniform(r=10, seed=0)``. Default: each edge costs its
+            length (1, sqrt(2), sqrt(3)), giving plain lattice distances.
+        mask: bool array of ``shape``; ``True`` marks usable nodes. Masked-out
+            nodes are never entered. Default: every node usable.
+
+    Attributes:
+        shape, ndim, connectivity: as given.
+        offsets: ``(K, ndim)`` int64 half-offsets, one per undirected edge direction.
+        lengths: ``(K,)`` float32 Euclidean length of each direction.
+        weights: ``(K, *shape)`` float32, read-only. Entries whose neighbour
+            falls outside the lattice are ignored.
+        mask: ``shape`` bool, read-only, or ``None``.
+
+    Raises:
+        ValueError, TypeError: for a bad shape, connectivity, weights or mask;
+            the message names the parameter and the value it got.
+        MemoryError: when generated weights would not fit in host memory.
+    """
+
+    def __init__(self, shape, connectivity: int | None = None, weights=None, mask=None):
+        self.shape = _checks.lattice_shape(shape)
+        self.ndim = len(self.shape)
+        if connectivity is None:
+            connectivity = _ALLOWED[self.ndim][0]
+        self.offsets = half_offsets(self.ndim, connectivity)
+        self.connectivity = int(connectivity)
+        self.offsets.flags.writeable = False
+        self.lengths = np.sqrt((self.offsets**2).sum(axis=1)).astype(np.float32)
+        self.lengths.flags.writeable = False
+        self.mask = None if mask is None else _checks.bool_array("mask", mask, self.shape).copy()
+        if self.mask is not None:
+            self.mask.flags.writeable = False
+        wshape = (len(self.offsets), *self.shape)
+        if weights is None:
+            w = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
+        elif hasattr(weights, "sample"):
+            _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
+            w = np.asarray(weights.sample(self.shape, self.lengths), dtype=np.float32)
+        else:
+            w = _checks.float_array("weights", weights, wshape).copy()
+        w.flags.writeable = False
+        self.weights = w
+        self._device_arrays: dict[str, LatticeArrays] = {}
+
+    @property
+    def num_nodes(self) -> int:
+        """Number of nodes, usable or not."""
+        return int(np.prod(self.shape))
+
+    def __repr__(self) -> str:
+        masked = "" if self.mask is None else f", {int(self.mask.sum())} usable nodes"
+        return f"Lattice(shape={self.shape}, connectivity={self.connectivity}{masked})"
+
+    def with_weights(self, weights) -> Lattice:
+        """A lattice of the same shape, connectivity and mask with other ``weights``."""
+        return Lattice(self.shape, self.connectivity, weights=weights, mask=self.mask)
+
+    def device_arrays(self, device=None) -> LatticeArrays:
+        """The lattice's arrays on ``device`` (uploaded once, then reused)."""
+        device = wp.get_device(device)
+        key = str(device)
+        if key not in self._device_arrays:
+            shape3 = (1,) * (3 - self.ndim) + self.shape
+            off3 = np.zeros((len(self.offsets), 3), dtype=np.int32)
+            off3[:, 3 - self.ndim :] = self.offsets
+            mask = np.ones(self.num_nodes, np.uint8) if self.mask is None else self.mask.ravel().astype(np.uint8)
+            self._device_arrays[key] = LatticeArrays(
+                shape3=wp.vec3i(*shape3),
+                offsets=wp.array(off3, dtype=wp.vec3i, device=device),
+                weights=wp.array(self.weights.ravel(), dtype=float, device=device),
+                mask=wp.array(mask, dtype=wp.uint8, device=device),
+            )
+        return self._device_arrays[key]
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every usable undirected edge as flat node indices ``(u, v)`` int64 and weights float32.
+
+        An edge is usable when both ends are inside the lattice and unmasked.
+        """
+        us, vs, ws = [], [], []
+        index = np.arange(self.num_nodes, dtype=np.int64).reshape(self.shape)
+        mask = np.ones(self.shape, bool) if self.mask is None else self.mask
+        for k, off in enumerate(self.offsets):
+            src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(off, self.shape))
+            dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(off, self.shape))
+            ok = mask[src] & mask[dst]
+            us.append(index[src][ok])
+            vs.append(index[dst][ok])
+            ws.append(self.weights[k][src][ok])
+        return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
+
+    def to_csgraph(self):
+        """The lattice as a symmetric ``scipy.sparse.csr_matrix`` of shape (N, N) (needs SciPy).
+
+        Zero-weight edges are stored explicitly, so SciPy's graph routines see them.
+        """
+        from scipy import sparse
+
+        u, v, w = self.edges()
+        n = self.num_nodes
+        g = sparse.csr_matrix(
+            (np.concatenate([w, w]).astype(np.float64), (np.concatenate([u, v]), np.concatenate([v, u]))),
+            shape=(n, n),
+        )
+        return g
