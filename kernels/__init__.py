@@ -3,6 +3,3 @@
 Every module here holds ``@wp.kernel`` and ``@wp.func`` definitions only; the
 validated public functions that launch them live in :mod:`wdendrite`.
 """
-
-KERNEL_MODULES = ("lattice", "random", "sssp", "weights")
-"""Names of the kernel modules, used by the CUDA ahead-of-time compile test."""

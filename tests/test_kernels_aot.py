@@ -1,0 +1,49 @@
+"""Every kernel module compiles for CUDA (through NVRTC, no GPU needed) and for the CPU.
+
+Modules holding only ``@wp.func`` helpers cannot be compiled on their own;
+they are compiled inside every kernel module that imports them, which the
+last test checks.
+"""
+
+import importlib
+import pkgutil
+
+import pytest
+import warp as wp
+
+import wdendrite.kernels as kernels_pkg
+
+NAMES = sorted(m.name for m in pkgutil.iter_modules(kernels_pkg.__path__))
+MODULES = {name: importlib.import_module(f"wdendrite.kernels.{name}") for name in NAMES}
+
+
+def _has_kernels(module) -> bool:
+    return any(isinstance(v, wp.Kernel) for v in vars(module).values())
+
+
+WITH_KERNELS = [n for n in NAMES if _has_kernels(MODULES[n])]
+FUNC_ONLY = [n for n in NAMES if not _has_kernels(MODULES[n])]
+
+
+def test_kernel_modules_found():
+    assert {"lattice", "random", "sssp", "weights"} <= set(NAMES)
+    assert {"sssp", "weights"} <= set(WITH_KERNELS)
+
+
+@pytest.mark.parametrize("name", WITH_KERNELS)
+def test_compiles_for_cuda(name, tmp_path):
+    paths = wp.compile_aot_module(MODULES[name], arch=75, module_dir=tmp_path)
+    assert paths and all(p.exists() and p.stat().st_size > 0 for p in paths)
+
+
+@pytest.mark.parametrize("name", WITH_KERNELS)
+def test_compiles_for_cpu(name):
+    wp.load_module(MODULES[name], device="cpu")
+
+
+@pytest.mark.parametrize("name", FUNC_ONLY)
+def test_helper_module_used_by_a_kernel_module(name):
+    helper_funcs = {v for v in vars(MODULES[name]).values() if isinstance(v, wp.Function)}
+    assert helper_funcs
+    users = [n for n in WITH_KERNELS if helper_funcs & set(vars(MODULES[n]).values())]
+    assert users, f"kernels/{name}.py is imported by no kernel module, so nothing compiles it"
