@@ -1,0 +1,87 @@
+"""Lattice construction, half-offsets, weights layout, edges and bad input."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+import wdendrite as wd
+from wdendrite.lattice import half_offsets
+
+
+@pytest.mark.parametrize("ndim,conn,k", [(2, 4, 2), (2, 8, 4), (3, 6, 3), (3, 26, 13)])
+def test_half_offsets_cover_every_direction_once(ndim, conn, k):
+    off = half_offsets(ndim, conn)
+    assert off.shape == (k, ndim)
+    full = {tuple(o) for o in off} | {tuple(-o) for o in off}
+    expected = {
+        o for o in itertools.product((-1, 0, 1), repeat=ndim)
+        if any(o) and (conn in (8, 26) or sum(map(abs, o)) == 1)
+    }
+    assert full == expected and len(full) == 2 * k
+
+
+def test_default_weights_are_edge_lengths():
+    lat = wd.Lattice((3, 4, 5), connectivity=26)
+    assert lat.weights.shape == (13, 3, 4, 5) and lat.weights.dtype == np.float32
+    lengths = np.sqrt((lat.offsets**2).sum(1))
+    np.testing.assert_allclose(lat.weights[:, 1, 2, 3], lengths, rtol=1e-6)
+    assert not lat.weights.flags.writeable
+
+
+def test_default_connectivity():
+    assert wd.Lattice((4, 4)).connectivity == 4
+    assert wd.Lattice((2, 4, 4)).connectivity == 6
+
+
+def _brute_edges(lat):
+    out = set()
+    for idx in itertools.product(*map(range, lat.shape)):
+        for k, o in enumerate(lat.offsets):
+            nb = tuple(np.add(idx, o))
+            if all(0 <= c < n for c, n in zip(nb, lat.shape)):
+                if lat.mask is None or (lat.mask[idx] and lat.mask[nb]):
+                    u = np.ravel_multi_index(idx, lat.shape)
+                    v = np.ravel_multi_index(nb, lat.shape)
+                    out.add((int(u), int(v), float(lat.weights[(k,) + idx])))
+    return out
+
+
+@pytest.mark.parametrize("shape,conn", [((4, 5), 4), ((4, 5), 8), ((3, 3, 4), 6), ((3, 3, 4), 26)])
+def test_edges_match_brute_force(shape, conn):
+    rng = np.random.default_rng(0)
+    k = len(half_offsets(len(shape), conn))
+    w = rng.uniform(1, 5, size=(k, *shape)).astype(np.float32)
+    mask = rng.random(shape) > 0.2
+    lat = wd.Lattice(shape, conn, weights=w, mask=mask)
+    u, v, ww = lat.edges()
+    assert set(zip(u.tolist(), v.tolist(), ww.astype(float).tolist())) == _brute_edges(lat)
+    g = lat.to_csgraph()
+    assert (g != g.T).nnz == 0 and g.nnz == 2 * len(u)
+
+
+@pytest.mark.parametrize(
+    "kwargs,exc,words",
+    [
+        (dict(shape=(5,)), ValueError, "rank"),
+        (dict(shape=(2, 3, 4, 5)), ValueError, "rank"),
+        (dict(shape=(0, 4)), ValueError, "(0, 4)"),
+        (dict(shape=(-2, 4)), ValueError, "(-2, 4)"),
+        (dict(shape=(2.5, 4)), TypeError, "shape"),
+        (dict(shape=5), TypeError, "shape"),
+        (dict(shape=(4, 4), connectivity=6), ValueError, "(4, 8)"),
+        (dict(shape=(4, 4, 4), connectivity=8), ValueError, "(6, 26)"),
+        (dict(shape=(4, 4), weights=np.ones((3, 4, 4))), ValueError, "(2, 4, 4)"),
+        (dict(shape=(4, 4), weights=np.ones((2, 4, 4), dtype=bool)), TypeError, "bool"),
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), "a")), TypeError, "weights"),
+        (dict(shape=(4, 4), weights=-np.ones((2, 4, 4))), ValueError, "-1.0"),
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.nan)), ValueError, "NaN"),
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.inf)), ValueError, "finite"),
+        (dict(shape=(4, 4), mask=np.ones((4, 5), bool)), ValueError, "(4, 5)"),
+        (dict(shape=(4, 4), mask=np.ones((4, 4))), TypeError, "mask"),
+    ],
+)
+def test_bad_input(kwargs, exc, words):
+    with pytest.raises(exc) as info:
+        wd.Lattice(**kwargs)
+    assert words in str(info.value)

@@ -1,0 +1,203 @@
+"""shortest_paths against SciPy's Dijkstra, tie rule, warm starts, limit, bad input."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.sparse.csgraph import dijkstra
+
+import wdendrite as wd
+from wdendrite import _checks
+from wdendrite.lattice import half_offsets
+
+SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@st.composite
+def problems(draw, integer_weights=False):
+    """A random small lattice (2D or 3D, any connectivity, maybe masked) and generators."""
+    ndim = draw(st.sampled_from([2, 3]))
+    sizes = st.integers(1, 9) if ndim == 2 else st.integers(1, 5)
+    shape = tuple(draw(sizes) for _ in range(ndim))
+    conn = draw(st.sampled_from([4, 8] if ndim == 2 else [6, 26]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    k = len(half_offsets(ndim, conn))
+    if integer_weights:
+        w = rng.integers(1, 4, size=(k, *shape)).astype(np.float32)
+    else:
+        w = rng.uniform(0.5, 20.0, size=(k, *shape)).astype(np.float32)
+    mask = None
+    if draw(st.booleans()):
+        mask = rng.random(shape) < draw(st.floats(0.3, 1.0))
+        if not mask.any():
+            mask.flat[0] = True
+    usable = np.argwhere(mask) if mask is not None else np.argwhere(np.ones(shape, bool))
+    g = draw(st.integers(1, 6))
+    gens = usable[rng.integers(0, len(usable), size=g)]
+    return wd.Lattice(shape, conn, weights=w, mask=mask), gens
+
+
+def _scipy_all(lat, gens):
+    """(G, N) float64 costs from each generator alone."""
+    flat = np.ravel_multi_index(tuple(gens.T), lat.shape)
+    return dijkstra(lat.to_csgraph(), directed=False, indices=flat)
+
+
+def _check_against_scipy(lat, gens, cf, limit=np.inf):
+    per_gen = _scipy_all(lat, gens)
+    ref = per_gen.min(axis=0)
+    ref = np.where(ref <= limit, ref, np.inf)
+    dist = cf.dist.ravel()
+    label = cf.label.ravel()
+    assert cf.dist.shape == lat.shape and cf.dist.dtype == np.float32
+    assert cf.label.shape == lat.shape and cf.label.dtype == np.int32
+    reached = np.isfinite(ref)
+    np.testing.assert_array_equal(np.isfinite(dist), reached)
+    np.testing.assert_allclose(dist[reached], ref[reached], rtol=1e-5, atol=1e-6)
+    assert np.all(label[~reached] == -1)
+    lab = label[reached]
+    assert np.all((lab >= 0) & (lab < len(gens)))
+    np.testing.assert_allclose(per_gen[lab, np.flatnonzero(reached)], dist[reached], rtol=1e-5, atol=1e-6)
+    return per_gen
+
+
+@SETTINGS
+@given(problems())
+def test_matches_scipy_dijkstra(problem):
+    lat, gens = problem
+    _check_against_scipy(lat, gens, wd.shortest_paths(lat, gens))
+
+
+@SETTINGS
+@given(problems(integer_weights=True))
+def test_ties_go_to_the_lowest_generator_row(problem):
+    # integer weights make float32 sums exact, so ties can be checked exactly
+    lat, gens = problem
+    cf = wd.shortest_paths(lat, gens)
+    per_gen = _check_against_scipy(lat, gens, cf)
+    dist = cf.dist.ravel()
+    for v in np.flatnonzero(np.isfinite(dist)):
+        assert cf.label.ravel()[v] == np.flatnonzero(per_gen[:, v] == dist[v])[0]
+
+
+@SETTINGS
+@given(problems(), st.floats(0.0, 40.0))
+def test_limit_keeps_costs_up_to_the_bound(problem, limit):
+    lat, gens = problem
+    cf = wd.shortest_paths(lat, gens, limit=limit)
+    _check_against_scipy(lat, gens, cf, limit=limit)
+
+
+@SETTINGS
+@given(problems(), st.floats(0.05, 100.0))
+def test_result_does_not_depend_on_bucket_width(problem, delta):
+    lat, gens = problem
+    a = wd.shortest_paths(lat, gens)
+    b = wd.shortest_paths(lat, gens, delta=delta)
+    np.testing.assert_array_equal(a.dist.view(np.uint32), b.dist.view(np.uint32))
+    np.testing.assert_array_equal(a.label, b.label)
+
+
+@SETTINGS
+@given(problems(), st.data())
+def test_warm_start_equals_cold_start(problem, data):
+    lat, gens = problem
+    split = data.draw(st.integers(1, len(gens)))
+    first = wd.shortest_paths(lat, gens[:split])
+    # lower a random subset of the weights, as cheap former paths do
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    factor = np.where(rng.random(lat.weights.shape) < 0.3, rng.uniform(0.0, 1.0, lat.weights.shape), 1.0)
+    lat2 = lat.with_weights((lat.weights * factor).astype(np.float32))
+    lat2 = lat2 if data.draw(st.booleans()) else lat
+    warm = wd.shortest_paths(lat2, gens, warm_start=first)
+    cold = wd.shortest_paths(lat2, gens)
+    np.testing.assert_array_equal(warm.dist.view(np.uint32), cold.dist.view(np.uint32))
+    np.testing.assert_array_equal(warm.label, cold.label)
+
+
+def test_deterministic_bits_on_a_larger_lattice(device):
+    lat = wd.Lattice((96, 128), 8, weights=wd.weights.Uniform(r=10, seed=3))
+    gens = np.random.default_rng(1).integers(0, 96, size=(12, 2))
+    runs = [wd.shortest_paths(lat, gens, device=device) for _ in range(2)]
+    assert runs[0].dist.tobytes() == runs[1].dist.tobytes()
+    assert runs[0].label.tobytes() == runs[1].label.tobytes()
+    _check_against_scipy(lat, gens, runs[0])
+
+
+def test_masked_wall_leaves_unreachable_region(device):
+    mask = np.ones((20, 30), bool)
+    mask[:, 15] = False
+    lat = wd.Lattice((20, 30), 8, weights=wd.weights.Uniform(seed=0), mask=mask)
+    cf = wd.shortest_paths(lat, [[5, 3]], device=device)
+    assert np.isinf(cf.dist[:, 15:]).all() and (cf.label[:, 15:] == -1).all()
+    assert np.isfinite(cf.dist[:, :15]).all()
+
+
+def test_warm_start_relaxes_only_near_the_change():
+    lat = wd.Lattice((200, 200), 4, weights=wd.weights.Uniform(seed=2))
+    cold = wd.shortest_paths(lat, [[100, 100]])
+    warm = wd.shortest_paths(lat, [[100, 100], [0, 0]], warm_start=cold)
+    # only the region the new corner generator wins is touched again
+    assert warm.rounds < cold.rounds
+    again = wd.shortest_paths(lat, [[100, 100], [0, 0]])
+    assert warm.dist.tobytes() == again.dist.tobytes()
+
+
+def test_device_arrays_are_kept(device):
+    lat = wd.Lattice((8, 9))
+    cf = wd.shortest_paths(lat, [[0, 0]], device=device)
+    assert cf.dist_array.shape == (8, 9) and str(cf.dist_array.device) == device
+    assert np.shares_memory(cf.dist, cf.dist) and cf.dist[0, 0] == 0
+    assert cf.dist[7, 8] == 15.0  # Manhattan distance with unit weights
+
+
+LAT = wd.Lattice((6, 7), 4, mask=np.pad(np.ones((5, 7), bool), ((0, 1), (0, 0))))
+
+
+@pytest.mark.parametrize(
+    "gens,kwargs,exc,words",
+    [
+        (np.zeros((0, 2), int), {}, ValueError, "empty"),
+        ([], {}, ValueError, "generators"),
+        ([[1.0, 2.0]], {}, TypeError, "float64"),
+        ([1, 2], {}, ValueError, "[point]"),
+        ([[1, 2, 3]], {}, ValueError, "(G, 2)"),
+        ([[6, 0]], {}, ValueError, "(6, 0)"),
+        ([[0, -1]], {}, ValueError, "(0, -1)"),
+        ([[5, 3]], {}, ValueError, "masked"),
+        ([[0, 0]], {"limit": -1}, ValueError, "limit"),
+        ([[0, 0]], {"limit": float("nan")}, ValueError, "limit"),
+        ([[0, 0]], {"delta": 0}, ValueError, "delta"),
+        ([[0, 0]], {"warm_start": "x"}, TypeError, "warm_start"),
+    ],
+)
+def test_bad_input(gens, kwargs, exc, words):
+    with pytest.raises(exc) as info:
+        wd.shortest_paths(LAT, gens, **kwargs)
+    assert words in str(info.value)
+
+
+def test_bad_lattice_type():
+    with pytest.raises(TypeError, match="lattice"):
+        wd.shortest_paths(np.ones((3, 3)), [[0, 0]])
+
+
+def test_warm_start_mismatches():
+    lat = wd.Lattice((5, 5), 4, weights=wd.weights.Uniform(seed=1))
+    cf = wd.shortest_paths(lat, [[0, 0], [4, 4]])
+    with pytest.raises(ValueError, match="begin with"):
+        wd.shortest_paths(lat, [[4, 4], [0, 0]], warm_start=cf)
+    with pytest.raises(ValueError, match="raises"):
+        wd.shortest_paths(lat.with_weights(lat.weights * 2), [[0, 0], [4, 4]], warm_start=cf)
+    with pytest.raises(ValueError, match="does not match"):
+        wd.shortest_paths(wd.Lattice((5, 6)), [[0, 0], [4, 4]], warm_start=cf)
+    with pytest.raises(ValueError, match="mask"):
+        wd.shortest_paths(wd.Lattice((5, 5), mask=np.ones((5, 5), bool)), [[0, 0], [4, 4]], warm_start=cf)
+    with pytest.raises(ValueError, match="limit"):
+        wd.shortest_paths(lat, [[0, 0], [4, 4]], warm_start=cf, limit=3.0)
+
+
+def test_too_big_for_memory_is_refused_before_work(monkeypatch):
+    monkeypatch.setattr(_checks, "available_bytes", lambda device: 1000)
+    with pytest.raises(MemoryError, match="GiB"):
+        wd.shortest_paths(wd.Lattice((64, 64)), [[0, 0]])
