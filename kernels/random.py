@@ -41,3 +41,16 @@ def hash_uniform(seed: wp.uint32, a: wp.uint32, b: wp.uint32) -> float:
     h = hash3(seed, a, b)
     # 24 random bits centred in their interval never give 0 or 1 exactly
     return (float(h >> wp.uint32(8)) + 0.5) * (1.0 / 16777216.0)
+
+
+@wp.func
+def hash_unit(seed: wp.uint32, a: wp.uint32, b: wp.uint32) -> float:
+    """A uniform float strictly inside (0, 1) from three integers, exact in float32.
+
+    Uses the top 23 bits of :func:`hash3`: ``(h >> 9) + 0.5`` needs at most 24
+    significant bits, so float32 holds it exactly and the result lies in
+    ``[2**-24, 1 - 2**-24]``. (:func:`hash_uniform` keeps 24 bits, so its
+    ``+ 0.5`` rounds in float32 and its largest value rounds up to 1.0.)
+    """
+    h = hash3(seed, a, b)
+    return (float(h >> wp.uint32(9)) + 0.5) * (1.0 / 8388608.0)

@@ -1,28 +1,185 @@
-"""Edge-weight distributions evaluated per (node, direction) from a hash."""
+"""Edge weights evaluated per (node, direction) from a hash, with no weight array.
+
+:func:`edge_weight` is the single definition of an edge's cost. The fill
+kernel behind ``Distribution.sample()`` calls it for every stored entry, and a
+shortest-path kernel may call it per edge instead of reading a weight array:
+both get the same float32 value on the same device.
+
+An edge is ``node <-> node + offset`` with ``offset`` the half-offset of
+direction ``k`` (as ``wp.vec3i`` ``(dz, dy, dx)``; 2D lattices are ``(1, H, W)``)
+and ``length`` its Euclidean length. Its weight is::
+
+    length * (base + sum(add terms)) * prod(1 + multiply terms)
+
+where ``base`` is drawn from ``hash_unit(seed, node, k)`` and each bias term
+is ``strength * g ** exponent`` with a field ``g`` in [0, 1] evaluated at the
+edge midpoint (ramp, radial) or as the mean of the two end nodes (map).
+"""
 
 import warp as wp
 
-from .random import hash_uniform
+from .lattice import node_coords, node_index
+from .random import hash_unit
 
 wp.set_module_options({"enable_backward": False})
 
+# distribution kinds (WeightParams.kind)
+CONSTANT = wp.constant(0)
+UNIFORM = wp.constant(1)
+POWER = wp.constant(2)
+POLYNOMIAL = wp.constant(3)
+
+# bias field kinds (BiasTerm.kind)
+RAMP = wp.constant(0)
+RADIAL = wp.constant(1)
+MAP = wp.constant(2)
+
+# how a bias term combines (BiasTerm.op)
+ADD = wp.constant(0)
+MULTIPLY = wp.constant(1)
+
+
+@wp.struct
+class BiasTerm:
+    """One spatial bias term: ``strength * g ** exponent`` with a field ``g`` in [0, 1]."""
+
+    kind: int
+    """RAMP, RADIAL or MAP."""
+    op: int
+    """ADD (added to the base weight) or MULTIPLY (scales by ``1 + strength * g``)."""
+    strength: float
+    """Non-negative size of the term."""
+    exponent: float
+    """Positive shape exponent applied to ``g``."""
+    invert: int
+    """1: use ``1 - g`` (after clamping to [0, 1])."""
+    direction: wp.vec3
+    """RAMP: ``g = dot(direction, p) + offset`` at the edge midpoint ``p`` ``(z, y, x)``."""
+    offset: float
+    """RAMP: constant added to the ramp."""
+    center: wp.vec3
+    """RADIAL: a point on the vertical axis, ``(z, y, x)``."""
+    horizontal: wp.vec3
+    """RADIAL: 1 for horizontal coordinates, 0 for the vertical one."""
+    inv_radius: float
+    """RADIAL: ``1 / r_max`` so that ``g = r * inv_radius`` reaches 1 at the farthest node (0 if r_max is 0)."""
+    map_start: int
+    """MAP: index of the map's first node in ``WeightParams.maps``."""
+
+
+@wp.struct
+class WeightParams:
+    """Everything :func:`edge_weight` needs: a distribution and its bias terms."""
+
+    kind: int
+    """CONSTANT, UNIFORM, POWER or POLYNOMIAL."""
+    seed: wp.uint32
+    """Hash seed."""
+    a: float
+    """CONSTANT: value; UNIFORM: r; POWER: alpha; POLYNOMIAL: n."""
+    b: float
+    """POWER: max (R is uniform in (1, max)); unused otherwise."""
+    num_terms: int
+    """Number of entries of ``terms`` in use."""
+    terms: wp.array(dtype=BiasTerm)
+    """Bias terms, applied in order (at least one entry, so the array is never empty)."""
+    maps: wp.array(dtype=float)
+    """Concatenated per-node map values in [0, 1] (at least one entry)."""
+
 
 @wp.func
-def uniform_weight(seed: wp.uint32, scale: float, length: float, node: int, direction: int) -> float:
-    """``length * (1 + scale * R)`` with R uniform in (0, 1) (Xu & Mould's uniform weights)."""
-    r = hash_uniform(seed, wp.uint32(node), wp.uint32(direction))
-    return length * (1.0 + scale * r)
+def base_weight(params: WeightParams, node: int, k: int) -> float:
+    """The random part of the weight of edge ``(node, k)``, before length scaling."""
+    u = hash_unit(params.seed, wp.uint32(node), wp.uint32(k))
+    w = params.a
+    if params.kind == UNIFORM:
+        w = 1.0 + params.a * u
+    elif params.kind == POWER:
+        w = wp.pow(1.0 + (params.b - 1.0) * u, params.a)
+    elif params.kind == POLYNOMIAL:
+        w = 1.0 + wp.pow(100.0 * u, params.a)
+    return w
+
+
+@wp.func
+def bias_field(
+    term: BiasTerm, maps: wp.array(dtype=float), shape3: wp.vec3i, node: int, offset: wp.vec3i
+) -> float:
+    """The field value ``g ** exponent`` in [0, 1] of one bias term on edge ``node <-> node + offset``."""
+    c = node_coords(node, shape3)
+    g = float(0.0)
+    if term.kind == MAP:
+        # mean of the two end nodes; an end outside the lattice counts as the inside end
+        o = c + offset
+        if o[0] < 0 or o[1] < 0 or o[2] < 0 or o[0] >= shape3[0] or o[1] >= shape3[1] or o[2] >= shape3[2]:
+            o = c
+        g = 0.5 * (maps[term.map_start + node] + maps[term.map_start + node_index(o, shape3)])
+    else:
+        p = wp.vec3(
+            float(c[0]) + 0.5 * float(offset[0]),
+            float(c[1]) + 0.5 * float(offset[1]),
+            float(c[2]) + 0.5 * float(offset[2]),
+        )
+        if term.kind == RAMP:
+            g = wp.dot(term.direction, p) + term.offset
+        else:
+            g = wp.length(wp.cw_mul(p - term.center, term.horizontal)) * term.inv_radius
+    g = wp.clamp(g, 0.0, 1.0)
+    if term.invert != 0:
+        g = 1.0 - g
+    if term.exponent != 1.0:
+        g = wp.pow(g, term.exponent)
+    return g
+
+
+@wp.func
+def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offset: wp.vec3i, length: float) -> float:
+    """The cost of edge ``node <-> node + offset`` (direction ``k``, Euclidean ``length``).
+
+    Args:
+        params: from ``distribution.kernel_params(shape, device)``.
+        shape3: lattice shape ``(D, H, W)`` (D = 1 in 2D).
+        node: flat index of the edge's first end (the one the half-offset starts from).
+        k: direction index into the lattice's half-offsets.
+        offset: the half-offset of direction ``k``, ``(dz, dy, dx)``.
+        length: ``|offset|`` as float32 (1, sqrt(2) or sqrt(3)).
+    """
+    add = float(0.0)
+    scale = float(1.0)
+    for i in range(params.num_terms):
+        term = params.terms[i]
+        s = term.strength * bias_field(term, params.maps, shape3, node, offset)
+        if term.op == ADD:
+            add = add + s
+        else:
+            scale = scale * (1.0 + s)
+    return length * (base_weight(params, node, k) + add) * scale
 
 
 @wp.kernel
-def uniform_weights_kernel(
-    seed: wp.uint32,
-    scale: float,
-    lengths: wp.array(dtype=float),
-    count: int,
+def fill_weights_kernel(
+    params: WeightParams,
+    shape3: wp.vec3i,
+    offsets_in: wp.array(dtype=wp.vec3i),
+    lengths_in: wp.array(dtype=float),
+    weights_out: wp.array2d(dtype=float),
+):
+    """Fill ``weights_out[k, node]`` for every direction and node; launch dim ``(K, N)``."""
+    k, node = wp.tid()
+    weights_out[k, node] = edge_weight(params, shape3, node, k, offsets_in[k], lengths_in[k])
+
+
+@wp.kernel
+def edge_weights_at_kernel(
+    params: WeightParams,
+    shape3: wp.vec3i,
+    offsets_in: wp.array(dtype=wp.vec3i),
+    lengths_in: wp.array(dtype=float),
+    nodes_in: wp.array(dtype=int),
+    directions_in: wp.array(dtype=int),
     weights_out: wp.array(dtype=float),
 ):
-    """Fill the flat ``(K * N,)`` weight array; thread ``k * N + node``."""
-    e = wp.tid()
-    k = e / count
-    weights_out[e] = uniform_weight(seed, scale, lengths[k], e - k * count, k)
+    """Weights of the listed edges ``(nodes_in[i], directions_in[i])``; launch dim ``(E,)``."""
+    i = wp.tid()
+    k = directions_in[i]
+    weights_out[i] = edge_weight(params, shape3, nodes_in[i], k, offsets_in[k], lengths_in[k])
