@@ -37,3 +37,14 @@ def in_bounds(coords: wp.vec3i, shape: wp.vec3i) -> bool:
         and coords[1] < shape[1]
         and coords[2] < shape[2]
     )
+
+
+@wp.func
+def padded_index(index: int, shape: wp.vec3i, pad: wp.vec3i) -> int:
+    """Flat index, in a lattice padded by ``pad`` nodes on each side, of the node with flat ``index``.
+
+    Shortest-path kernels work on a lattice with a one-node border of blocked
+    nodes, so a neighbour is always ``node + flat_offset`` with no bounds test.
+    """
+    c = node_coords(index, shape) + pad
+    return node_index(c, shape + pad + pad)

@@ -7,6 +7,11 @@ keeps the least cost and, among equal costs, the lowest generator row. The
 minimum does not depend on the order in which threads arrive, so the result
 is bit-identical run to run on a device.
 
+Kernels index a *padded* lattice: the lattice with a one-node border (in
+x, y and, for 3D, z), so a neighbour is always ``node + flat_offsets[k]``. The
+border and masked-out nodes hold the packed word 0, which no candidate can
+undercut, so they are never entered and need no test.
+
 Frontiers are flat ``int32`` node lists with their lengths kept in a small
 ``counts`` array; a node enters a "near" list at most once per generation
 (``stamp``) and the "far" pile at most once (``in_far``).
@@ -14,9 +19,9 @@ Frontiers are flat ``int32`` node lists with their lengths kept in a small
 
 import warp as wp
 
-from .lattice import in_bounds, node_coords, node_index
+from .lattice import padded_index
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
 UNREACHED = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 """Packed state of a node no path has reached."""
@@ -66,21 +71,31 @@ def push_near(
     counts: wp.array(dtype=wp.int32),
     near_slot: int,
 ):
-    """Add ``node`` to the near list of ``generation`` once."""
+    """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
     if wp.atomic_exch(stamp, node, generation) != generation:
-        near_out[wp.atomic_add(counts, near_slot, 1)] = node
+        near_out[wp.atomic_add(counts, near_slot, 1) % near_out.shape[0]] = node
+
+
+@wp.kernel
+def init_state_kernel(mask: wp.array(dtype=wp.uint8), packed_out: wp.array(dtype=wp.uint64)):
+    """Unreached usable nodes, blocked (word 0) masked and border nodes."""
+    i = wp.tid()
+    if mask[i] != wp.uint8(0):
+        packed_out[i] = UNREACHED
+    else:
+        packed_out[i] = wp.uint64(0)
 
 
 @wp.kernel
 def seed_kernel(
     nodes_in: wp.array(dtype=wp.int32),
     labels_in: wp.array(dtype=wp.int32),
+    far_slot: int,
     packed: wp.array(dtype=wp.uint64),
     in_far: wp.array(dtype=wp.int32),
-    far_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
-    far_slot: int,
     far_min: wp.array(dtype=float),
+    far_out: wp.array(dtype=wp.int32),
 ):
     """Give each generator node cost 0 and its row as label; queue it."""
     i = wp.tid()
@@ -92,47 +107,72 @@ def seed_kernel(
 
 @wp.kernel
 def mark_lowered_kernel(
-    shape: wp.vec3i,
-    offsets: wp.array(dtype=wp.vec3i),
+    flat_offsets: wp.array(dtype=wp.int32),
     mask: wp.array(dtype=wp.uint8),
     old_weights: wp.array(dtype=float),
     new_weights: wp.array(dtype=float),
+    far_slot: int,
     packed: wp.array(dtype=wp.uint64),
     in_far: wp.array(dtype=wp.int32),
-    far_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
-    far_slot: int,
     far_min: wp.array(dtype=float),
+    far_out: wp.array(dtype=wp.int32),
 ):
     """Queue both ends of every edge whose weight went down (warm start)."""
     node = wp.tid()
     if mask[node] == wp.uint8(0):
         return
-    count = shape[0] * shape[1] * shape[2]
-    here = node_coords(node, shape)
-    for k in range(offsets.shape[0]):
+    count = mask.shape[0]
+    for k in range(flat_offsets.shape[0]):
         e = k * count + node
-        if new_weights[e] < old_weights[e]:
-            there = here + offsets[k]
-            if in_bounds(there, shape):
-                other = node_index(there, shape)
-                if mask[other] != wp.uint8(0):
-                    for end in range(2):
-                        n = node
-                        if end == 1:
-                            n = other
-                        word = packed[n]
-                        if word != UNREACHED:
-                            push_far(n, packed_cost(word), in_far, far_out, counts, far_slot, far_min)
+        other = node + flat_offsets[k]
+        if new_weights[e] < old_weights[e] and mask[other] != wp.uint8(0):
+            for end in range(2):
+                n = node
+                if end == 1:
+                    n = other
+                word = packed[n]
+                if word != UNREACHED:
+                    push_far(n, packed_cost(word), in_far, far_out, counts, far_slot, far_min)
+
+
+@wp.func
+def relax_edge(
+    other: int,
+    new_cost: float,
+    label: int,
+    threshold: float,
+    limit: float,
+    generation: int,
+    near_slot: int,
+    far_slot: int,
+    packed: wp.array(dtype=wp.uint64),
+    stamp: wp.array(dtype=wp.int32),
+    in_far: wp.array(dtype=wp.int32),
+    counts: wp.array(dtype=wp.int32),
+    far_min: wp.array(dtype=float),
+    near_out: wp.array(dtype=wp.int32),
+    far_out: wp.array(dtype=wp.int32),
+):
+    """Offer ``other`` the cost ``new_cost`` from generator ``label``; queue it if it improved."""
+    if new_cost <= limit:
+        candidate = pack_cost(new_cost, label)
+        if candidate < packed[other]:
+            if candidate < wp.atomic_min(packed, other, candidate):
+                if new_cost < threshold:
+                    push_near(other, generation, stamp, near_out, counts, near_slot)
+                else:
+                    push_far(other, new_cost, in_far, far_out, counts, far_slot, far_min)
 
 
 @wp.kernel
 def relax_kernel(
-    shape: wp.vec3i,
-    offsets: wp.array(dtype=wp.vec3i),
+    flat_offsets: wp.array(dtype=wp.int32),
     weights: wp.array(dtype=float),
-    mask: wp.array(dtype=wp.uint8),
     near_in: wp.array(dtype=wp.int32),
+    in_slot: int,
+    threads: int,
+    fifo: int,
     threshold: float,
     limit: float,
     generation: int,
@@ -148,41 +188,41 @@ def relax_kernel(
 ):
     """Relax every edge of the near frontier's nodes.
 
-    A neighbour whose packed state drops is queued in the next near list when
-    its cost is below ``threshold`` and in the far pile otherwise; costs above
-    ``limit`` are never written.
+    ``threads`` threads stride over the ``counts[in_slot]`` entries of
+    ``near_in`` (one thread on the CPU, many on a GPU). With ``fifo`` (one
+    thread only), ``near_out`` is ``near_in`` and the list is a work queue:
+    nodes queued during the launch are relaxed in the same launch, and a node
+    may be queued again once it has been taken out. A neighbour whose
+    packed state drops is queued in the next near list when its cost is below
+    ``threshold`` and in the far pile otherwise; costs above ``limit`` are
+    never written. ``weights[k * P + p]`` is the edge ``p <-> p + flat_offsets[k]``
+    of the padded lattice of P nodes.
     """
-    node = near_in[wp.tid()]
-    word = packed[node]
-    cost = packed_cost(word)
-    label = packed_label(word)
-    count = shape[0] * shape[1] * shape[2]
-    here = node_coords(node, shape)
-    for k in range(offsets.shape[0]):
-        for side in range(2):
-            there = here + offsets[k]
-            if side == 1:
-                there = here - offsets[k]
-            if in_bounds(there, shape):
-                other = node_index(there, shape)
-                if mask[other] != wp.uint8(0):
-                    # the weight of an undirected edge is stored at its lower end
-                    e = k * count + node
-                    if side == 1:
-                        e = k * count + other
-                    new_cost = cost + weights[e]
-                    if new_cost <= limit:
-                        candidate = pack_cost(new_cost, label)
-                        if candidate < wp.atomic_min(packed, other, candidate):
-                            if new_cost < threshold:
-                                push_near(other, generation, stamp, near_out, counts, near_slot)
-                            else:
-                                push_far(other, new_cost, in_far, far_out, counts, far_slot, far_min)
+    count = packed.shape[0]
+    capacity = near_in.shape[0]
+    i = wp.tid()
+    while i < counts[in_slot]:
+        node = near_in[i % capacity]
+        if fifo != 0:
+            stamp[node] = 0
+        word = packed[node]
+        cost = packed_cost(word)
+        label = packed_label(word)
+        for k in range(flat_offsets.shape[0]):
+            step = flat_offsets[k]
+            # forward edge stored at this node, backward edge stored at the neighbour
+            relax_edge(node + step, cost + weights[k * count + node], label, threshold, limit, generation,
+                       near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
+            relax_edge(node - step, cost + weights[k * count + node - step], label, threshold, limit, generation,
+                       near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
+        i += threads
 
 
 @wp.kernel
 def split_far_kernel(
     far_in: wp.array(dtype=wp.int32),
+    in_slot: int,
+    threads: int,
     previous_threshold: float,
     threshold: float,
     generation: int,
@@ -201,15 +241,19 @@ def split_far_kernel(
     Nodes that dropped below ``previous_threshold`` while waiting were already
     queued as near nodes at that moment, so they are simply dropped.
     """
-    node = far_in[wp.tid()]
-    cost = packed_cost(packed[node])
-    if cost < threshold:
-        in_far[node] = 0
-        if cost >= previous_threshold:
-            push_near(node, generation, stamp, near_out, counts, near_slot)
-    else:
-        far_out[wp.atomic_add(counts, far_slot, 1)] = node
-        wp.atomic_min(far_min, 0, cost)
+    i = wp.tid()
+    n = counts[in_slot]
+    while i < n:
+        node = far_in[i]
+        cost = packed_cost(packed[node])
+        if cost < threshold:
+            in_far[node] = 0
+            if cost >= previous_threshold:
+                push_near(node, generation, stamp, near_out, counts, near_slot)
+        else:
+            far_out[wp.atomic_add(counts, far_slot, 1)] = node
+            wp.atomic_min(far_min, 0, cost)
+        i += threads
 
 
 @wp.kernel
@@ -221,13 +265,17 @@ def set_count_kernel(slot: int, value: int, counts: wp.array(dtype=wp.int32)):
 @wp.kernel
 def unpack_kernel(
     packed: wp.array(dtype=wp.uint64),
+    mask: wp.array(dtype=wp.uint8),
+    shape: wp.vec3i,
+    pad: wp.vec3i,
     dist_out: wp.array(dtype=float),
     label_out: wp.array(dtype=wp.int32),
 ):
-    """Split packed states into costs (inf when unreached) and labels (-1)."""
+    """Split the padded packed states into costs (inf when unreached) and labels (-1)."""
     i = wp.tid()
-    word = packed[i]
-    if word == UNREACHED:
+    p = padded_index(i, shape, pad)
+    word = packed[p]
+    if word == UNREACHED or mask[p] == wp.uint8(0):
         dist_out[i] = wp.inf
         label_out[i] = -1
     else:

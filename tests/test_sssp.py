@@ -89,13 +89,21 @@ def test_limit_keeps_costs_up_to_the_bound(problem, limit):
 
 
 @SETTINGS
-@given(problems(), st.floats(0.05, 100.0))
-def test_result_does_not_depend_on_bucket_width(problem, delta):
+@given(problems(), st.floats(0.05, 100.0), st.booleans())
+def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo):
+    # fifo=False is the generation-round schedule GPUs use; it runs on the CPU here too
     lat, gens = problem
     a = wd.shortest_paths(lat, gens)
-    b = wd.shortest_paths(lat, gens, delta=delta)
+    b = wd.shortest_paths(lat, gens, delta=delta, _fifo=fifo)
     np.testing.assert_array_equal(a.dist.view(np.uint32), b.dist.view(np.uint32))
     np.testing.assert_array_equal(a.label, b.label)
+
+
+@SETTINGS
+@given(problems(), st.floats(0.0, 40.0))
+def test_generation_round_schedule_matches_scipy(problem, limit):
+    lat, gens = problem
+    _check_against_scipy(lat, gens, wd.shortest_paths(lat, gens, limit=limit, _fifo=False), limit=limit)
 
 
 @SETTINGS

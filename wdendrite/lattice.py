@@ -41,16 +41,28 @@ def half_offsets(ndim: int, connectivity: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class LatticeArrays:
-    """A lattice's arrays on one Warp device, as the kernels take them."""
+    """A lattice's arrays on one Warp device, as the shortest-path kernels take them.
+
+    Kernels see the lattice *padded* with a one-node border of blocked nodes
+    (in x and y, and in z for 3D lattices), so every neighbour of a usable
+    node is ``p + flat_offsets[k]`` or ``p - flat_offsets[k]`` with no bounds
+    test. ``P`` below is the padded node count.
+    """
 
     shape3: wp.vec3i
-    """Lattice shape as ``(D, H, W)``; D = 1 for 2D lattices."""
+    """Unpadded shape as ``(D, H, W)``; D = 1 for 2D lattices."""
+    pad3: wp.vec3i
+    """Border width per axis ``(z, y, x)``: (0, 1, 1) in 2D, (1, 1, 1) in 3D."""
+    padded_shape: tuple
+    """Padded shape ``(D + 2 pz, H + 2, W + 2)``."""
     offsets: wp.array
     """Half-offsets as ``wp.vec3i`` ``(dz, dy, dx)``, shape (K,)."""
+    flat_offsets: wp.array
+    """int32 flat index step of each half-offset in the padded lattice, shape (K,)."""
     weights: wp.array
-    """Flat float32 weights, shape (K * N,), entry ``k * N + node``."""
+    """float32 padded weights, shape (K * P,): entry ``k * P + p`` is the edge ``p <-> p + flat_offsets[k]``."""
     mask: wp.array
-    """uint8 usable-node flags, shape (N,)."""
+    """uint8 usable-node flags of the padded lattice, shape (P,) (0 on the border)."""
 
 
 class Lattice:
@@ -120,21 +132,37 @@ class Lattice:
         return Lattice(self.shape, self.connectivity, weights=weights, mask=self.mask)
 
     def device_arrays(self, device=None) -> LatticeArrays:
-        """The lattice's arrays on ``device`` (uploaded once, then reused)."""
+        """The lattice's padded arrays on ``device`` (uploaded once, then reused)."""
         device = wp.get_device(device)
         key = str(device)
         if key not in self._device_arrays:
+            pad3 = (0, 1, 1) if self.ndim == 2 else (1, 1, 1)
             shape3 = (1,) * (3 - self.ndim) + self.shape
+            padded = tuple(n + 2 * p for n, p in zip(shape3, pad3))
+            inner = tuple(slice(p, p + n) for n, p in zip(shape3, pad3))
             off3 = np.zeros((len(self.offsets), 3), dtype=np.int32)
             off3[:, 3 - self.ndim :] = self.offsets
-            mask = np.ones(self.num_nodes, np.uint8) if self.mask is None else self.mask.ravel().astype(np.uint8)
+            flat = (off3 * np.array([padded[1] * padded[2], padded[2], 1])).sum(axis=1).astype(np.int32)
+            weights = np.zeros((len(self.offsets), *padded), np.float32)
+            weights[(slice(None),) + inner] = self.weights.reshape((len(self.offsets), *shape3))
+            mask = np.zeros(padded, np.uint8)
+            mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
             self._device_arrays[key] = LatticeArrays(
                 shape3=wp.vec3i(*shape3),
+                pad3=wp.vec3i(*pad3),
+                padded_shape=padded,
                 offsets=wp.array(off3, dtype=wp.vec3i, device=device),
-                weights=wp.array(self.weights.ravel(), dtype=float, device=device),
-                mask=wp.array(mask, dtype=wp.uint8, device=device),
+                flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
+                weights=wp.array(weights.ravel(), dtype=float, device=device),
+                mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
             )
         return self._device_arrays[key]
+
+    def padded_indices(self, coords: np.ndarray) -> np.ndarray:
+        """Flat indices in the kernels' padded lattice of ``(G, ndim)`` node coordinates (int32)."""
+        # 2D lattices are padded in y and x only, 3D ones in z too: +1 on every given axis
+        padded = tuple(n + 2 for n in self.shape)
+        return np.ravel_multi_index(tuple((np.asarray(coords) + 1).T), padded).astype(np.int32)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every usable undirected edge as flat node indices ``(u, v)`` int64 and weights float32.

@@ -55,7 +55,9 @@ class CostField:
     label_array: wp.array = field(repr=False)
     """int32 device array of the lattice shape."""
     rounds: int = 0
-    """Relaxation rounds (kernel launches over a near frontier) the search took."""
+    """Relaxation launches the search took (one per bucket on the CPU, one per frontier generation on GPUs)."""
+    relaxed: int = 0
+    """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the weights."""
 
     @property
     def device(self):
@@ -91,6 +93,11 @@ class _Frontiers:
         self._counts_view = self.counts.numpy() if self._cpu else None
         self._min_view = self.far_min.numpy() if self._cpu else None
 
+    def threads(self, work: int) -> int:
+        """Threads for a launch over ``work`` list entries: one on the CPU, where a
+        single thread striding over the list avoids per-thread launch costs."""
+        return 1 if self._cpu else min(work, 1 << 16)
+
     def read(self) -> np.ndarray:
         return self._counts_view if self._cpu else self.counts.numpy()
 
@@ -104,7 +111,10 @@ class _Frontiers:
             wp.launch(_k.set_count_kernel, dim=1, inputs=[slot, value], outputs=[self.counts], device=self.counts.device)
 
     def reset_far_min(self) -> None:
-        self.far_min.fill_(math.inf)
+        if self._cpu:
+            self._min_view[0] = math.inf
+        else:
+            self.far_min.fill_(math.inf)
 
 
 def _default_delta(lattice: Lattice) -> float:
@@ -149,6 +159,7 @@ def shortest_paths(
     limit: float | None = None,
     warm_start: CostField | None = None,
     delta: float | None = None,
+    _fifo: bool | None = None,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -167,6 +178,8 @@ def shortest_paths(
         delta: bucket width of the near-far threshold, in cost units. Larger
             means fewer, bigger rounds (better for GPUs); smaller means less
             repeated work. Default: 16 times the mean edge weight.
+        _fifo: testing hook choosing the schedule (default: a work queue per
+            bucket on single-threaded CPU devices, generation rounds on GPUs).
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -198,9 +211,11 @@ def shortest_paths(
 
     with wp.ScopedDevice(device):
         arrays = lattice.device_arrays(device)
-        fr = _Frontiers(n, device)
+        size = arrays.mask.shape[0]
+        fr = _Frontiers(size, device)
         if warm_start is None:
-            packed = wp.full(n, value=wp.uint64(0xFFFFFFFFFFFFFFFF), dtype=wp.uint64)
+            packed = wp.empty(size, dtype=wp.uint64)
+            wp.launch(_k.init_state_kernel, dim=size, inputs=[arrays.mask], outputs=[packed])
             new_rows = np.arange(len(gens))
         else:
             packed = wp.clone(warm_start.packed.to(device))
@@ -209,63 +224,119 @@ def shortest_paths(
             if old_arrays.weights is not arrays.weights:
                 wp.launch(
                     _k.mark_lowered_kernel,
-                    dim=n,
-                    inputs=[arrays.shape3, arrays.offsets, arrays.mask, old_arrays.weights, arrays.weights],
-                    outputs=[packed, fr.in_far, fr.lists[2], fr.counts, 2, fr.far_min],
+                    dim=size,
+                    inputs=[arrays.flat_offsets, arrays.mask, old_arrays.weights, arrays.weights, 2],
+                    outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
                 )
         if len(new_rows):
-            flat = np.ravel_multi_index(tuple(gens[new_rows].T), lattice.shape).astype(np.int32)
+            flat = lattice.padded_indices(gens[new_rows])
             wp.launch(
                 _k.seed_kernel,
                 dim=len(flat),
-                inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32)],
-                outputs=[packed, fr.in_far, fr.lists[2], fr.counts, 2, fr.far_min],
+                inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32), 2],
+                outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
             )
-        rounds = _run(arrays, packed, fr, limit_f, delta_f)
+        fifo = device.is_cpu if _fifo is None else bool(_fifo)
+        rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo)
         dist = wp.empty(lattice.shape, dtype=float)
         label = wp.empty(lattice.shape, dtype=wp.int32)
-        wp.launch(_k.unpack_kernel, dim=n, inputs=[packed], outputs=[dist.flatten(), label.flatten()])
-    return CostField(lattice, gens, limit_f, packed, dist, label, rounds)
+        wp.launch(
+            _k.unpack_kernel,
+            dim=n,
+            inputs=[packed, arrays.mask, arrays.shape3, arrays.pad3],
+            outputs=[dist.flatten(), label.flatten()],
+        )
+    return CostField(lattice, gens, limit_f, packed, dist, label, rounds, relaxed)
 
 
-def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float) -> int:
-    """Drive near-far rounds until both the near list and the far pile are empty."""
+class _Launches:
+    """Relax and split launches recorded once per buffer arrangement, then replayed.
+
+    Replaying a recorded launch costs a few microseconds instead of about
+    twenty for a fresh ``wp.launch``, which matters over thousands of rounds.
+    """
+
+    def __init__(self, arrays, packed: wp.array, fr: _Frontiers, limit: float, fifo: bool):
+        self._arrays, self._packed, self._fr, self._limit = arrays, packed, fr, limit
+        self.fifo = fifo
+        self._relax: dict[tuple[int, int], wp.Launch] = {}
+        self._split: dict[tuple[int, int], wp.Launch] = {}
+
+    def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
+        cmd = self._relax.get((near, far))
+        fr = self._fr
+        nxt = near if self.fifo else 1 - near
+        if cmd is None:
+            cmd = self._relax[(near, far)] = wp.launch(
+                _k.relax_kernel,
+                dim=threads,
+                inputs=[self._arrays.flat_offsets, self._arrays.weights, fr.lists[near], near, threads,
+                        int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
+                outputs=[self._packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
+                record_cmd=True,
+            )
+        self._replay(cmd, threads, threshold, generation)
+
+    def split(self, near: int, far: int, threads: int, previous: float, threshold: float, generation: int) -> None:
+        cmd = self._split.get((near, far))
+        fr, other = self._fr, 1 - far
+        if cmd is None:
+            cmd = self._split[(near, far)] = wp.launch(
+                _k.split_far_kernel,
+                dim=threads,
+                inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation, near, 2 + other],
+                outputs=[self._packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
+                record_cmd=True,
+            )
+        cmd.set_param_by_name("previous_threshold", previous)
+        self._replay(cmd, threads, threshold, generation)
+
+    @staticmethod
+    def _replay(cmd, threads: int, threshold: float, generation: int) -> None:
+        cmd.set_dim(threads)
+        cmd.set_param_by_name("threads", threads)
+        cmd.set_param_by_name("threshold", threshold)
+        cmd.set_param_by_name("generation", generation)
+        cmd.launch()
+
+
+def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, fifo: bool) -> tuple[int, int]:
+    """Drive near-far rounds until both the near list and the far pile are empty.
+
+    With ``fifo`` (single-threaded devices), one launch empties the near list
+    as a work queue, so a round is a whole bucket; otherwise a round relaxes
+    one generation of the near list into the other.
+    """
+    launches = _Launches(arrays, packed, fr, limit, fifo)
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
     threshold = -math.inf
     generation = 0
-    rounds = 0
+    rounds = relaxed = 0
     while True:
         counts = fr.read()
         n_near = int(counts[near])
         if n_near:
             generation += 1
-            nxt = 1 - near
-            fr.set_count(nxt, 0)
-            wp.launch(
-                _k.relax_kernel,
-                dim=n_near,
-                inputs=[arrays.shape3, arrays.offsets, arrays.weights, arrays.mask, fr.lists[near],
-                        threshold, limit, generation, nxt, 2 + far],
-                outputs=[packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
-            )
-            fr.set_count(near, 0)
-            near = nxt
+            if fifo:
+                launches.relax(near, far, 1, threshold, generation)
+                relaxed += int(fr.read()[near])
+                fr.set_count(near, 0)
+            else:
+                fr.set_count(1 - near, 0)
+                launches.relax(near, far, fr.threads(n_near), threshold, generation)
+                relaxed += n_near
+                fr.set_count(near, 0)
+                near = 1 - near
             rounds += 1
             continue
         n_far = int(counts[2 + far])
         if n_far == 0:
-            return rounds
+            return rounds, relaxed
         previous = threshold
         threshold = max(threshold + delta, fr.far_minimum() + delta)
         fr.reset_far_min()
         generation += 1
-        other = 1 - far
-        fr.set_count(2 + other, 0)
-        wp.launch(
-            _k.split_far_kernel,
-            dim=n_far,
-            inputs=[fr.lists[2 + far], previous, threshold, generation, near, 2 + other],
-            outputs=[packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
-        )
+        fr.set_count(3 - far, 0)
+        launches.split(near, far, fr.threads(n_far), previous, threshold, generation)
         fr.set_count(2 + far, 0)
-        far = other
+        far = 1 - far
