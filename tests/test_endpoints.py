@@ -1,0 +1,256 @@
+"""Endpoint placement: constraints hold for every point, counts, reproducibility, bias, bad input."""
+
+import numpy as np
+import pytest
+from PIL import Image as PILImage
+from scipy.spatial.distance import pdist
+from skimage.measure import points_in_poly
+
+import wdendrite as wd
+from wdendrite import endpoints as ep
+
+
+def _distinct(pts):
+    return len({tuple(p) for p in pts.tolist()}) == len(pts)
+
+
+@pytest.mark.parametrize("shape", [(40, 50), (12, 13, 14)])
+def test_random_counts_bounds_distinct_and_reproducible(shape):
+    pts = ep.random(shape, 200, seed=3)
+    assert pts.shape == (200, len(shape)) and pts.dtype == np.int64
+    assert (pts >= 0).all() and (pts < np.array(shape)).all() and _distinct(pts)
+    np.testing.assert_array_equal(pts, ep.random(shape, 200, seed=3))
+    assert not np.array_equal(pts, ep.random(shape, 200, seed=4))
+    a = ep.random(shape, 20, seed=np.random.default_rng(9))
+    b = ep.random(shape, 20, seed=np.random.default_rng(9))
+    np.testing.assert_array_equal(a, b)
+
+
+def test_random_can_take_every_node_once():
+    pts = ep.random((7, 9), 63, seed=0)
+    assert sorted(map(tuple, pts.tolist())) == [(y, x) for y in range(7) for x in range(9)]
+
+
+def test_random_respects_the_lattice_mask():
+    rng = np.random.default_rng(1)
+    mask = rng.random((30, 30)) < 0.3
+    lat = wd.Lattice((30, 30), mask=mask)
+    pts = ep.random(lat, int(mask.sum()), seed=2)
+    assert mask[tuple(pts.T)].all() and len(pts) == mask.sum()
+    with pytest.raises(ValueError, match=r"only \d+ candidate nodes"):
+        ep.random(lat, int(mask.sum()) + 1, seed=2)
+
+
+def _all_of(region, shape, lat_mask=None):
+    """Every node of ``region`` that the sampler can reach, by asking for all of them."""
+    want = region.mask(shape) if lat_mask is None else region.mask(shape) & lat_mask
+    lat = wd.Lattice(shape, mask=lat_mask) if lat_mask is not None else shape
+    pts = ep.random(lat, int(want.sum()), seed=0, within=region)
+    got = np.zeros(shape, bool)
+    got[tuple(pts.T)] = True
+    return want, got
+
+
+def test_disc_and_ball():
+    pts = ep.random((50, 60), 100, seed=1, within=ep.Disc((20.0, 30.5), 9.5))
+    assert (np.hypot(pts[:, 0] - 20.0, pts[:, 1] - 30.5) <= 9.5).all()
+    pts = ep.random((20, 20, 20), 100, seed=1, within=ep.Disc((10, 8, 12), 6))
+    assert (np.linalg.norm(pts - [10, 8, 12], axis=1) <= 6).all()
+    want, got = _all_of(ep.Disc((10, 10), 4), (21, 21))
+    assert np.array_equal(want, got) and want.sum() == sum(
+        1 for y in range(21) for x in range(21) if (y - 10) ** 2 + (x - 10) ** 2 <= 16
+    )
+
+
+def test_box():
+    pts = ep.random((10, 30, 40), 300, seed=2, within=ep.Box((2, 5, 10), (6, 20, 15)))
+    assert (pts >= [2, 5, 10]).all() and (pts <= [6, 20, 15]).all()
+    want, got = _all_of(ep.Box((1, 2), (3, 7)), (8, 9))
+    assert np.array_equal(want, got) and want.sum() == 3 * 6
+
+
+def _in_triangle(p, a, b, c):
+    """Independent check: the three sub-triangle areas add up to the whole."""
+    def area(u, v, w):
+        return abs((v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (w[..., 0] - u[..., 0]) * (v[..., 1] - u[..., 1]))
+
+    a, b, c = (np.asarray(v, float) for v in (a, b, c))
+    p = p.astype(float)
+    return np.isclose(area(p, a, b) + area(p, b, c) + area(p, c, a), area(a, b, c))
+
+
+def test_triangle():
+    a, b, c = (3.0, 2.0), (40.0, 10.0), (10.0, 45.0)
+    pts = ep.random((50, 50), 300, seed=3, within=ep.Triangle(a, b, c))
+    assert _in_triangle(pts, a, b, c).all()
+    nodes = np.argwhere(np.ones((50, 50), bool))
+    want = _in_triangle(nodes, a, b, c).reshape(50, 50)
+    assert np.array_equal(ep.Triangle(a, b, c).mask((50, 50)), want)
+
+
+def test_polygon_matches_an_independent_point_in_polygon():
+    verts = [(2.3, 3.1), (30.7, 5.2), (18.4, 20.6), (35.2, 38.9), (4.1, 33.3), (12.6, 17.7)]  # concave
+    shape = (40, 42)
+    nodes = np.argwhere(np.ones(shape, bool)).astype(float)
+    want = points_in_poly(nodes, np.asarray(verts)).reshape(shape)
+    assert np.array_equal(ep.Polygon(verts).mask(shape), want)
+    pts = ep.random(shape, 150, seed=4, within=ep.Polygon(verts))
+    assert want[tuple(pts.T)].all()
+
+
+def test_image_region_from_array_and_file(tmp_path):
+    img = np.full((20, 30), 255, np.uint8)
+    img[5:15, 3:12] = 10
+    PILImage.fromarray(img).save(tmp_path / "shape.png")
+    for src in (img, tmp_path / "shape.png"):
+        pts = ep.random((20, 30), 40, seed=5, within=ep.Image(src))
+        assert (img[tuple(pts.T)] < 128).all()
+        pts = ep.random((20, 30), 40, seed=5, within=ep.Image(src, dark=False))
+        assert (img[tuple(pts.T)] > 128).all()
+
+
+def test_within_and_lattice_mask_combine():
+    mask = np.ones((30, 30), bool)
+    mask[:, :15] = False
+    want, got = _all_of(ep.Disc((15, 15), 8), (30, 30), lat_mask=mask)
+    assert np.array_equal(want, got) and not got[:, :15].any()
+
+
+@pytest.mark.parametrize("shape,spacing,count", [((80, 80), 7.5, 60), ((24, 24, 24), 5.0, 40)])
+def test_min_spacing_holds_for_every_pair(shape, spacing, count):
+    pts = ep.random(shape, count, seed=6, min_spacing=spacing)
+    assert len(pts) == count and _distinct(pts)
+    assert pdist(pts.astype(float)).min() >= spacing
+    np.testing.assert_array_equal(pts, ep.random(shape, count, seed=6, min_spacing=spacing))
+
+
+def test_spacing_within_a_region():
+    region = ep.Disc((30, 30), 20)
+    pts = ep.random((60, 60), 15, seed=1, within=region, min_spacing=6)
+    assert region.mask((60, 60))[tuple(pts.T)].all() and pdist(pts.astype(float)).min() >= 6
+
+
+def test_impossible_spacing_raises_instead_of_looping():
+    # a 20 x 20 lattice cannot hold 30 points 8 apart
+    with pytest.raises(ValueError, match=r"Could place only \d+ of 30 endpoints.*'min_spacing' = 8"):
+        ep.random((20, 20), 30, seed=0, min_spacing=8)
+
+
+def _cost_field():
+    lat = wd.Lattice((60, 70), 8, weights=wd.weights.Uniform(r=10, seed=2))
+    return wd.shortest_paths(lat, [[30, 35]])
+
+
+def test_in_band_every_point_in_the_band():
+    cf = _cost_field()
+    d, r = 80.0, 8.0
+    for cost in (cf, cf.dist):
+        pts = ep.in_band(cost, 40, d, r, seed=7)
+        c = cf.dist[tuple(pts.T)]
+        assert len(pts) == 40 and ((c > d - r) & (c < d + r)).all()
+    pts = ep.in_band(cf, 10, d, r, seed=7, min_spacing=10)
+    c = cf.dist[tuple(pts.T)]
+    assert ((c > d - r) & (c < d + r)).all() and pdist(pts.astype(float)).min() >= 10
+    # the candidates are exactly the band: ask for all of them
+    band = (cf.dist > d - r) & (cf.dist < d + r)
+    pts = ep.in_band(cf, int(band.sum()), d, r, seed=1)
+    got = np.zeros(band.shape, bool)
+    got[tuple(pts.T)] = True
+    assert np.array_equal(got, band)
+
+
+def test_in_band_respects_mask_and_reports_empty_band():
+    mask = np.ones((40, 40), bool)
+    mask[:, 25:] = False
+    lat = wd.Lattice((40, 40), weights=wd.weights.Uniform(seed=1), mask=mask)
+    cf = wd.shortest_paths(lat, [[20, 5]])
+    pts = ep.in_band(cf, 30, 60.0, 20.0, seed=0)
+    assert mask[tuple(pts.T)].all()
+    with pytest.raises(ValueError, match=r"No candidate nodes.*cost in \(9990, 10010\).*finite costs range"):
+        ep.in_band(cf, 3, 1e4, 10.0)
+
+
+def test_biased_shifts_endpoints_toward_the_bottom():
+    shape = (200, 50)
+    uniform = ep.random(shape, 1000, seed=8)[:, 0].mean()
+    low = ep.biased(shape, 1000, seed=8, power=3.0)[:, 0].mean()
+    high = ep.biased(shape, 1000, seed=8, power=3.0, toward="start")[:, 0].mean()
+    # density ~ (i/n)^3 has mean row 0.8 n = 160 (0.2 n = 40 from the top); uniform 99.5
+    assert abs(uniform - 99.5) < 10
+    assert low > 140 and high < 60
+    flat = ep.biased(shape, 1000, seed=8, power=0.0)[:, 0].mean()
+    assert abs(flat - 99.5) < 10
+    # along another axis, in 3D
+    pts = ep.biased((10, 10, 100), 200, seed=1, power=4.0, axis=2)
+    assert pts[:, 2].mean() > 70
+
+
+def test_density_zero_nodes_are_never_drawn():
+    density = np.zeros((30, 30))
+    density[10:20, 5:8] = 1.0
+    density[0, 0] = 500.0
+    pts = ep.random((30, 30), 31, seed=2, density=density)
+    assert (density[tuple(pts.T)] > 0).all()
+    # the heavy node is drawn first almost always
+    firsts = [tuple(ep.random((30, 30), 1, seed=s, density=density)[0]) for s in range(20)]
+    assert firsts.count((0, 0)) >= 15  # p = 500 / 530 each
+
+
+def test_manual_validates():
+    lat = wd.Lattice((10, 12), mask=np.pad(np.ones((8, 10), bool), 1))
+    pts = ep.manual(lat, [[1, 1], [8, 10]])
+    assert pts.dtype == np.int64 and pts.tolist() == [[1, 1], [8, 10]]
+    with pytest.raises(ValueError, match=r"'points' row 1 = \(10, 3\) lies outside"):
+        ep.manual(lat, [[1, 1], [10, 3]])
+    with pytest.raises(ValueError, match=r"'points' row 0 = \(0, 0\) is a masked-out node"):
+        ep.manual(lat, [[0, 0]])
+    with pytest.raises(TypeError, match="'points'"):
+        ep.manual(lat, [[1.5, 2.0]])
+    dist = np.ones((10, 12), np.float32)
+    dist[5, 5] = np.inf
+    with pytest.raises(ValueError, match=r"row 1 = \(5, 5\) is unreachable"):
+        ep.manual(lat, [[2, 2], [5, 5]], cost=dist)
+
+
+# ---------------------------------------------------------------------------
+# bad input
+
+
+@pytest.mark.parametrize(
+    "call,error,match",
+    [
+        (lambda: ep.random((10, 10), 0), ValueError, "'count'"),
+        (lambda: ep.random((10, 10), 2.5), TypeError, "'count'"),
+        (lambda: ep.random((10, 10), 101), ValueError, "'count' = 101.*only 100"),
+        (lambda: ep.random((10, 10), 3, seed=-1), ValueError, "'seed'"),
+        (lambda: ep.random((10, 10), 3, seed="a"), TypeError, "'seed'"),
+        (lambda: ep.random((10, 10), 3, within=np.ones((9, 10), bool)), ValueError, "'within'"),
+        (lambda: ep.random((10, 10), 3, within=np.ones((10, 10))), TypeError, "'within'"),
+        (lambda: ep.random((10, 10), 3, within=np.zeros((10, 10), bool)), ValueError, "No candidate.*0 of them inside 'within'"),
+        (lambda: ep.random((10, 10), 3, density=-np.ones((10, 10))), ValueError, "'density'"),
+        (lambda: ep.random((10, 10), 3, density=np.full((10, 10), np.nan)), ValueError, "'density'"),
+        (lambda: ep.random((10, 10), 3, density=np.zeros((10, 10))), ValueError, "No candidate.*positive 'density'"),
+        (lambda: ep.random((10, 10), 3, min_spacing=0), ValueError, "'min_spacing'"),
+        (lambda: ep.random((10, 10), 3, min_spacing=float("inf")), ValueError, "'min_spacing'"),
+        (lambda: ep.random((10,), 3), ValueError, "'shape'"),
+        (lambda: ep.Disc((5, 5), 0), ValueError, "'radius'"),
+        (lambda: ep.random((10, 10), 3, within=ep.Disc((5, 5, 5), 2)), ValueError, "'center'"),
+        (lambda: ep.random((10, 10), 3, within=ep.Box((5, 5), (2, 8))), ValueError, "'hi' >= 'lo'"),
+        (lambda: ep.Triangle((0, 0), (1, 1), (2, 2)), ValueError, "collinear"),
+        (lambda: ep.Polygon([(0, 0), (1, 1)]), ValueError, "'vertices'"),
+        (lambda: ep.random((5, 10, 10), 3, within=ep.Polygon([(0, 0), (0, 5), (5, 0)])), ValueError, "2D lattice"),
+        (lambda: ep.random((10, 10), 3, within=ep.Image(np.zeros((8, 8), np.uint8))), ValueError, "'image'.*\\(10, 10\\)"),
+        (lambda: ep.Image("/nonexistent/shape.png"), ValueError, "Could not read 'image'"),
+        (lambda: ep.Image(np.zeros((8, 8)), threshold=0), ValueError, "'threshold'"),
+        (lambda: ep.biased((10, 10), 3, power=-1), ValueError, "'power'"),
+        (lambda: ep.biased((10, 10), 3, axis=2), ValueError, "'axis'"),
+        (lambda: ep.biased((10, 10), 3, toward="up"), ValueError, "'toward'"),
+        (lambda: ep.in_band(np.zeros((10, 10)), 3, 5.0, 0.0), ValueError, "'r'"),
+        (lambda: ep.in_band(np.zeros((10, 10)), 3, float("nan"), 1.0), ValueError, "'d'"),
+        (lambda: ep.in_band(np.zeros((10, 10), np.int32), 3, 5.0, 1.0), TypeError, "'cost'"),
+        (lambda: ep.in_band(np.zeros((10,)), 3, 5.0, 1.0), ValueError, "'shape'"),
+    ],
+)
+def test_bad_input_raises_clearly(call, error, match):
+    with pytest.raises(error, match=match):
+        call()

@@ -1,0 +1,480 @@
+"""Endpoint placement: where the paths of a dendrite start (thesis section 3.3.1).
+
+Every strategy returns ``(M, ndim)`` int64 node coordinates (``(y, x)`` in 2D,
+``(z, y, x)`` in 3D) of distinct, usable lattice nodes, drawn in a random order:
+
+- :func:`random`: uniformly among the usable nodes, optionally restricted to a
+  region (``within=``: a bool mask or a :class:`Disc`, :class:`Box`,
+  :class:`Triangle`, :class:`Polygon` or :class:`Image`), weighted by a
+  ``density``, and at least ``min_spacing`` apart (rejection sampling).
+- :func:`biased`: denser toward one end of an axis (lightning: lower in the image).
+- :func:`in_band`: nodes whose path cost lies in ``(d - r, d + r)``.
+- :func:`manual`: a validated list.
+
+Randomness comes only from ``seed`` (an int or a ``np.random.Generator``).
+A request that cannot be met (no candidate node, more endpoints than
+candidates, a spacing that leaves too few) raises ``ValueError`` at once; the
+spacing search tries each candidate at most once, so it always ends.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from . import _checks
+from .lattice import Lattice
+
+__all__ = ["Box", "Disc", "Image", "Polygon", "Region", "Triangle", "biased", "in_band", "manual", "random"]
+
+
+# ---------------------------------------------------------------------------
+# regions
+
+
+class Region:
+    """A set of lattice nodes; subclasses define :meth:`mask`."""
+
+    def mask(self, shape: tuple[int, ...]) -> np.ndarray:
+        """Bool array of ``shape``: True for nodes inside the region."""
+        raise NotImplementedError
+
+
+def _finite(name: str, value) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"Expected a finite number for '{name}', but got {value!r}")
+    return x
+
+
+def _point(name: str, value, ndim: int) -> np.ndarray:
+    try:
+        p = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        p = np.array([np.nan])
+    if p.shape != (ndim,) or not np.isfinite(p).all():
+        raise ValueError(f"Expected '{name}' as {ndim} finite node coordinates, but got {value!r}")
+    return p
+
+
+def _grid(shape):
+    return np.ogrid[tuple(slice(0, n) for n in shape)]
+
+
+@dataclass(frozen=True)
+class Disc(Region):
+    """Nodes within ``radius`` of ``center`` (a disc in 2D, a ball in 3D), boundary included."""
+
+    center: tuple[float, ...]
+    """``(y, x)`` or ``(z, y, x)`` in node units."""
+    radius: float
+    """Radius in node units, > 0."""
+
+    def __post_init__(self):
+        _checks.positive("radius", self.radius)
+
+    def mask(self, shape):
+        c = _point("center", self.center, len(shape))
+        d2 = sum((g - ci) ** 2 for g, ci in zip(_grid(shape), c))
+        return np.broadcast_to(d2 <= float(self.radius) ** 2 + 1e-9, shape).copy()
+
+
+@dataclass(frozen=True)
+class Box(Region):
+    """Nodes with ``lo <= coords <= hi`` on every axis (both corners included)."""
+
+    lo: tuple[float, ...]
+    """Lower corner, ``(y, x)`` or ``(z, y, x)``."""
+    hi: tuple[float, ...]
+    """Upper corner; must be >= ``lo`` on every axis."""
+
+    def mask(self, shape):
+        lo, hi = _point("lo", self.lo, len(shape)), _point("hi", self.hi, len(shape))
+        if (hi < lo).any():
+            raise ValueError(f"Expected 'hi' >= 'lo' on every axis, but got lo={self.lo!r}, hi={self.hi!r}")
+        out = np.ones(shape, bool)
+        for g, a, b in zip(_grid(shape), lo, hi):
+            out &= (g >= a) & (g <= b)
+        return out
+
+
+def _vertices(name: str, value, minimum: int) -> np.ndarray:
+    v = np.asarray(value, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2 or len(v) < minimum or not np.isfinite(v).all():
+        raise ValueError(f"Expected '{name}' as (V >= {minimum}, 2) finite (y, x) points, but got {value!r}")
+    return v
+
+
+def _need_2d(shape, what):
+    if len(shape) != 2:
+        raise ValueError(f"{what} needs a 2D lattice, but the lattice has shape {shape}")
+
+
+@dataclass(frozen=True)
+class Triangle(Region):
+    """Nodes inside the triangle ``a, b, c`` (2D, ``(y, x)`` points), boundary included."""
+
+    a: tuple[float, float]
+    """First corner ``(y, x)``."""
+    b: tuple[float, float]
+    """Second corner."""
+    c: tuple[float, float]
+    """Third corner."""
+
+    def __post_init__(self):
+        v = _vertices("triangle", [self.a, self.b, self.c], 3)
+        (ay, ax), (by, bx) = v[1] - v[0], v[2] - v[0]
+        if abs(ay * bx - ax * by) < 1e-12:
+            raise ValueError(f"Triangle corners {self.a!r}, {self.b!r}, {self.c!r} are collinear (zero area)")
+
+    def mask(self, shape):
+        _need_2d(shape, "Triangle")
+        y, x = _grid(shape)
+        v = _vertices("triangle", [self.a, self.b, self.c], 3)
+        sides = []
+        for p, q in ((v[0], v[1]), (v[1], v[2]), (v[2], v[0])):
+            # z of (q - p) x (node - p); the sign says which side of the edge the node is on
+            sides.append((q[0] - p[0]) * (x - p[1]) - (q[1] - p[1]) * (y - p[0]))
+        eps = 1e-9
+        pos = (sides[0] >= -eps) & (sides[1] >= -eps) & (sides[2] >= -eps)
+        neg = (sides[0] <= eps) & (sides[1] <= eps) & (sides[2] <= eps)
+        return np.broadcast_to(pos | neg, shape).copy()
+
+
+@dataclass(frozen=True)
+class Polygon(Region):
+    """Nodes inside a simple or self-intersecting polygon (2D, even-odd rule).
+
+    Nodes exactly on an edge may fall on either side.
+    """
+
+    vertices: tuple
+    """``(V, 2)`` corners ``(y, x)`` in order, V >= 3; the last joins the first."""
+
+    def __post_init__(self):
+        _vertices("vertices", self.vertices, 3)
+
+    def mask(self, shape):
+        _need_2d(shape, "Polygon")
+        v = _vertices("vertices", self.vertices, 3)
+        y, x = _grid(shape)
+        inside = np.zeros(shape, bool)
+        for (y0, x0), (y1, x1) in zip(v, np.roll(v, -1, axis=0)):
+            if y0 == y1:
+                continue  # a horizontal edge never crosses the horizontal ray
+            spans = (y0 > y) != (y1 > y)  # (H, 1)
+            x_cross = x0 + (y - y0) * (x1 - x0) / (y1 - y0)  # (H, 1)
+            inside ^= spans & (x < x_cross)
+        return inside
+
+
+@dataclass(frozen=True, eq=False)
+class Image(Region):
+    """Nodes where an image (array, file path or PIL image) is dark (or bright).
+
+    The image has the lattice shape; row 0 is the top row. Brightness is
+    read as in :class:`wdendrite.weights.Map` (0 black, 1 white).
+    """
+
+    image: object
+    """``(H, W)`` / ``(D, H, W)`` array (bool, uint8, uint16 or float in [0, 1]), image file path, or PIL image."""
+    threshold: float = 0.5
+    """Brightness threshold in (0, 1]."""
+    dark: bool = True
+    """True: nodes with brightness < threshold; False: brightness >= threshold."""
+    brightness: np.ndarray = field(init=False, repr=False)
+    """The image as float32 brightness in [0, 1], read at construction."""
+
+    def __post_init__(self):
+        from .weights import _grayscale
+
+        t = _checks.positive("threshold", self.threshold)
+        if t > 1:
+            raise ValueError(f"Expected 'threshold' in (0, 1], but got {self.threshold!r}")
+        object.__setattr__(self, "brightness", _grayscale("image", self.image))
+
+    def mask(self, shape):
+        if self.brightness.shape != tuple(shape):
+            raise ValueError(f"Expected 'image' of the lattice shape {tuple(shape)}, but got shape {self.brightness.shape}")
+        b = self.brightness
+        return (b < self.threshold) if self.dark else (b >= self.threshold)
+
+
+# ---------------------------------------------------------------------------
+# sampling
+
+
+def _rng(seed) -> np.random.Generator:
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"Expected an int or a numpy.random.Generator for 'seed', but got {seed!r}")
+    if seed < 0:
+        raise ValueError(f"Expected a non-negative 'seed', but got {seed!r}")
+    return np.random.default_rng(int(seed))
+
+
+def _count(count) -> int:
+    if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)):
+        raise TypeError(f"Expected an integer 'count', but got {count!r}")
+    if count < 1:
+        raise ValueError(f"Expected a positive 'count', but got {count!r}")
+    return int(count)
+
+
+def _space(lattice) -> tuple[tuple[int, ...], np.ndarray | None]:
+    """Shape and node mask of a Lattice, or of a bare shape tuple."""
+    if isinstance(lattice, Lattice):
+        return lattice.shape, lattice.mask
+    return _checks.lattice_shape(lattice), None
+
+
+def _within(within, shape) -> np.ndarray:
+    if isinstance(within, Region):
+        return within.mask(shape)
+    return _checks.bool_array("within", within, shape)
+
+
+def _footprint(ndim: int, spacing: float) -> np.ndarray:
+    """Offsets ``o`` with ``|o| < spacing``, shape (F, ndim)."""
+    r = math.ceil(spacing)
+    axes = np.meshgrid(*([np.arange(-r, r + 1)] * ndim), indexing="ij")
+    off = np.stack([a.ravel() for a in axes], axis=1)
+    return off[(off**2).sum(axis=1) < spacing**2]
+
+
+def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
+    """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
+    order = cand[np.argsort(keys, kind="stable")]
+    foot = _footprint(len(shape), spacing)
+    dims = np.asarray(shape)
+    blocked = np.zeros(math.prod(shape), bool)
+    kept: list[int] = []
+    ptr, chunk = 0, 64
+    # one Python step per kept point (plus a few per long run of rejected candidates)
+    while len(kept) < count and ptr < len(order):
+        seg = order[ptr : ptr + chunk]
+        free = ~blocked[seg]
+        if not free.any():
+            ptr += len(seg)
+            chunk = min(chunk * 2, 1 << 16)
+            continue
+        j = int(np.argmax(free))
+        node = int(seg[j])
+        kept.append(node)
+        ptr += j + 1
+        chunk = 64
+        near = np.asarray(np.unravel_index(node, shape)) + foot
+        near = near[np.all((near >= 0) & (near < dims), axis=1)]
+        blocked[np.ravel_multi_index(tuple(near.T), shape)] = True
+    if len(kept) < count:
+        raise ValueError(
+            f"Could place only {len(kept)} of {count} endpoints at least 'min_spacing' = {spacing:g} apart "
+            f"among {len(cand)} candidate nodes (each tried once, in random order); "
+            "lower 'count' or 'min_spacing', or widen the region"
+        )
+    return np.asarray(kept, dtype=np.int64)
+
+
+def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, why: list[str]) -> np.ndarray:
+    """Draw ``count`` distinct nodes among ``usable`` (flat bool); ``why`` describes the filters for errors."""
+    if density is not None:
+        dens = _checks.float_array("density", density, shape).reshape(-1)
+        usable = usable & (dens > 0)
+        why.append(f"{int(usable.sum())} with positive 'density'")
+    cand = np.flatnonzero(usable)
+    if len(cand) == 0:
+        raise ValueError("No candidate nodes for endpoints: " + ", ".join(why))
+    if count > len(cand):
+        raise ValueError(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: " + ", ".join(why))
+    if density is None:
+        keys = rng.random(len(cand))
+    else:
+        # exponential keys scaled by 1/density: sorting them is weighted sampling without replacement
+        keys = rng.exponential(size=len(cand)) / dens[cand]
+    if min_spacing is None:
+        first = np.argpartition(keys, count - 1)[:count] if count < len(cand) else np.arange(len(cand))
+        flat = cand[first[np.argsort(keys[first], kind="stable")]]
+    else:
+        flat = _spaced(cand, keys, shape, count, min_spacing)
+    return np.stack(np.unravel_index(flat, shape), axis=1).astype(np.int64)
+
+
+def _candidates(shape, mask, within) -> tuple[np.ndarray, list[str]]:
+    usable = np.ones(math.prod(shape), bool) if mask is None else mask.reshape(-1).copy()
+    why = [f"{int(usable.sum())} usable lattice nodes"]
+    if within is not None:
+        usable &= _within(within, shape).reshape(-1)
+        why.append(f"{int(usable.sum())} of them inside 'within'")
+    return usable, why
+
+
+def _spacing(min_spacing):
+    return None if min_spacing is None else _checks.positive("min_spacing", min_spacing)
+
+
+def random(
+    lattice,
+    count: int,
+    *,
+    seed: int | np.random.Generator = 0,
+    within=None,
+    density=None,
+    min_spacing: float | None = None,
+) -> np.ndarray:
+    """Endpoints drawn at random among the usable nodes.
+
+    Args:
+        lattice: a :class:`~wdendrite.Lattice` (its mask is respected) or a shape ``(H, W)`` / ``(D, H, W)``.
+        count: number of endpoints M, >= 1.
+        seed: int seed or ``np.random.Generator``.
+        within: restrict to a region: a bool array of the lattice shape or a
+            :class:`Region` (:class:`Disc`, :class:`Box`, :class:`Triangle`, :class:`Polygon`, :class:`Image`).
+        density: non-negative float array of the lattice shape; nodes are drawn
+            with probability proportional to it (sequentially, without
+            replacement). Nodes of zero density are never drawn.
+        min_spacing: if given, every two endpoints are at least this far apart
+            (Euclidean, node units): candidates are tried once each, in random
+            order, and rejected when closer than ``min_spacing`` to one kept before.
+
+    Returns:
+        ``(M, ndim)`` int64 node coordinates, distinct, in the order drawn.
+
+    Raises:
+        ValueError: no candidate node, fewer candidates than ``count``, or a
+            spacing that leaves fewer than ``count``; bad argument values.
+        TypeError: bad argument types.
+    """
+    shape, mask = _space(lattice)
+    count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
+    usable, why = _candidates(shape, mask, within)
+    return _sample(shape, usable, count, rng, density, spacing, why)
+
+
+def biased(
+    lattice,
+    count: int,
+    *,
+    seed: int | np.random.Generator = 0,
+    power: float = 2.0,
+    axis: int = 0,
+    toward: Literal["start", "end"] = "end",
+    within=None,
+    min_spacing: float | None = None,
+) -> np.ndarray:
+    """Endpoints denser toward one end of an axis, e.g. lower in the image for lightning.
+
+    The probability of a node at index ``i`` along ``axis`` (of length n) is
+    proportional to ``((i + 1) / n) ** power`` for ``toward="end"`` and
+    ``((n - i) / n) ** power`` for ``toward="start"``. In a 2D image (axis 0 =
+    rows, row 0 at the top), the default puts endpoints mostly low in the image.
+
+    Args:
+        lattice, count, seed, within, min_spacing: as for :func:`random`.
+        power: >= 0; 0 is uniform, larger values concentrate toward the end.
+        axis: lattice axis of the bias.
+        toward: which end of ``axis`` is denser.
+
+    Returns:
+        ``(M, ndim)`` int64 node coordinates.
+    """
+    shape, mask = _space(lattice)
+    power = _checks.nonnegative("power", power, allow_none=False)
+    if isinstance(axis, (bool, np.bool_)) or not isinstance(axis, (int, np.integer)) or not -len(shape) <= axis < len(shape):
+        raise ValueError(f"Expected 'axis' in [{-len(shape)}, {len(shape)}) for a lattice of shape {shape}, but got {axis!r}")
+    if toward not in ("start", "end"):
+        raise ValueError(f"Expected 'toward' in ('start', 'end'), but got {toward!r}")
+    n = shape[axis]
+    i = np.arange(n, dtype=np.float64)
+    profile = ((i + 1) / n) ** power if toward == "end" else ((n - i) / n) ** power
+    view = [1] * len(shape)
+    view[axis] = n
+    density = np.broadcast_to(profile.reshape(view), shape)
+    return random(lattice, count, seed=seed, within=within, density=density, min_spacing=min_spacing)
+
+
+def in_band(
+    cost,
+    count: int,
+    d: float,
+    r: float,
+    *,
+    seed: int | np.random.Generator = 0,
+    within=None,
+    density=None,
+    min_spacing: float | None = None,
+) -> np.ndarray:
+    """Endpoints whose path cost ``c`` satisfies ``d - r < c < d + r`` (thesis section 3.3.1, Fig 3.12).
+
+    Args:
+        cost: a :class:`~wdendrite.CostField` (its lattice mask is respected),
+            or a float array ``dist`` of the lattice shape (inf where unreachable).
+        count: number of endpoints, >= 1.
+        d: centre of the band (path cost units), finite.
+        r: half-width of the band, > 0.
+        seed, within, density, min_spacing: as for :func:`random`.
+
+    Returns:
+        ``(M, ndim)`` int64 node coordinates.
+    """
+    if hasattr(cost, "dist") and hasattr(cost, "lattice"):
+        dist, lattice = np.asarray(cost.dist), cost.lattice
+    else:
+        dist = np.asarray(cost)
+        if dist.dtype.kind != "f":
+            raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
+        lattice = dist.shape
+    shape, mask = _space(lattice)
+    if dist.shape != shape:
+        raise ValueError(f"Expected 'cost' of shape {shape}, but got shape {dist.shape}")
+    d = _finite("d", d)
+    r = _checks.positive("r", r)
+    count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
+    usable, why = _candidates(shape, mask, within)
+    c = dist.reshape(-1)
+    usable &= (c > d - r) & (c < d + r)
+    finite = c[np.isfinite(c)]
+    span = f"finite costs range over [{finite.min():g}, {finite.max():g}]" if finite.size else "no finite costs"
+    why.append(f"{int(usable.sum())} with cost in ({d - r:g}, {d + r:g}) ({span})")
+    return _sample(shape, usable, count, rng, density, spacing, why)
+
+
+def manual(lattice, points, *, cost=None) -> np.ndarray:
+    """A hand-placed list of endpoints, validated.
+
+    Args:
+        lattice: a :class:`~wdendrite.Lattice` (its mask is respected) or a shape.
+        points: ``(M, ndim)`` integer node coordinates.
+        cost: optional :class:`~wdendrite.CostField` or ``dist`` array; points
+            with infinite cost (unreachable from every generator) are rejected.
+
+    Returns:
+        ``(M, ndim)`` int64 copy of ``points``.
+
+    Raises:
+        ValueError: a point outside the lattice, on a masked-out node or
+            unreachable (the message gives its row and coordinates).
+        TypeError: non-integer coordinates.
+    """
+    shape, mask = _space(lattice)
+    pts = _checks.node_coordinates("points", points, shape, mask)
+    if cost is not None:
+        dist = np.asarray(cost.dist if hasattr(cost, "dist") else cost)
+        if dist.shape != shape:
+            raise ValueError(f"Expected 'cost' of shape {shape}, but got shape {dist.shape}")
+        bad = ~np.isfinite(dist[tuple(pts.T)])
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise ValueError(
+                f"'points' row {row} = {tuple(pts[row].tolist())} is unreachable from every generator "
+                f"({int(bad.sum())} unreachable points in all)"
+            )
+    return pts.copy()
