@@ -156,6 +156,19 @@ def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offse
     return length * (base_weight(params, node, k) + add) * scale
 
 
+@wp.func
+def edge_weight_at(
+    params: WeightParams, shape3: wp.vec3i, coords: wp.vec3i, k: int, offset: wp.vec3i, length: float
+) -> float:
+    """:func:`edge_weight` for the edge starting at node ``coords`` ``(z, y, x)``.
+
+    For kernels whose own node numbering differs from the lattice's C order
+    (a padded layout, a sublattice): the hash always uses the lattice's flat
+    index, so the weight does not depend on how the caller stores nodes.
+    """
+    return edge_weight(params, shape3, node_index(coords, shape3), k, offset, length)
+
+
 @wp.kernel
 def fill_weights_kernel(
     params: WeightParams,
@@ -182,4 +195,6 @@ def edge_weights_at_kernel(
     """Weights of the listed edges ``(nodes_in[i], directions_in[i])``; launch dim ``(E,)``."""
     i = wp.tid()
     k = directions_in[i]
-    weights_out[i] = edge_weight(params, shape3, nodes_in[i], k, offsets_in[k], lengths_in[k])
+    # through the coordinate form, so that it is checked against the fill kernel too
+    c = node_coords(nodes_in[i], shape3)
+    weights_out[i] = edge_weight_at(params, shape3, c, k, offsets_in[k], lengths_in[k])
