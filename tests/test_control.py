@@ -1,0 +1,97 @@
+"""Control functions evaluated by the kernels against NumPy formulas."""
+
+import numpy as np
+import pytest
+
+from wdendrite import control
+
+
+def _grid_points(domain, n=9):
+    (x0, y0), (x1, y1) = domain
+    xs, ys = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n))
+    return np.stack([xs.ravel(), ys.ravel()], 1).astype(np.float32)
+
+
+def test_plane_matches_formula_and_corner_extremes(device):
+    c = control.plane((0.5, -2.0), offset=1.0, domain=((0, 0), (2, 1)))
+    pts = _grid_points(c.domain)
+    np.testing.assert_allclose(c.evaluate(pts, device=device), 1.0 + 0.5 * pts[:, 0] - 2.0 * pts[:, 1], atol=1e-6)
+    assert (c.minimum, c.maximum) == (-1.0, 2.0)
+
+
+def test_radial_ramp_matches_formula_and_extremes(device):
+    c = control.radial((0.25, 0.5), radius=2.0, domain=((0, 0), (1, 1)))
+    pts = _grid_points(c.domain, 33)
+    want = np.hypot(pts[:, 0] - 0.25, pts[:, 1] - 0.5) / 2.0
+    np.testing.assert_allclose(c.evaluate(pts, device=device), want, atol=1e-6)
+    assert c.minimum == 0.0
+    assert c.maximum == pytest.approx(np.hypot(0.75, 0.5) / 2.0)
+    outside = control.radial((2.0, 0.5), domain=((0, 0), (1, 1)))
+    assert outside.minimum == pytest.approx(1.0)
+
+
+def test_lichtenberg_bowl_inside_and_outside(device):
+    c = control.lichtenberg()
+    pts = np.array([[0, 0], [0.5, -1], [-1, 1], [1.5, 0], [0, -1.01]], np.float32)
+    np.testing.assert_allclose(c.evaluate(pts, device=device), [1.0, 0.25, 5.0, 16.0, 16.0], atol=1e-6)
+    assert c.bounded and (c.minimum, c.maximum) == (0.0, 16.0)
+
+
+def test_image_reproduces_pixels_and_linear_ramps(device):
+    rng = np.random.default_rng(0)
+    img = rng.random((6, 8)).astype(np.float32)
+    c = control.image(img, domain=((0, 0), (8, 6)))
+    rows, cols = np.mgrid[0:6, 0:8]
+    centres = np.stack([cols.ravel() + 0.5, rows.ravel() + 0.5], 1)
+    np.testing.assert_allclose(c.evaluate(centres, device=device), img.ravel(), atol=1e-6)
+    # Catmull-Rom interpolation is exact on linear functions away from the clamped border
+    ramp = (0.1 * cols + 0.3 * rows).astype(np.float32)
+    r = control.image(ramp, domain=((0, 0), (8, 6)))
+    pts = rng.uniform([2.0, 2.0], [6.0, 4.0], (50, 2)).astype(np.float32)
+    np.testing.assert_allclose(r.evaluate(pts, device=device), 0.1 * (pts[:, 0] - 0.5) + 0.3 * (pts[:, 1] - 0.5), atol=1e-5)
+    # overshoot is clamped to the image's range
+    step = np.zeros((4, 8), np.float32)
+    step[:, 4:] = 1.0
+    s = control.image(step, domain=((0, 0), (8, 4))).grid((16, 64), device=device)
+    assert s.min() >= 0.0 and s.max() <= 1.0
+
+
+def test_perlin_is_seeded_and_within_its_extremes(device):
+    a = control.perlin(seed=1, octaves=3, domain=((-0.2, -0.4), (1.4, 0.7)))
+    b = control.perlin(seed=1, octaves=3, domain=((-0.2, -0.4), (1.4, 0.7)))
+    c = control.perlin(seed=2, octaves=3, domain=((-0.2, -0.4), (1.4, 0.7)))
+    ga, gb, gc = (x.grid((40, 40), device=device) for x in (a, b, c))
+    assert np.array_equal(ga, gb) and not np.array_equal(ga, gc)
+    assert a.minimum <= ga.min() + 1e-3 and ga.max() <= a.maximum + 1e-3
+    assert 0.0 <= a.minimum < a.maximum <= 1.0
+    r = control.ridged(seed=1, domain=((0, 0), (4, 4)))
+    gr = r.grid((40, 40), device=device)
+    assert gr.std() > 0.01
+
+
+def test_grid_equals_evaluate_at_pixel_centres(device):
+    c = control.perlin(seed=3, frequency=2.0, domain=((0, 0), (2, 1)))
+    g = c.grid((4, 8), device=device)
+    rows, cols = np.mgrid[0:4, 0:8]
+    pts = np.stack([(cols.ravel() + 0.5) * 0.25, (rows.ravel() + 0.5) * 0.25], 1)
+    np.testing.assert_allclose(g.ravel(), c.evaluate(pts, device=device), atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda: control.image(np.zeros((0, 4))), "non-empty"),
+        (lambda: control.image(np.zeros((4,))), "2D"),
+        (lambda: control.image(np.zeros((2, 2, 2))), "2D"),
+        (lambda: control.image(np.array([[0.0, np.nan]])), "finite"),
+        (lambda: control.image(np.array([["a"]])), None),
+        (lambda: control.perlin(domain=((1, 0), (0, 1))), "domain"),
+        (lambda: control.perlin(domain=((0, 0), (0, 1))), "domain"),
+        (lambda: control.perlin(octaves=0), "octaves"),
+        (lambda: control.radial(radius=-1.0), "radius"),
+        (lambda: control.plane((np.inf, 0.0)), "gradient"),
+    ],
+)
+def test_bad_input_raises(make, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        make()

@@ -1,0 +1,208 @@
+"""Control functions for Dendry: noise, plane, radial ramp, Lichtenberg bowl, images.
+
+A control function ``c(x, y)`` steers the coarsest Dendry branches towards its
+low values and sets the terrain's base elevation. Each one is defined on its
+own rectangle ``domain`` (its coordinates) and knows its minimum and maximum.
+:func:`wdendrite.dendry.dendry` maps its query rectangle onto that domain.
+
+Example::
+
+    from wdendrite import control
+    c = control.perlin(seed=3, domain=((-0.2, -0.4), (1.4, 0.7)))
+    c.evaluate([[0.0, 0.0], [0.5, 0.1]])   # -> float32 array of 2 values
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import warp as wp
+
+from ._checks import nonnegative, positive
+from .kernels import noise as _kn
+
+__all__ = ["Control", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
+
+Rect = tuple[tuple[float, float], tuple[float, float]]
+
+_KINDS = {"plane": 0, "radial": 1, "perlin": 2, "lichtenberg": 3, "image": 4, "ridged": 5}
+
+
+def rectangle(name: str, value) -> Rect:
+    """Return ``value`` as ``((x0, y0), (x1, y1))`` floats with x0 < x1 and y0 < y1, all finite."""
+    try:
+        (x0, y0), (x1, y1) = value
+        x0, y0, x1, y1 = (float(v) for v in (x0, y0, x1, y1))
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected a rectangle ((x0, y0), (x1, y1)) for '{name}', but got {value!r}") from None
+    if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
+        raise ValueError(f"Expected finite corners for '{name}', but got {value!r}")
+    if not (x1 > x0 and y1 > y0):
+        raise ValueError(f"Expected '{name}' with x0 < x1 and y0 < y1 (not empty, not inverted), but got {value!r}")
+    return ((x0, y0), (x1, y1))
+
+
+@dataclass(frozen=True, eq=False)
+class Control:
+    """A control function; build one with :func:`perlin`, :func:`plane`, :func:`radial`,
+    :func:`lichtenberg`, :func:`image` or :func:`ridged`."""
+
+    kind: str
+    """One of ``"plane"``, ``"radial"``, ``"perlin"``, ``"lichtenberg"``, ``"image"``, ``"ridged"``."""
+    domain: Rect
+    """The rectangle ``((x0, y0), (x1, y1))`` of the function's own coordinates that Dendry's query maps onto."""
+    minimum: float
+    """Smallest value the function takes on ``domain``."""
+    maximum: float
+    """Largest value the function takes on ``domain``."""
+    params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    """Kind-specific numbers (plane: offset, gx, gy; radial: cx, cy, radius; noise: frequency, gain, lacunarity, offset)."""
+    seed: int = 0
+    """Noise seed (noise kinds only)."""
+    octaves: int = 1
+    """Noise octaves (noise kinds only)."""
+    bounded: bool = False
+    """True when points outside ``domain`` are outside the function (Dendry drops their segments)."""
+    values: np.ndarray | None = field(default=None, repr=False)
+    """The (h, w) float32 samples of an image control; pixel centres tile ``domain``, row 0 at y0."""
+
+    def struct(self, device=None) -> _kn.Control:
+        """The kernel-side :class:`wdendrite.kernels.noise.Control` on ``device``."""
+        s = _kn.Control()
+        s.kind = _KINDS[self.kind]
+        s.a = wp.vec4(*self.params)
+        s.seed = int(self.seed)
+        s.octaves = int(self.octaves)
+        s.lo = wp.vec2(*self.domain[0])
+        s.hi = wp.vec2(*self.domain[1])
+        s.vmin = float(self.minimum)
+        s.vmax = float(self.maximum)
+        s.bounded = int(self.bounded)
+        img = self.values if self.values is not None else np.zeros((1, 1), np.float32)
+        s.image = wp.array(img, dtype=float, device=device)
+        return s
+
+    def evaluate(self, points, *, device=None) -> np.ndarray:
+        """The function at ``points`` ((N, 2) x, y in its own coordinates) as (N,) float32."""
+        pts = np.asarray(points, dtype=np.float32)
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise ValueError(f"Expected 'points' of shape (N, 2), but got shape {pts.shape}")
+        if not np.isfinite(pts).all():
+            raise ValueError("'points' must be finite, but has NaN/inf entries")
+        device = wp.get_device(device)
+        out = wp.zeros(len(pts), dtype=float, device=device)
+        if len(pts):
+            wp.launch(
+                _kn.control_points_kernel,
+                dim=len(pts),
+                inputs=[self.struct(device), wp.array(pts, dtype=wp.vec2, device=device)],
+                outputs=[out],
+                device=device,
+            )
+        return out.numpy()
+
+    def grid(self, shape, *, device=None) -> np.ndarray:
+        """The function at the pixel centres of an (H, W) grid over ``domain`` (row 0 at y0), float32."""
+        h, w = (int(v) for v in shape)
+        (x0, y0), (x1, y1) = self.domain
+        device = wp.get_device(device)
+        out = wp.zeros((h, w), dtype=float, device=device)
+        wp.launch(
+            _kn.control_grid_kernel,
+            dim=(h, w),
+            inputs=[self.struct(device), wp.vec2(x0, y0), wp.vec2((x1 - x0) / w, (y1 - y0) / h)],
+            outputs=[out],
+            device=device,
+        )
+        return out.numpy()
+
+
+def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
+    if isinstance(octaves, bool) or not isinstance(octaves, (int, np.integer)) or not 1 <= octaves <= 16:
+        raise ValueError(f"Expected 'octaves' an integer in [1, 16], but got {octaves!r}")
+    params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
+              nonnegative("offset", offset, allow_none=False))
+    dom = rectangle("domain", domain)
+    # the range of a noise sum has no closed form: sample it densely over the domain
+    probe = Control(kind, dom, 0.0, 1.0, params, int(seed) % 2**31, int(octaves))
+    vals = probe.grid((257, 257), device="cpu")
+    return Control(kind, dom, float(vals.min()), float(vals.max()), params, int(seed) % 2**31, int(octaves))
+
+
+def perlin(*, seed: int = 0, frequency: float = 1.0, octaves: int = 1, gain: float = 0.5,
+           lacunarity: float = 2.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
+    """Perlin noise (fBm when ``octaves`` > 1) mapped to about [0, 1]: ``0.5 + 0.5 * sum / norm``.
+
+    Args:
+        seed: selects the noise field.
+        frequency: features per unit of the control coordinates.
+        octaves: number of summed octaves, each ``lacunarity`` times finer and ``gain`` times weaker.
+        domain: the rectangle Dendry's query maps onto; minimum and maximum are sampled there
+            on a 257 x 257 grid.
+    """
+    return _noise("perlin", seed, frequency, octaves, gain, lacunarity, 0.0, domain)
+
+
+def ridged(*, seed: int = 0, frequency: float = 1.0, octaves: int = 8, gain: float = 0.5,
+           lacunarity: float = 2.0, offset: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
+    """Ridged multifractal noise (octaves of ``(offset - |noise|)^2``, each weighted by the previous one)."""
+    return _noise("ridged", seed, frequency, octaves, gain, lacunarity, offset, domain)
+
+
+def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
+    """The plane ``offset + gx * x + gy * y``; its extremes are at the corners of ``domain``."""
+    try:
+        gx, gy = (float(v) for v in gradient)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected two numbers for 'gradient', but got {gradient!r}") from None
+    off = float(offset)
+    if not all(math.isfinite(v) for v in (gx, gy, off)):
+        raise ValueError(f"Expected finite 'gradient' and 'offset', but got {gradient!r} and {offset!r}")
+    dom = rectangle("domain", domain)
+    corners = [off + gx * x + gy * y for x in (dom[0][0], dom[1][0]) for y in (dom[0][1], dom[1][1])]
+    return Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0))
+
+
+def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
+    """The radial ramp ``|p - center| / radius`` (low at ``center``)."""
+    try:
+        cx, cy = (float(v) for v in center)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected two numbers for 'center', but got {center!r}") from None
+    if not (math.isfinite(cx) and math.isfinite(cy)):
+        raise ValueError(f"Expected a finite 'center', but got {center!r}")
+    r = positive("radius", radius)
+    dom = rectangle("domain", domain)
+    (x0, y0), (x1, y1) = dom
+    near = math.hypot(min(max(cx, x0), x1) - cx, min(max(cy, y0), y1) - cy) / r
+    far = max(math.hypot(x - cx, y - cy) for x in (x0, x1) for y in (y0, y1)) / r
+    return Control("radial", dom, near, far, (cx, cy, r, 0.0))
+
+
+def lichtenberg() -> Control:
+    """The Lichtenberg bowl ``x^2 + (y + 1)^2`` on [-1, 1]^2 and 16 outside (bounded)."""
+    return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 16.0, bounded=True)
+
+
+def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
+    """A 2D array (sketch, DEM) sampled bicubically; pixel centres tile ``domain``, row 0 at y0.
+
+    Values are clamped to the array's own minimum and maximum, so the Catmull-Rom
+    overshoot never leaves that range. Outside ``domain`` the border values continue.
+    """
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
+        raise TypeError(f"Expected a real-valued array for 'values', but got dtype {arr.dtype}")
+    if arr.ndim != 2:
+        raise ValueError(f"Expected a 2D array for 'values', but got shape {arr.shape}")
+    if arr.size == 0:
+        raise ValueError(f"Expected a non-empty array for 'values', but got shape {arr.shape}")
+    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    if not np.isfinite(arr).all():
+        raise ValueError(f"'values' must be finite, but has {int((~np.isfinite(arr)).sum())} NaN/inf entries")
+    dom = rectangle("domain", domain)
+    return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
