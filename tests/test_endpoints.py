@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from PIL import Image as PILImage
 from scipy.spatial.distance import pdist
 from skimage.measure import points_in_poly
@@ -254,3 +256,24 @@ def test_manual_validates():
 def test_bad_input_raises_clearly(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    h=st.integers(3, 25),
+    w=st.integers(3, 25),
+    count=st.integers(1, 30),
+    spacing=st.floats(0.5, 6.0),
+    radius=st.floats(1.0, 12.0),
+    seed=st.integers(0, 2**16),
+)
+def test_property_spaced_points_in_region_or_clear_error(h, w, count, spacing, radius, seed):
+    region = ep.Disc(((h - 1) / 2, (w - 1) / 2), radius)
+    try:
+        pts = ep.random((h, w), count, seed=seed, within=region, min_spacing=spacing)
+    except ValueError as err:
+        assert "Could place only" in str(err) or "candidate nodes" in str(err)
+        return
+    assert len(pts) == count and region.mask((h, w))[tuple(pts.T)].all()
+    if count > 1:
+        assert pdist(pts.astype(float)).min() >= spacing
