@@ -251,30 +251,46 @@ def _footprint(ndim: int, spacing: float) -> np.ndarray:
     return off[(off**2).sum(axis=1) < spacing**2]
 
 
+def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
+    """Yield ``cand`` in increasing ``keys`` order, in blocks of growing size, sorting only what is read."""
+    rest = np.arange(len(keys))
+    size = max(1, first)
+    while len(rest):
+        if size < len(rest):
+            part = np.argpartition(keys[rest], size - 1)
+            head, rest = rest[part[:size]], rest[part[size:]]
+        else:
+            head, rest = rest, rest[:0]
+        yield cand[head[np.argsort(keys[head], kind="stable")]]
+        size *= 4
+
+
 def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
     """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
-    order = cand[np.argsort(keys, kind="stable")]
     foot = _footprint(len(shape), spacing)
     dims = np.asarray(shape)
     blocked = np.zeros(math.prod(shape), bool)
     kept: list[int] = []
-    ptr, chunk = 0, 64
-    # one Python step per kept point (plus a few per long run of rejected candidates)
-    while len(kept) < count and ptr < len(order):
-        seg = order[ptr : ptr + chunk]
-        free = ~blocked[seg]
-        if not free.any():
-            ptr += len(seg)
-            chunk = min(chunk * 2, 1 << 16)
-            continue
-        j = int(np.argmax(free))
-        node = int(seg[j])
-        kept.append(node)
-        ptr += j + 1
-        chunk = 64
-        near = np.asarray(np.unravel_index(node, shape)) + foot
-        near = near[np.all((near >= 0) & (near < dims), axis=1)]
-        blocked[np.ravel_multi_index(tuple(near.T), shape)] = True
+    for order in _in_key_order(cand, keys, 4 * count + 1024):
+        ptr, chunk = 0, 64
+        # one Python step per kept point (plus a few per long run of rejected candidates)
+        while len(kept) < count and ptr < len(order):
+            seg = order[ptr : ptr + chunk]
+            free = ~blocked[seg]
+            if not free.any():
+                ptr += len(seg)
+                chunk = min(chunk * 2, 1 << 16)
+                continue
+            j = int(np.argmax(free))
+            node = int(seg[j])
+            kept.append(node)
+            ptr += j + 1
+            chunk = 64
+            near = np.asarray(np.unravel_index(node, shape)) + foot
+            near = near[np.all((near >= 0) & (near < dims), axis=1)]
+            blocked[np.ravel_multi_index(tuple(near.T), shape)] = True
+        if len(kept) == count:
+            break
     if len(kept) < count:
         raise ValueError(
             f"Could place only {len(kept)} of {count} endpoints at least 'min_spacing' = {spacing:g} apart "
@@ -301,8 +317,7 @@ def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, wh
         # exponential keys scaled by 1/density: sorting them is weighted sampling without replacement
         keys = rng.exponential(size=len(cand)) / dens[cand]
     if min_spacing is None:
-        first = np.argpartition(keys, count - 1)[:count] if count < len(cand) else np.arange(len(cand))
-        flat = cand[first[np.argsort(keys[first], kind="stable")]]
+        flat = next(_in_key_order(cand, keys, count))
     else:
         flat = _spaced(cand, keys, shape, count, min_spacing)
     return np.stack(np.unravel_index(flat, shape), axis=1).astype(np.int64)
