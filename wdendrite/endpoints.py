@@ -300,10 +300,26 @@ def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: floa
     return np.asarray(kept, dtype=np.int64)
 
 
+def _density(density, shape) -> np.ndarray:
+    """``density`` as a flat float64 array (kept in float64 so that steep profiles do not underflow)."""
+    arr = np.asarray(density)
+    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
+        raise TypeError(f"Expected a real-valued array for 'density', but got dtype {arr.dtype}")
+    if arr.shape != tuple(shape):
+        raise ValueError(f"Expected 'density' of shape {tuple(shape)}, but got shape {arr.shape}")
+    arr = arr.astype(np.float64).reshape(-1)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        raise ValueError(f"'density' must be finite, but has {int(bad.sum())} NaN/inf entries")
+    if (arr < 0).any():
+        raise ValueError(f"'density' must be non-negative, but its minimum is {arr.min()}")
+    return arr
+
+
 def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, why: list[str]) -> np.ndarray:
     """Draw ``count`` distinct nodes among ``usable`` (flat bool); ``why`` describes the filters for errors."""
     if density is not None:
-        dens = _checks.float_array("density", density, shape).reshape(-1)
+        dens = _density(density, shape)
         usable = usable & (dens > 0)
         why.append(f"{int(usable.sum())} with positive 'density'")
     cand = np.flatnonzero(usable)
