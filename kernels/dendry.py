@@ -1,0 +1,629 @@
+"""The Dendry function (Gaillard et al. 2019) as per-cell and per-pixel Warp functions.
+
+Coordinates inside kernels are *grid units* ``u = x * resolution``: a level-1
+cell is 1 x 1, a level-k cell ``2^(1-k)`` wide, and cell ``(i, j)`` of level k
+holds one key point. Every quantity of a cell (its key point, elevation, state,
+and the polyline of the segment it owns) is a function of the cell alone, so
+values never depend on which pixel or window asked for them.
+
+Storage. A *block* is a rectangle of cells of one level, ``vec4i(i0, j0, ni, nj)``;
+``blocks[slot * 8 + L]`` describes block L of a slot and ``bases[slot * 8 + L]``
+where its cells start in the flat arrays:
+
+- L = 0: level-1 key points (``pts1``: x, y, z, valid), two cells wider than L = 1;
+- L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: 5 polyline
+  vertices x, y, z per cell, upstream first);
+- L = 7: terrain primitives (``prims``: x, y, h).
+
+In the cached mode one slot (0) covers a whole window and each stage is one
+launch over its cells; in the per-pixel mode each thread owns a slot, plans
+blocks just around its pixel and fills them itself with the same functions.
+"""
+
+import warp as wp
+
+from .noise import Control, control_inside, control_value
+from .random import hash3, hash_uniform
+
+wp.set_module_options({"enable_backward": False})
+
+NV = wp.constant(5)  # polyline vertices stored per cell (at most 4 pieces)
+SLOT = wp.constant(8)  # blocks per slot
+PRIM = wp.constant(7)  # block id of the terrain primitives
+STATE_NONE = wp.constant(0.0)  # no usable key point (outside the domain, or no segment to join)
+STATE_INHERITED = wp.constant(1.0)  # key point of the parent level, already on the tree
+STATE_SEGMENT = wp.constant(2.0)  # key point owning a segment
+
+OUT_DISTANCE = wp.constant(0)
+OUT_ELEVATION = wp.constant(1)
+OUT_LEVEL = wp.constant(2)
+
+vec6 = wp.types.vector(length=6, dtype=float)
+vec6i = wp.types.vector(length=6, dtype=int)
+
+
+@wp.struct
+class Setup:
+    """Dendry parameters as the kernels use them (see wdendrite.dendry.DendryParams)."""
+
+    levels: int
+    seed: wp.uint32
+    eps: float
+    resolution: float
+    delta: vec6  # sideways displacement per level, times the segment length
+    pieces: vec6i  # polyline pieces per level (1..4)
+    slope: vec6  # minimum slope per level (elevation per domain unit)
+    smoothing: int
+    beta: float
+    noise: float
+    steps: int  # the primitives sit on the grid of level `levels + steps`
+    rule: int  # 0: join the nearest of a, midpoint, b; 1: join at 45 degrees downstream
+    r1: int  # query neighbourhood radius at level 1 (3 when levels == 1, else 2)
+    # query domain -> control coordinates: c = c_lo + (x - d_lo) * scale
+    d_lo: wp.vec2
+    c_lo: wp.vec2
+    scale: wp.vec2
+
+
+@wp.func
+def level_factor(level: int) -> float:
+    """Cells per grid unit at ``level`` (an exact power of two)."""
+    return float(1 << (level - 1))
+
+
+@wp.func
+def cell_of(u: wp.vec2, level: int) -> wp.vec2i:
+    """The cell of ``level`` holding point ``u`` (grid units)."""
+    f = level_factor(level)
+    return wp.vec2i(int(wp.floor(u[0] * f)), int(wp.floor(u[1] * f)))
+
+
+@wp.func
+def cell_rand(seed: wp.uint32, level: int, c: wp.vec2i, stream: int) -> float:
+    """Uniform (0, 1) number ``stream`` of cell ``c`` of ``level``."""
+    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))
+    return hash_uniform(seed, key, wp.uint32(stream))
+
+
+@wp.func
+def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
+    """The jittered key point of cell ``c``: uniform in the cell shrunk by ``eps`` on each side."""
+    h = 1.0 / level_factor(level)
+    span = 1.0 - 2.0 * s.eps
+    return wp.vec2(
+        (float(c[0]) + s.eps + span * cell_rand(s.seed, level, c, 0)) * h,
+        (float(c[1]) + s.eps + span * cell_rand(s.seed, level, c, 1)) * h,
+    )
+
+
+@wp.func
+def to_control(s: Setup, u: wp.vec2) -> wp.vec2:
+    """Grid units -> control-function coordinates."""
+    x = u / s.resolution - s.d_lo
+    return s.c_lo + wp.cw_mul(x, s.scale)
+
+
+@wp.func
+def block_cell(blocks: wp.array(dtype=wp.vec4i), bi: int, k: int) -> wp.vec2i:
+    """The cell at linear position ``k`` of block ``bi``."""
+    b = blocks[bi]
+    return wp.vec2i(b[0] + k % b[2], b[1] + k / b[2])
+
+
+@wp.func
+def block_index(blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, c: wp.vec2i) -> int:
+    """Flat index of cell ``c`` in block ``bi``, or -1 when the block does not hold it."""
+    b = blocks[bi]
+    dx = c[0] - b[0]
+    dy = c[1] - b[1]
+    if dx < 0 or dy < 0 or dx >= b[2] or dy >= b[3]:
+        return -1
+    return bases[bi] + dy * b[2] + dx
+
+
+@wp.func
+def catmull_rom(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2, s: float) -> wp.vec2:
+    """Chordal Catmull-Rom point at fraction ``s`` of the way from p1 to p2 (Barry-Goldman)."""
+    t0 = float(0.0)
+    t1 = t0 + wp.length(p1 - p0) + 1.0e-6
+    t2 = t1 + wp.length(p2 - p1) + 1.0e-6
+    t3 = t2 + wp.length(p3 - p2) + 1.0e-6
+    t = t1 + s * (t2 - t1)
+    a1 = ((t1 - t) * p0 + (t - t0) * p1) / (t1 - t0)
+    a2 = ((t2 - t) * p1 + (t - t1) * p2) / (t2 - t1)
+    a3 = ((t3 - t) * p2 + (t - t2) * p3) / (t3 - t2)
+    b1 = ((t2 - t) * a1 + (t - t0) * a2) / (t2 - t0)
+    b2 = ((t3 - t) * a2 + (t - t1) * a3) / (t3 - t1)
+    return ((t2 - t) * b1 + (t - t1) * b2) / (t2 - t1)
+
+
+@wp.func
+def write_polyline(
+    s: Setup,
+    level: int,
+    c: wp.vec2i,
+    a: wp.vec3,
+    b: wp.vec3,
+    p0: wp.vec2,
+    p3: wp.vec2,
+    vi: int,
+    verts_out: wp.array(dtype=wp.vec3),
+):
+    """Subdivide segment a -> b (x, y, z) into the level's pieces, smoothed and displaced sideways."""
+    pieces = s.pieces[level - 1]
+    pa = wp.vec2(a[0], a[1])
+    pb = wp.vec2(b[0], b[1])
+    d = pb - pa
+    length = wp.length(d)
+    side = wp.vec2(0.0, 0.0)
+    if length > 0.0:
+        side = wp.vec2(-d[1], d[0]) / length
+    for j in range(NV):
+        jj = wp.min(j, pieces)
+        t = float(jj) / float(pieces)
+        pos = pa + t * d
+        if s.smoothing != 0 and jj > 0 and jj < pieces:
+            pos = catmull_rom(p0, pa, pb, p3, t)
+        if jj > 0 and jj < pieces:
+            shift = (2.0 * cell_rand(s.seed, level, c, 8 + jj) - 1.0) * s.delta[level - 1] * length
+            pos = pos + shift * side
+        if jj == pieces:
+            pos = pb
+        verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
+
+
+@wp.func
+def point1(s: Setup, ctl: Control, c: wp.vec2i) -> wp.vec4:
+    """Level-1 key point of cell ``c``: (x, y, control value, 1 if inside the control's domain)."""
+    q = jitter(s, 1, c)
+    cp = to_control(s, q)
+    inside = float(0.0)
+    if control_inside(ctl, cp):
+        inside = 1.0
+    return wp.vec4(q[0], q[1], control_value(ctl, cp), inside)
+
+
+@wp.func
+def lowest1(
+    pts1: wp.array(dtype=wp.vec4), blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, c: wp.vec2i
+) -> wp.vec2i:
+    """The cell of the lowest level-1 key point among the 3 x 3 around ``c`` (``c`` itself on ties)."""
+    best = c
+    bz = pts1[block_index(blocks, bases, bi, c)][2]
+    for dy in range(-1, 2):
+        for dx in range(-1, 2):
+            n = wp.vec2i(c[0] + dx, c[1] + dy)
+            i = block_index(blocks, bases, bi, n)
+            if i >= 0:
+                z = pts1[i][2]
+                if z < bz:
+                    bz = z
+                    best = n
+    return best
+
+
+@wp.func
+def fill_point1(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int,
+    pts1_out: wp.array(dtype=wp.vec4),
+):
+    """Store the level-1 key point of cell ``k`` of the slot's block 0."""
+    bi = slot * SLOT
+    pts1_out[bases[bi] + k] = point1(s, ctl, block_cell(blocks, bi, k))
+
+
+@wp.func
+def fill_segment1(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int,
+    pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+):
+    """Level-1 cell ``k``: link its key point to the lowest of its 3 x 3 neighbours."""
+    bp = slot * SLOT
+    bi = bp + 1
+    c = block_cell(blocks, bi, k)
+    vi = bases[bi] + k
+    p = pts1[block_index(blocks, bases, bp, c)]
+    t = lowest1(pts1, blocks, bases, bp, c)
+    pt = pts1[block_index(blocks, bases, bp, t)]
+    state = STATE_NONE
+    if p[3] > 0.0 and pt[3] > 0.0:
+        state = STATE_SEGMENT
+    keyp_out[vi] = wp.vec4(p[0], p[1], p[2], state)
+    a = wp.vec3(p[0], p[1], p[2])
+    b = wp.vec3(pt[0], pt[1], pt[2])
+    pa = wp.vec2(p[0], p[1])
+    pb = wp.vec2(pt[0], pt[1])
+    # the tangent at the far end follows the target's own segment, else continues straight
+    tt = lowest1(pts1, blocks, bases, bp, t)
+    ptt = pts1[block_index(blocks, bases, bp, tt)]
+    p3 = 2.0 * pb - pa
+    if (tt[0] != t[0] or tt[1] != t[1]) and ptt[3] > 0.0:
+        p3 = wp.vec2(ptt[0], ptt[1])
+    write_polyline(s, 1, c, a, b, 2.0 * pa - pb, p3, vi, verts_out)
+
+
+@wp.func
+def nearest_on_tree(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
+    q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> wp.mat33:
+    """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
+    the 3 x 3 cells around the ancestors of ``c``.
+
+    Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
+    (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
+    its polyline, 1 when the vertex exists.
+    """
+    best = float(1.0e30)
+    ra = wp.vec3(0.0, 0.0, 0.0)
+    rb = wp.vec3(0.0, 0.0, 0.0)
+    rn = wp.vec3(0.0, 0.0, -1.0)
+    for l in range(1, level):
+        shift = level - l
+        anc = wp.vec2i(c[0] >> shift, c[1] >> shift)
+        bi = slot * SLOT + l
+        nv = s.pieces[l - 1] + 1
+        for dy in range(-1, 2):
+            for dx in range(-1, 2):
+                o = block_index(blocks, bases, bi, wp.vec2i(anc[0] + dx, anc[1] + dy))
+                if o >= 0:
+                    if keyp[o][3] == STATE_SEGMENT:
+                        for j in range(nv - 1):
+                            a = verts[o * NV + j]
+                            b = verts[o * NV + j + 1]
+                            pa = wp.vec2(a[0], a[1])
+                            ab = wp.vec2(b[0], b[1]) - pa
+                            den = wp.dot(ab, ab)
+                            t = float(0.0)
+                            if den > 0.0:
+                                t = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
+                            d2 = wp.length_sq(q - (pa + t * ab))
+                            if d2 < best:
+                                best = d2
+                                ra = a
+                                rb = b
+                                rn = wp.vec3(b[0], b[1], 0.0)
+                                if j + 2 < nv:
+                                    nx = verts[o * NV + j + 2]
+                                    rn = wp.vec3(nx[0], nx[1], 1.0)
+    return wp.mat33(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2], rn[0], rn[1], rn[2])
+
+
+@wp.func
+def fill_levelk(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
+    k: int, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+):
+    """Cell ``k`` of ``level`` >= 2: inherit the parent's key point, or draw one and join the tree."""
+    bi = slot * SLOT + level
+    c = block_cell(blocks, bi, k)
+    vi = bases[bi] + k
+    parent = keyp[block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1))]
+    if parent[3] != STATE_NONE:
+        pc = cell_of(wp.vec2(parent[0], parent[1]), level)
+        if pc[0] == c[0] and pc[1] == c[1]:
+            keyp[vi] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
+            return
+    q = jitter(s, level, c)
+    cp = to_control(s, q)
+    if not control_inside(ctl, cp):
+        keyp[vi] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
+        return
+    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, keyp, verts)
+    if m[2, 2] < 0.0:
+        keyp[vi] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
+        return
+    pa = wp.vec2(m[0, 0], m[0, 1])
+    pb = wp.vec2(m[1, 0], m[1, 1])
+    ab = pb - pa
+    tc = float(0.0)
+    if s.rule == 0:
+        # terrain: the nearest of a, the midpoint and b leaves room for the branch to bend
+        da = wp.length_sq(q - pa)
+        dm = wp.length_sq(q - (pa + 0.5 * ab))
+        db = wp.length_sq(q - pb)
+        if dm < da:
+            tc = 0.5
+            da = dm
+        if db < da:
+            tc = 1.0
+    else:
+        # Lichtenberg: join downstream of the projection so the branch meets at 45 degrees
+        den = wp.dot(ab, ab)
+        if den > 0.0:
+            tp = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
+            h = wp.length(q - (pa + tp * ab))
+            tc = wp.min(tp + h / wp.sqrt(den), 1.0)
+    x = pa + tc * ab
+    zx = m[0, 2] + tc * (m[1, 2] - m[0, 2])
+    zq = wp.max(control_value(ctl, cp), zx + s.slope[level - 1] * wp.length(q - x) / s.resolution)
+    keyp[vi] = wp.vec4(q[0], q[1], zq, STATE_SEGMENT)
+    p3 = 2.0 * x - q
+    if tc < 1.0:
+        p3 = pb
+    elif m[2, 2] > 0.5:
+        p3 = wp.vec2(m[2, 0], m[2, 1])
+    write_polyline(s, level, c, wp.vec3(q[0], q[1], zq), wp.vec3(x[0], x[1], zx), 2.0 * q - x, p3, vi, verts)
+
+
+@wp.func
+def query(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> wp.vec3:
+    """(distance in domain units, elevation at the nearest tree point, its level) at ``u``.
+
+    The candidates are the segments owned by the (2r+1)^2 cells around ``u`` at every
+    level (r = ``s.r1`` at level 1, else 2). Distance is inf and level 0 when there is none.
+    """
+    best = float(1.0e30)
+    bz = float(0.0)
+    bl = int(0)
+    for l in range(1, s.levels + 1):
+        pc = cell_of(u, l)
+        r = 2
+        if l == 1:
+            r = s.r1
+        bi = slot * SLOT + l
+        nv = s.pieces[l - 1] + 1
+        for dy in range(-r, r + 1):
+            for dx in range(-r, r + 1):
+                o = block_index(blocks, bases, bi, wp.vec2i(pc[0] + dx, pc[1] + dy))
+                if o >= 0:
+                    if keyp[o][3] == STATE_SEGMENT:
+                        for j in range(nv - 1):
+                            a = verts[o * NV + j]
+                            b = verts[o * NV + j + 1]
+                            pa = wp.vec2(a[0], a[1])
+                            ab = wp.vec2(b[0], b[1]) - pa
+                            den = wp.dot(ab, ab)
+                            t = float(0.0)
+                            if den > 0.0:
+                                t = wp.clamp(wp.dot(u - pa, ab) / den, 0.0, 1.0)
+                            d2 = wp.length_sq(u - (pa + t * ab))
+                            if d2 < best:
+                                best = d2
+                                bz = a[2] + t * (b[2] - a[2])
+                                bl = l
+    if bl == 0:
+        return wp.vec3(wp.inf, 0.0, 0.0)
+    return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
+
+
+@wp.func
+def primitive(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    c: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> wp.vec3:
+    """Terrain primitive of cell ``c`` (level ``levels + steps``): (x, y, height), eq. 4 and 7."""
+    pl = s.levels + s.steps
+    q = jitter(s, pl, c)
+    r = query(s, blocks, bases, slot, q, keyp, verts)
+    if r[2] == 0.0:
+        return wp.vec3(q[0], q[1], control_value(ctl, to_control(s, q)))
+    t = float(0.0)
+    if ctl.vmax > ctl.vmin:
+        t = wp.clamp((r[1] - ctl.vmin) / (ctl.vmax - ctl.vmin), 0.0, 1.0)
+    t = wp.pow(t, s.beta)
+    tan_theta = t * t * t * (t * (6.0 * t - 15.0) + 10.0)
+    wobble = 1.0 + s.noise * (2.0 * cell_rand(s.seed, pl, c, 2) - 1.0)
+    return wp.vec3(q[0], q[1], r[1] + tan_theta * r[0] * wobble)
+
+
+@wp.func
+def elevation(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int, prims: wp.array(dtype=wp.vec3),
+) -> float:
+    """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
+
+    The radius is two primitive cells, so every primitive that can weigh lies in the 5 x 5 block.
+    """
+    pl = s.levels + s.steps
+    pc = cell_of(u, pl)
+    radius = 2.0 / level_factor(pl)
+    total = float(0.0)
+    wsum = float(0.0)
+    for dy in range(-2, 3):
+        for dx in range(-2, 3):
+            c = wp.vec2i(pc[0] + dx, pc[1] + dy)
+            pr = wp.vec3(0.0, 0.0, 0.0)
+            if cached != 0:
+                pr = prims[block_index(blocks, bases, slot * SLOT + PRIM, c)]
+            else:
+                pr = primitive(s, ctl, blocks, bases, slot, c, keyp, verts)
+            r2 = wp.length_sq(wp.vec2(pr[0], pr[1]) - u) / (radius * radius)
+            if r2 < 1.0:
+                g = (1.0 - r2) * (1.0 - r2) * (1.0 - r2)
+                total += g * pr[2]
+                wsum += g
+    return total / wsum
+
+
+@wp.func
+def set_block(
+    slot: int, l: int, lo: wp.vec2i, hi: wp.vec2i, base: int,
+    blocks_out: wp.array(dtype=wp.vec4i), bases_out: wp.array(dtype=int),
+) -> int:
+    """Store block ``l`` of ``slot`` spanning cells lo..hi (inclusive); return its cell count."""
+    blocks_out[slot * SLOT + l] = wp.vec4i(lo[0], lo[1], hi[0] - lo[0] + 1, hi[1] - lo[1] + 1)
+    bases_out[slot * SLOT + l] = base
+    return (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)
+
+
+@wp.func
+def plan(
+    s: Setup, qlo: wp.vec2i, qhi: wp.vec2i, plo: wp.vec2i, phi: wp.vec2i, slot: int, cap: wp.vec3i,
+    blocks_out: wp.array(dtype=wp.vec4i), bases_out: wp.array(dtype=int),
+) -> int:
+    """Blocks that answer queries in level-n cells qlo..qhi (and primitives in plo..phi).
+
+    Level l needs the cells around the query (radius r) and 1 cell around every
+    ancestor of the level-(l+1) block (the segments its new key points may join).
+    Level-1 key points need 2 more cells (lowest neighbour, and its lowest neighbour
+    for the spline tangent). Returns 1 when a block exceeds the slot capacity ``cap``
+    (points, cells, primitives), else 0.
+    """
+    n = s.levels
+    lo = qlo
+    hi = qhi
+    r = 2
+    if n == 1:
+        r = s.r1
+    lo = wp.vec2i(lo[0] - r, lo[1] - r)
+    hi = wp.vec2i(hi[0] + r, hi[1] + r)
+    total = int(0)
+    base = slot * cap[1]
+    for i in range(n):
+        l = n - i
+        if l < n:
+            shift = n - l
+            r = 2
+            if l == 1:
+                r = s.r1
+            lo = wp.vec2i(wp.min((lo[0] >> 1) - 1, (qlo[0] >> shift) - r), wp.min((lo[1] >> 1) - 1, (qlo[1] >> shift) - r))
+            hi = wp.vec2i(wp.max((hi[0] >> 1) + 1, (qhi[0] >> shift) + r), wp.max((hi[1] >> 1) + 1, (qhi[1] >> shift) + r))
+        total += set_block(slot, l, lo, hi, base + total, blocks_out, bases_out)
+    over = int(0)
+    if total > cap[1]:
+        over = 1
+    npts = set_block(slot, 0, wp.vec2i(lo[0] - 2, lo[1] - 2), wp.vec2i(hi[0] + 2, hi[1] + 2), slot * cap[0], blocks_out, bases_out)
+    if npts > cap[0]:
+        over = 1
+    if set_block(slot, PRIM, plo, phi, slot * cap[2], blocks_out, bases_out) > cap[2]:
+        over = 1
+    return over
+
+
+@wp.func
+def build(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+):
+    """Fill all blocks of ``slot`` in order: level-1 points, level-1 segments, levels 2..n."""
+    b = blocks[slot * SLOT]
+    for k in range(b[2] * b[3]):
+        fill_point1(s, ctl, blocks, bases, slot, k, pts1)
+    b = blocks[slot * SLOT + 1]
+    for k in range(b[2] * b[3]):
+        fill_segment1(s, blocks, bases, slot, k, pts1, keyp, verts)
+    for level in range(2, s.levels + 1):
+        b = blocks[slot * SLOT + level]
+        for k in range(b[2] * b[3]):
+            fill_levelk(s, ctl, blocks, bases, slot, level, k, keyp, verts)
+
+
+@wp.func
+def evaluate(
+    s: Setup, ctl: Control, u: wp.vec2, output: int, cached: int, slot: int, cap: wp.vec3i,
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
+    overflow_out: wp.array(dtype=int),
+) -> float:
+    """The requested output at ``u``; in the per-pixel mode first plan and build the slot."""
+    if cached == 0:
+        pc = cell_of(u, s.levels)
+        m = 0
+        if output == OUT_ELEVATION:
+            m = 1  # primitives around u query the tree up to one finest cell away
+        over = plan(s, wp.vec2i(pc[0] - m, pc[1] - m), wp.vec2i(pc[0] + m, pc[1] + m), pc, pc, slot, cap, blocks, bases)
+        if over != 0:
+            wp.atomic_max(overflow_out, 0, 1)
+            return wp.nan
+        build(s, ctl, blocks, bases, slot, pts1, keyp, verts)
+    if output == OUT_ELEVATION:
+        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims)
+    r = query(s, blocks, bases, slot, u, keyp, verts)
+    if output == OUT_LEVEL:
+        return r[2]
+    return r[0]
+
+
+# ---------------------------------------------------------------------------- kernels
+
+
+@wp.kernel
+def plan_kernel(
+    s: Setup, qlo: wp.vec2i, qhi: wp.vec2i, plo: wp.vec2i, phi: wp.vec2i, cap: wp.vec3i,
+    blocks_out: wp.array(dtype=wp.vec4i), bases_out: wp.array(dtype=int), overflow_out: wp.array(dtype=int),
+):
+    """Plan the blocks of slot 0 for a window (one thread)."""
+    overflow_out[0] = plan(s, qlo, qhi, plo, phi, 0, cap, blocks_out, bases_out)
+
+
+@wp.kernel
+def points1_kernel(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int),
+    pts1_out: wp.array(dtype=wp.vec4),
+):
+    """Cached mode: level-1 key points of slot 0, one thread per cell."""
+    fill_point1(s, ctl, blocks, bases, 0, wp.tid(), pts1_out)
+
+
+@wp.kernel
+def segments1_kernel(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
+    keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+):
+    """Cached mode: level-1 segments of slot 0, one thread per cell."""
+    fill_segment1(s, blocks, bases, 0, wp.tid(), pts1, keyp_out, verts_out)
+
+
+@wp.kernel
+def levelk_kernel(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), level: int,
+    keyp_inout: wp.array(dtype=wp.vec4), verts_inout: wp.array(dtype=wp.vec3),
+):
+    """Cached mode: key points and segments of ``level`` >= 2 (reads the coarser levels)."""
+    fill_levelk(s, ctl, blocks, bases, 0, level, wp.tid(), keyp_inout, verts_inout)
+
+
+@wp.kernel
+def prims_kernel(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims_out: wp.array(dtype=wp.vec3),
+):
+    """Cached mode: terrain primitives of slot 0, one thread per primitive cell."""
+    k = wp.tid()
+    bi = PRIM
+    prims_out[bases[bi] + k] = primitive(s, ctl, blocks, bases, 0, block_cell(blocks, bi, k), keyp, verts)
+
+
+@wp.kernel
+def image_kernel(
+    s: Setup, ctl: Control, output: int, cached: int, cap: wp.vec3i, first: int, origin: wp.vec2i, width: int,
+    x0: wp.vec2, step: wp.vec2,
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
+    image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
+):
+    """Pixels ``first + tid`` of a window (row-major, ``width`` wide) at global pixel ``origin``.
+
+    Pixel (row, col) of the whole image sits at ``x0 + (col + 0.5, row + 0.5) * step`` in
+    domain units; ``x0`` and ``step`` are already in grid units.
+    """
+    t = wp.tid()
+    i = first + t
+    row = i / width
+    col = i - row * width
+    u = wp.vec2(
+        x0[0] + (float(origin[1] + col) + 0.5) * step[0],
+        x0[1] + (float(origin[0] + row) + 0.5) * step[1],
+    )
+    slot = 0
+    if cached == 0:
+        slot = t
+    image_out[row, col] = evaluate(s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)
+
+
+@wp.kernel
+def points_kernel(
+    s: Setup, ctl: Control, output: int, cap: wp.vec3i, first: int, points_in: wp.array(dtype=wp.vec2),
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
+    values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
+):
+    """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units)."""
+    t = wp.tid()
+    i = first + t
+    values_out[i] = evaluate(s, ctl, points_in[i], output, 0, t, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)

@@ -1,0 +1,397 @@
+"""Dendry (Gaillard et al., I3D 2019): a locally computable branching function and terrain.
+
+``dendry(shape, domain=..., params=..., control=...)`` returns, for every pixel
+of an image over the rectangle ``domain``, the distance to an implicit tree, the
+level of its nearest branch, or a terrain elevation built on it (section 5).
+
+The tree. Level 1 puts one jittered key point in every cell of a grid with
+``params.resolution`` cells per domain unit, samples the control function there
+and links every point to the lowest point of its 3 x 3 neighbourhood. Each finer
+level halves the cells; a cell either inherits its parent's key point (when it
+falls inside it) or draws a new one and joins it to the nearest polyline piece of
+the coarser levels owned within the 3 x 3 cells around its ancestors. New points
+get the elevation ``max(control, z_join + min_slope * length)`` with Flint's
+minimum slopes. Every segment is a chordal Catmull-Rom spline, split into 4, 3,
+2, 1 pieces at levels 1, 2, 3, 4+, whose inner vertices move sideways by
+``U(-delta_k, delta_k) * length``.
+
+The value at a point only depends on cells near it, so a ``window`` of an image is
+bit for bit the same region of the whole image. Two modes give the same values:
+``"cached"`` computes each cell once for the window, ``"pixel"`` rebuilds the
+cells around every pixel independently (the paper's evaluation).
+
+Pixel ``(row, col)`` of an ``(H, W)`` image over ``((x0, y0), (x1, y1))`` sits at
+``x = x0 + (col + 0.5) * (x1 - x0) / W``, ``y = y0 + (row + 0.5) * (y1 - y0) / H``
+(row 0 at y0). The query domain maps linearly onto the control's rectangle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import warp as wp
+
+from ._checks import fits_in_memory, lattice_shape
+from .control import Control, rectangle
+from .kernels import dendry as _kd
+
+__all__ = ["DendryParams", "dendry", "dendry_points"]
+
+Output = Literal["distance", "elevation", "level"]
+Mode = Literal["cached", "pixel"]
+_OUTPUTS = {"distance": 0, "elevation": 1, "level": 2}
+_MODES = ("cached", "pixel")
+_RULES = ("terrain", "lichtenberg")
+_PIECES = (4, 3, 2, 1, 1, 1)
+
+
+def _int_in(name: str, value, lo: int, hi: int) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"Expected an integer for '{name}', but got {value!r}")
+    if not lo <= value <= hi:
+        raise ValueError(f"Expected '{name}' in [{lo}, {hi}], but got {value!r}")
+    return int(value)
+
+
+def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+    if not (x > lo if open_lo else x >= lo) or not x <= hi or math.isnan(x):
+        raise ValueError(f"Expected '{name}' in {'(' if open_lo else '['}{lo}, {hi}], but got {value!r}")
+    return x
+
+
+@dataclass(frozen=True)
+class DendryParams:
+    """Parameters of the Dendry function (paper Table 2)."""
+
+    levels: int = 1
+    """Number of tree levels n, 1-6; each level halves the cell size."""
+    seed: int = 0
+    """Seed of every random number (key points, displacements, terrain noise)."""
+    eps: float = 0.25
+    """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid."""
+    delta: float | tuple[float, ...] = 0.0
+    """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
+    One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
+    none finer; a tuple gives one value per level."""
+    resolution: float = 1.0
+    """Level-1 cells per domain unit (> 0): the spacing of the main branches."""
+    smoothing: bool = True
+    """Bend segments along Catmull-Rom splines through their neighbours (section 4.2)."""
+    subdivision: bool = True
+    """Split segments into 4, 3, 2, 1 pieces at levels 1, 2, 3, 4+ (False: straight, no displacement)."""
+    beta: float = 0.5
+    """Slope power of the terrain in [0, 2]: ``tan(theta) = smootherstep(((z - min) / (max - min))^beta)``."""
+    noise: float = 0.0
+    """Relative random amplitude of each terrain primitive's slope term, in [0, 1]."""
+    primitive_steps: int = 3
+    """Terrain primitives sit on the grid of level ``levels + primitive_steps`` (1-4)."""
+    rule: Literal["terrain", "lichtenberg"] = "terrain"
+    """How a new key point joins the tree: ``"terrain"`` to the nearest of the piece's ends and
+    midpoint; ``"lichtenberg"`` downstream of its projection, at 45 degrees."""
+
+    def __post_init__(self):
+        _int_in("levels", self.levels, 1, 6)
+        _int_in("seed", self.seed, -(2**63), 2**64 - 1)
+        _float_in("eps", self.eps, 0.0, 0.5)
+        if isinstance(self.delta, (tuple, list, np.ndarray)):
+            if len(self.delta) != self.levels:
+                raise ValueError(f"Expected one 'delta' per level ({self.levels}), but got {tuple(self.delta)!r}")
+            for d in self.delta:
+                _float_in("delta", d, 0.0, 1.0)
+            object.__setattr__(self, "delta", tuple(float(d) for d in self.delta))
+        else:
+            _float_in("delta", self.delta, 0.0, 1.0)
+        _float_in("resolution", self.resolution, 0.0, 1.0e6, open_lo=True)
+        for name in ("smoothing", "subdivision"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise TypeError(f"Expected a bool for '{name}', but got {getattr(self, name)!r}")
+        _float_in("beta", self.beta, 0.0, 2.0)
+        _float_in("noise", self.noise, 0.0, 1.0)
+        _int_in("primitive_steps", self.primitive_steps, 1, 4)
+        if self.rule not in _RULES:
+            raise ValueError(f"Expected 'rule' in {_RULES}, but got {self.rule!r}")
+
+    def deltas(self) -> tuple[float, ...]:
+        """Displacement per level (6 values, unused levels 0)."""
+        if isinstance(self.delta, tuple):
+            per = list(self.delta)
+        else:
+            per = [self.delta * f for f in (1.0, 0.25, 0.0625, 0.0, 0.0, 0.0)][: self.levels]
+        return tuple(per + [0.0] * (6 - len(per)))
+
+    @staticmethod
+    def min_slopes() -> tuple[float, ...]:
+        """Flint's minimum slope ``(2 mu - 1)^-0.6`` per level, ``mu`` 27, 9, 3, 1 at levels 2-5 (6 as 5)."""
+        return tuple((2.0 * 3.0 ** max(5 - k, 0) - 1.0) ** -0.6 for k in range(1, 7))
+
+
+def _setup(p: DendryParams, domain, control_domain) -> _kd.Setup:
+    s = _kd.Setup()
+    s.levels = p.levels
+    s.seed = wp.uint32(p.seed % 2**32)
+    s.eps = p.eps
+    s.resolution = p.resolution
+    s.delta = _kd.vec6(*p.deltas())
+    s.pieces = _kd.vec6i(*(_PIECES if p.subdivision else (1,) * 6))
+    s.slope = _kd.vec6(*p.min_slopes())
+    s.smoothing = int(p.smoothing)
+    s.beta = p.beta
+    s.noise = p.noise
+    s.steps = p.primitive_steps
+    s.rule = _RULES.index(p.rule)
+    s.r1 = 3 if p.levels == 1 else 2
+    (dx0, dy0), (dx1, dy1) = domain
+    (cx0, cy0), (cx1, cy1) = control_domain
+    s.d_lo = wp.vec2(dx0, dy0)
+    s.c_lo = wp.vec2(cx0, cy0)
+    s.scale = wp.vec2((cx1 - cx0) / (dx1 - dx0), (cy1 - cy0) / (dy1 - dy0))
+    return s
+
+
+def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
+    """Worst-case cells per slot in the per-pixel mode: (level-1 points, tree cells, primitives).
+
+    Mirrors ``kernels.dendry.plan`` along one axis for every alignment of the query cell.
+    """
+    n, m = p.levels, (1 if output == "elevation" else 0)
+    r1 = 3 if n == 1 else 2
+    widest = [0] * (n + 1)
+    for q in range(2 ** (n + 1)):
+        r = r1 if n == 1 else 2
+        lo, hi = q - m - r, q + m + r
+        widest[n] = max(widest[n], hi - lo + 1)
+        for l in range(n - 1, 0, -1):
+            r = r1 if l == 1 else 2
+            sh = n - l
+            lo = min((lo >> 1) - 1, ((q - m) >> sh) - r)
+            hi = max((hi >> 1) + 1, ((q + m) >> sh) + r)
+            widest[l] = max(widest[l], hi - lo + 1)
+    return (widest[1] + 4) ** 2, sum(w * w for w in widest[1:]), 1
+
+
+def _check_output_mode(output, mode):
+    if output not in _OUTPUTS:
+        raise ValueError(f"Expected 'output' in {tuple(_OUTPUTS)}, but got {output!r}")
+    if mode not in _MODES:
+        raise ValueError(f"Expected 'mode' in {_MODES}, but got {mode!r}")
+
+
+def _check_common(params, control, domain, control_domain):
+    if not isinstance(params, DendryParams):
+        raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
+    if not isinstance(control, Control):
+        raise TypeError(f"Expected a wdendrite.control.Control for 'control', but got {type(control).__name__}")
+    domain = rectangle("domain", domain)
+    control_domain = control.domain if control_domain is None else rectangle("control_domain", control_domain)
+    return domain, control_domain
+
+
+def _window(window, shape) -> tuple[int, int, int, int]:
+    if window is None:
+        return (0, 0, shape[0], shape[1])
+    try:
+        r0, c0, h, w = window
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected 'window' as (row0, col0, h, w), but got {window!r}") from None
+    if any(isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) for v in (r0, c0, h, w)):
+        raise TypeError(f"Expected integers in 'window', but got {window!r}")
+    if h <= 0 or w <= 0 or r0 < 0 or c0 < 0 or r0 + h > shape[0] or c0 + w > shape[1]:
+        raise ValueError(f"'window' {tuple(window)!r} is empty or reaches outside the image of shape {shape}")
+    return (int(r0), int(c0), int(h), int(w))
+
+
+class _Slots:
+    """Flat per-slot storage for the kernels."""
+
+    def __init__(self, slots: int, cap: tuple[int, int, int], device):
+        self.cap = wp.vec3i(*cap)
+        self.blocks = wp.zeros(slots * 8, dtype=wp.vec4i, device=device)
+        self.bases = wp.zeros(slots * 8, dtype=int, device=device)
+        self.pts1 = wp.zeros(max(1, slots * cap[0]), dtype=wp.vec4, device=device)
+        self.keyp = wp.zeros(max(1, slots * cap[1]), dtype=wp.vec4, device=device)
+        self.verts = wp.zeros(max(1, slots * cap[1] * 5), dtype=wp.vec3, device=device)
+        self.prims = wp.zeros(max(1, slots * cap[2]), dtype=wp.vec3, device=device)
+        self.overflow = wp.zeros(1, dtype=int, device=device)
+
+    def arrays(self):
+        return [self.blocks, self.bases, self.pts1, self.keyp, self.verts, self.prims]
+
+    def check(self):
+        if int(self.overflow.numpy()[0]):
+            raise RuntimeError("Dendry block planning exceeded its capacity (internal error)")
+
+
+def _slots_for_pixels(params, output, count, device) -> _Slots:
+    cap = _slot_capacity(params, output)
+    per_slot = cap[0] * 16 + cap[1] * (16 + 5 * 12) + cap[2] * 12 + 8 * 20
+    budget = (256 if wp.get_device(device).is_cuda else 16) * 2**20
+    slots = max(1, min(count, budget // per_slot))
+    fits_in_memory(slots * per_slot, device, "Dendry per-pixel scratch")
+    return _Slots(slots, cap, device)
+
+
+def _cached_slots(s, params, output, u_first, u_last, device) -> _Slots:
+    """Plan and fill slot 0 for all queries between grid points ``u_first`` and ``u_last``."""
+    n = params.levels
+    f = float(2 ** (n - 1))
+    pf = float(2 ** (n - 1 + params.primitive_steps))
+    # one spare cell absorbs float rounding differences between host and kernel
+    m = 3 if output == "elevation" else 1
+    qlo = wp.vec2i(*(int(math.floor(v * f)) - m for v in u_first))
+    qhi = wp.vec2i(*(int(math.floor(v * f)) + m for v in u_last))
+    plo = wp.vec2i(*(int(math.floor(v * pf)) - 3 for v in u_first))
+    phi = wp.vec2i(*(int(math.floor(v * pf)) + 3 for v in u_last))
+    if output != "elevation":
+        plo, phi = qlo, qlo
+    big = wp.vec3i(2**30, 2**30, 2**30)
+    plan = _Slots(1, (0, 0, 0), device)
+    wp.launch(_kd.plan_kernel, dim=1, inputs=[s, qlo, qhi, plo, phi, big],
+              outputs=[plan.blocks, plan.bases, plan.overflow], device=device)
+    blocks = plan.blocks.numpy()
+    sizes = [int(b[2]) * int(b[3]) for b in blocks]
+    cells = sum(sizes[1 : n + 1])
+    need = sizes[0] * 16 + cells * 76 + sizes[7] * 12
+    fits_in_memory(need, device, "Dendry cached cells")
+    slots = _Slots(1, (sizes[0], cells, sizes[7]), device)
+    slots.blocks, slots.bases = plan.blocks, plan.bases
+    return slots, sizes
+
+
+def _fill_cached(s, ctl, params, output, slots, sizes, device):
+    wp.launch(_kd.points1_kernel, dim=sizes[0], inputs=[s, ctl, slots.blocks, slots.bases], outputs=[slots.pts1],
+              device=device)
+    wp.launch(_kd.segments1_kernel, dim=sizes[1], inputs=[s, slots.blocks, slots.bases, slots.pts1],
+              outputs=[slots.keyp, slots.verts], device=device)
+    for level in range(2, params.levels + 1):
+        wp.launch(_kd.levelk_kernel, dim=sizes[level], inputs=[s, ctl, slots.blocks, slots.bases, level],
+                  outputs=[slots.keyp, slots.verts], device=device)
+    if output == "elevation":
+        wp.launch(_kd.prims_kernel, dim=sizes[7], inputs=[s, ctl, slots.blocks, slots.bases, slots.keyp, slots.verts],
+                  outputs=[slots.prims], device=device)
+
+
+def dendry(
+    shape,
+    *,
+    domain,
+    params: DendryParams,
+    control: Control,
+    output: Output = "distance",
+    window=None,
+    mode: Mode = "cached",
+    control_domain=None,
+    device=None,
+) -> np.ndarray:
+    """Evaluate Dendry on the pixels of an image (or of a window of it).
+
+    Args:
+        shape: (H, W) of the whole image.
+        domain: ((x0, y0), (x1, y1)) rectangle the image covers, in domain units.
+        params: the :class:`DendryParams`.
+        control: a control function from :mod:`wdendrite.control`.
+        output: ``"distance"`` (domain units, inf where no branch exists), ``"elevation"``
+            (control units) or ``"level"`` (1..n of the nearest branch, 0 where none).
+        window: (row0, col0, h, w) to compute only that region; None for the whole image.
+        mode: ``"cached"`` builds every cell of the window once; ``"pixel"`` rebuilds the
+            cells around each pixel independently. Both give the same values.
+        control_domain: rectangle of the control's coordinates the domain maps onto
+            (default ``control.domain``).
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        (h, w) float32 array (the window's size).
+
+    Raises:
+        ValueError, TypeError: for a bad shape, domain, window, output, mode or params,
+            before any kernel runs.
+    """
+    shape = lattice_shape(shape)
+    if len(shape) != 2:
+        raise ValueError(f"Expected a 2D 'shape' (H, W), but got {shape!r}")
+    domain, control_domain = _check_common(params, control, domain, control_domain)
+    _check_output_mode(output, mode)
+    r0, c0, h, w = _window(window, shape)
+    device = wp.get_device(device)
+    s = _setup(params, domain, control_domain)
+    ctl = control.struct(device)
+    res = params.resolution
+    x0 = wp.vec2(domain[0][0] * res, domain[0][1] * res)
+    step = wp.vec2((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
+    out = wp.zeros((h, w), dtype=float, device=device)
+    code = _OUTPUTS[output]
+    origin = wp.vec2i(r0, c0)
+    if mode == "cached":
+        u_first = (x0[0] + (c0 + 0.5) * step[0], x0[1] + (r0 + 0.5) * step[1])
+        u_last = (x0[0] + (c0 + w - 0.5) * step[0], x0[1] + (r0 + h - 0.5) * step[1])
+        slots, sizes = _cached_slots(s, params, output, u_first, u_last, device)
+        _fill_cached(s, ctl, params, output, slots, sizes, device)
+        wp.launch(_kd.image_kernel, dim=h * w,
+                  inputs=[s, ctl, code, 1, slots.cap, 0, origin, w, x0, step, *slots.arrays()],
+                  outputs=[out, slots.overflow], device=device)
+    else:
+        slots = _slots_for_pixels(params, output, h * w, device)
+        chunk = len(slots.blocks) // 8
+        for first in range(0, h * w, chunk):
+            wp.launch(_kd.image_kernel, dim=min(chunk, h * w - first),
+                      inputs=[s, ctl, code, 0, slots.cap, first, origin, w, x0, step, *slots.arrays()],
+                      outputs=[out, slots.overflow], device=device)
+    slots.check()
+    return out.numpy()
+
+
+def dendry_points(
+    points,
+    *,
+    domain,
+    params: DendryParams,
+    control: Control,
+    output: Output = "distance",
+    control_domain=None,
+    device=None,
+) -> np.ndarray:
+    """Evaluate Dendry at arbitrary points (per-pixel mode).
+
+    Args:
+        points: (N, 2) x, y in domain units.
+        domain: ((x0, y0), (x1, y1)) rectangle that maps onto ``control_domain`` (the
+            points may lie anywhere).
+        params, control, output, control_domain, device: as in :func:`dendry`.
+
+    Returns:
+        (N,) float32 array.
+    """
+    pts = np.asarray(points)
+    if pts.dtype.kind not in "fiu" or pts.dtype == np.bool_:
+        raise TypeError(f"Expected real-valued 'points', but got dtype {pts.dtype}")
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"Expected 'points' of shape (N, 2), but got shape {pts.shape}")
+    bad = ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        raise ValueError(f"'points' must be finite, but row {int(np.argmax(bad))} is {pts[np.argmax(bad)].tolist()}")
+    domain, control_domain = _check_common(params, control, domain, control_domain)
+    _check_output_mode(output, "pixel")
+    device = wp.get_device(device)
+    s = _setup(params, domain, control_domain)
+    ctl = control.struct(device)
+    n = len(pts)
+    out = wp.zeros(max(n, 1), dtype=float, device=device)
+    if n == 0:
+        return np.zeros(0, np.float32)
+    u = wp.array((pts.astype(np.float64) * params.resolution).astype(np.float32), dtype=wp.vec2, device=device)
+    slots = _slots_for_pixels(params, output, n, device)
+    chunk = len(slots.blocks) // 8
+    for first in range(0, n, chunk):
+        wp.launch(_kd.points_kernel, dim=min(chunk, n - first),
+                  inputs=[s, ctl, _OUTPUTS[output], slots.cap, first, u, *slots.arrays()],
+                  outputs=[out, slots.overflow], device=device)
+    slots.check()
+    return out.numpy()[:n]
