@@ -1,0 +1,128 @@
+"""Hydrology metrics against hand-made DEMs and brute-force priority-flood / D8 references."""
+
+import heapq
+
+import numpy as np
+import pytest
+
+from wdendrite import control, hydrology
+from wdendrite.dendry import DendryParams, dendry
+
+
+def _priority_flood(z):
+    """Barnes et al. priority-flood fill, written plainly with a heap."""
+    h, w = z.shape
+    out = z.astype(float).copy()
+    seen = np.zeros(z.shape, bool)
+    heap = []
+    for r in range(h):
+        for c in range(w):
+            if r in (0, h - 1) or c in (0, w - 1):
+                heapq.heappush(heap, (out[r, c], r, c))
+                seen[r, c] = True
+    while heap:
+        v, r, c = heapq.heappop(heap)
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                rr, cc = r + dr, c + dc
+                if 0 <= rr < h and 0 <= cc < w and not seen[rr, cc]:
+                    seen[rr, cc] = True
+                    out[rr, cc] = max(out[rr, cc], v)
+                    heapq.heappush(heap, (out[rr, cc], rr, cc))
+    return out
+
+
+def _pits_dem():
+    """A bowl draining to the border with 3 known pits (one of two diagonal cells)."""
+    rows, cols = np.mgrid[0:9, 0:9]
+    # a stepped dome: 10 on the border, 11 on the next ring, ... 14 at the centre; water runs outwards
+    z = 10.0 + np.minimum(np.minimum(rows, 8 - rows), np.minimum(cols, 8 - cols)).astype(float)
+    z[2, 2] = 5.0  # single-cell pit on ring 12: it spills over its ring-11 neighbours
+    z[5, 5] = z[6, 6] = 4.0  # two diagonal cells (rings 13 and 12): one depression, spilling at 11
+    z[2, 6] = 11.5  # lower than its ring but still above a ring-11 neighbour: drains
+    return z
+
+
+def test_depressions_on_a_hand_made_dem():
+    z = _pits_dem()
+    d = hydrology.depressions(z)
+    assert d.count == 2
+    assert d.mask.sum() == 3 and d.mask[2, 2] and d.mask[5, 5] and d.mask[6, 6]
+    assert d.percent == pytest.approx(100 * 3 / 81)
+    assert d.depth[2, 2] == 6.0  # 11 - 5
+    assert d.depth[5, 5] == d.depth[6, 6] == 7.0
+    assert not d.mask[2, 6]
+
+
+def test_fill_equals_brute_force_priority_flood():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        z = rng.random((17, 23))
+        np.testing.assert_array_equal(hydrology.fill(z), _priority_flood(z))
+
+
+def test_no_depressions_on_a_plane_or_a_dome():
+    rows, cols = np.mgrid[0:20, 0:30]
+    assert hydrology.depressions(0.1 * rows + 0.2 * cols).count == 0
+    assert hydrology.depressions(-((rows - 10) ** 2) - (cols - 15) ** 2.0).count == 0
+
+
+def _d8_reference(z):
+    h, w = z.shape
+    rec = {}
+    for r in range(h):
+        for c in range(w):
+            best, to = 0.0, None
+            for dr in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    rr, cc = r + dr, c + dc
+                    if (dr or dc) and 0 <= rr < h and 0 <= cc < w:
+                        s = (z[r, c] - z[rr, cc]) / np.hypot(dr, dc)
+                        if s > best:
+                            best, to = s, (rr, cc)
+            rec[(r, c)] = to
+    area = np.zeros(z.shape)
+    for start in rec:
+        cell = start
+        while cell is not None:
+            area[cell] += 1
+            cell = rec[cell]
+    return area, rec
+
+
+def test_d8_accumulation_equals_brute_force_and_conserves_area():
+    rng = np.random.default_rng(3)
+    z = rng.random((12, 15))
+    area = hydrology.flow_accumulation(z)
+    want, rec = _d8_reference(z)
+    np.testing.assert_array_equal(area, want)
+    ends = np.array([[rec[(r, c)] is None for c in range(15)] for r in range(12)])
+    assert area[ends].sum() == z.size
+    filled = hydrology.flow_accumulation(z, filled=True)
+    assert filled.max() <= z.size and filled[ends].sum() >= 1
+
+
+def test_d8_on_a_tilted_plane_collects_along_rows():
+    rows, cols = np.mgrid[0:5, 0:8]
+    z = 100.0 - 10.0 * cols + 0.001 * (rows - 2) ** 2  # flows right, then to row 2
+    area = hydrology.flow_accumulation(z)
+    assert area[2, -1] == area.max() == z.size  # everything ends in the lowest cell of the last column
+    img = hydrology.drainage_image(area)
+    assert img.dtype == np.float32 and img.min() == 0.0 and img.max() == 1.0
+
+
+def test_dendry_terrain_drains_better_than_fbm(device):
+    p = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0)
+    ctl = control.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
+    terrain = dendry((96, 96), domain=((0, 0), (4, 4)), params=p, control=ctl, output="elevation", device=device)
+    fbm = hydrology.fbm_terrain((96, 96), seed=0, device=device)
+    ours, theirs = hydrology.depressions(terrain), hydrology.depressions(fbm)
+    assert ours.percent < theirs.percent and ours.count < theirs.count
+
+
+@pytest.mark.parametrize("bad", [np.zeros((0, 3)), np.zeros(5), np.array([[1.0, np.nan]]), np.array([["x"]])])
+def test_bad_elevation_raises(bad):
+    with pytest.raises((ValueError, TypeError), match="elevation"):
+        hydrology.depressions(bad)
+    with pytest.raises((ValueError, TypeError), match="elevation"):
+        hydrology.flow_accumulation(bad)
