@@ -5,10 +5,12 @@ generators, backtracking into dendrites. Dendry (Gaillard et al.): a
 per-pixel branching function and terrain.
 """
 
-from . import weights
+from . import endpoints, weights
+from .dendrite import Dendrite, trace
+from .growth import FractalParams, grow
 from .lattice import Lattice
 from .sssp import CostField, shortest_paths
 
 __version__ = "0.1.0"
 
-__all__ = ["CostField", "Lattice", "shortest_paths", "weights", "__version__"]
+__all__ = ["CostField", "Dendrite", "FractalParams", "Lattice", "endpoints", "grow", "shortest_paths", "trace", "weights", "__version__"]

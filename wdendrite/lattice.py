@@ -111,7 +111,7 @@ class Lattice:
             w = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
         elif hasattr(weights, "sample"):
             _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
-            w = np.asarray(weights.sample(self.shape, self.lengths), dtype=np.float32)
+            w = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), dtype=np.float32)
         else:
             w = _checks.float_array("weights", weights, wshape).copy()
         w.flags.writeable = False

@@ -1,0 +1,101 @@
+"""Greedy backtracking from endpoints to generators on a packed cost field.
+
+A node's predecessor is the first neighbour ``u`` (half-offset order, the
+``+offset`` neighbour before the ``-offset`` one) whose packed word, extended
+by the edge ``u -> node``, reproduces the node's packed word exactly:
+``pack(cost[u] + w, label[u]) == packed[node]``. The shortest-path kernels
+set every word as such a minimum, so a predecessor always exists, and the
+choice depends only on the cost field: paths that meet share the rest of the
+way, so the union of all walks is a forest.
+"""
+
+import warp as wp
+
+from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
+
+wp.set_module_options({"enable_backward": False})
+
+TRACE_OK = wp.constant(0)
+TRACE_UNREACHABLE = wp.constant(1)
+TRACE_STUCK = wp.constant(2)
+
+
+@wp.func
+def predecessor(
+    node: int,
+    flat_offsets: wp.array(dtype=wp.int32),
+    weights: wp.array(dtype=float),
+    mask: wp.array(dtype=wp.uint8),
+    packed: wp.array(dtype=wp.uint64),
+) -> int:
+    """The neighbour a least-cost path to ``node`` comes from (-1 if none)."""
+    count = packed.shape[0]
+    word = packed[node]
+    for k in range(flat_offsets.shape[0]):
+        for side in range(2):
+            other = node + flat_offsets[k]
+            e = k * count + node
+            if side == 1:
+                other = node - flat_offsets[k]
+                e = k * count + other
+            if mask[other] != wp.uint8(0):
+                src = packed[other]
+                if src != UNREACHED:
+                    if pack_cost(packed_cost(src) + weights[e], packed_label(src)) == word:
+                        return other
+    return -1
+
+
+@wp.kernel
+def trace_kernel(
+    starts: wp.array(dtype=wp.int32),
+    flat_offsets: wp.array(dtype=wp.int32),
+    weights: wp.array(dtype=float),
+    mask: wp.array(dtype=wp.uint8),
+    packed: wp.array(dtype=wp.uint64),
+    is_root: wp.array(dtype=wp.uint8),
+    max_steps: int,
+    visited: wp.array(dtype=wp.int32),
+    pred_out: wp.array(dtype=wp.int32),
+    new_nodes_out: wp.array(dtype=wp.int32),
+    new_count: wp.array(dtype=wp.int32),
+    status_out: wp.array(dtype=wp.int32),
+):
+    """Walk from each start to a root, recording each new node's predecessor.
+
+    A walk stops at a root (a generator, predecessor -1) or at a node some
+    walk already claimed (``visited``), from where the path is shared.
+    """
+    i = wp.tid()
+    node = starts[i]
+    status_out[i] = TRACE_OK
+    for step in range(max_steps):
+        if wp.atomic_exch(visited, node, 1) != 0:
+            return
+        new_nodes_out[wp.atomic_add(new_count, 0, 1)] = node
+        if is_root[node] != wp.uint8(0):
+            pred_out[node] = -1
+            return
+        if packed[node] == UNREACHED:
+            pred_out[node] = -1
+            status_out[i] = TRACE_UNREACHABLE
+            return
+        prev = predecessor(node, flat_offsets, weights, mask, packed)
+        pred_out[node] = prev
+        if prev < 0:
+            status_out[i] = TRACE_STUCK
+            return
+        node = prev
+    status_out[i] = TRACE_STUCK
+
+
+@wp.kernel
+def mark_kernel(indices: wp.array(dtype=wp.int32), value: int, out: wp.array(dtype=wp.int32)):
+    """``out[indices[i]] = value``."""
+    out[indices[wp.tid()]] = value
+
+
+@wp.kernel
+def mark_u8_kernel(indices: wp.array(dtype=wp.int32), value: wp.uint8, out: wp.array(dtype=wp.uint8)):
+    """``out[indices[i]] = value`` for byte flags."""
+    out[indices[wp.tid()]] = value

@@ -1,0 +1,163 @@
+"""trace(): forest invariants, exact steps, shortest-path optimality against SciPy, extension, bad input."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.sparse.csgraph import dijkstra
+
+import wdendrite as wd
+from wdendrite.lattice import half_offsets
+
+SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@st.composite
+def traced(draw):
+    ndim = draw(st.sampled_from([2, 3]))
+    shape = tuple(draw(st.integers(2, 12 if ndim == 2 else 6)) for _ in range(ndim))
+    conn = draw(st.sampled_from([4, 8] if ndim == 2 else [6, 26]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    k = len(half_offsets(ndim, conn))
+    w = rng.uniform(0.5, 20.0, size=(k, *shape)).astype(np.float32)
+    mask = rng.random(shape) < 0.85 if draw(st.booleans()) else None
+    usable = np.argwhere(np.ones(shape, bool) if mask is None else mask)
+    if len(usable) == 0:
+        mask, usable = None, np.argwhere(np.ones(shape, bool))
+    lat = wd.Lattice(shape, conn, weights=w, mask=mask)
+    gens = usable[rng.choice(len(usable), size=min(len(usable), draw(st.integers(1, 3))), replace=False)]
+    cf = wd.shortest_paths(lat, gens)
+    reach = np.argwhere(np.isfinite(cf.dist))
+    ends = reach[rng.choice(len(reach), size=min(len(reach), draw(st.integers(1, 12))), replace=False)]
+    return lat, cf, ends
+
+
+def check_forest(lat, cf, den, ends):
+    nodes, parent = den.nodes, den.parent
+    assert len({tuple(n) for n in nodes.tolist()}) == len(nodes), "a node appears twice"
+    # roots are generators, every other node steps to a lattice neighbour
+    gens = {tuple(g) for g in cf.generators.tolist()}
+    assert {tuple(n) for n in nodes[parent < 0].tolist()} <= gens
+    child = np.flatnonzero(parent >= 0)
+    step = nodes[parent[child]] - nodes[child]
+    allowed = {tuple(o) for o in lat.offsets.tolist()} | {tuple(o) for o in (-lat.offsets).tolist()}
+    assert all(tuple(s) in allowed for s in step.tolist())
+    # costs equal the cost field, fall strictly toward the root, and each step is exact
+    np.testing.assert_array_equal(den.cost, cf.dist[tuple(nodes.T)])
+    np.testing.assert_array_equal(den.label, cf.label[tuple(nodes.T)])
+    assert np.all(den.cost[parent[child]] < den.cost[child])
+    for c, s in zip(child, step):
+        k = next(i for i, o in enumerate(lat.offsets) if np.array_equal(o, s) or np.array_equal(-o, s))
+        lower = nodes[c] if np.array_equal(s, lat.offsets[k]) else nodes[parent[c]]
+        w = lat.weights[(k,) + tuple(lower)]
+        assert np.float32(den.cost[parent[c]] + w) == den.cost[c]
+        assert den.label[parent[c]] == den.label[c]
+    # a forest: depth is finite and each root's subtree holds its endpoints
+    assert den.depth.max() < len(den)
+    present = {tuple(n) for n in nodes[den.endpoints].tolist()}
+    assert present == {tuple(e) for e in np.asarray(ends).tolist()}
+    return step
+
+
+@SETTINGS
+@given(traced())
+def test_trace_builds_a_forest_of_exact_least_cost_steps(case):
+    lat, cf, ends = case
+    den = wd.trace(cf, ends)
+    check_forest(lat, cf, den, ends)
+
+
+@SETTINGS
+@given(traced())
+def test_each_path_is_a_shortest_path_by_scipy(case):
+    lat, cf, ends = case
+    den = wd.trace(cf, ends)
+    flat = np.ravel_multi_index(tuple(cf.generators.T), lat.shape)
+    ref = dijkstra(lat.to_csgraph(), directed=False, indices=flat, min_only=True).reshape(lat.shape)
+    g = lat.to_csgraph()
+    for p in den.paths():
+        idx = np.ravel_multi_index(tuple(den.nodes[p].T), lat.shape)
+        length = sum(g[a, b] for a, b in zip(idx[:-1], idx[1:]))
+        assert length == pytest.approx(ref[tuple(den.nodes[p[0]])], rel=1e-5, abs=1e-6)
+
+
+@SETTINGS
+@given(traced(), st.data())
+def test_extending_equals_tracing_everything_at_once(case, data):
+    lat, cf, ends = case
+    split = data.draw(st.integers(0, len(ends)))
+    first = wd.trace(cf, ends[:split]) if split else None
+    both = wd.trace(cf, ends[split:], extend=first) if split < len(ends) else first
+    once = wd.trace(cf, ends)
+    as_set = lambda d: {(tuple(n), tuple(d.nodes[p]) if p >= 0 else None) for n, p in zip(d.nodes.tolist(), d.parent)}
+    assert as_set(both) == as_set(once)
+    if first is not None:
+        np.testing.assert_array_equal(both.nodes[: len(first)], first.nodes)
+
+
+def test_downstream_counts_and_paths():
+    lat = wd.Lattice((40, 40), 8, weights=wd.weights.Uniform(seed=4))
+    cf = wd.shortest_paths(lat, [[20, 20]])
+    ends = wd.endpoints.random(lat, 25, seed=3)
+    den = wd.trace(cf, ends)
+    # brute force: walk each endpoint's path and count
+    brute = np.zeros(len(den), int)
+    for p in den.paths():
+        brute[p] += 1
+    np.testing.assert_array_equal(den.downstream, brute)
+    assert den.downstream[den.roots].sum() == len(den.endpoints)
+    depth = np.array([len(den.path(i)) - 1 for i in range(len(den))])
+    np.testing.assert_array_equal(den.depth, depth)
+
+
+def test_trace_is_deterministic(device):
+    lat = wd.Lattice((64, 64), 8, weights=wd.weights.Uniform(seed=9))
+    cf = wd.shortest_paths(lat, [[5, 5], [50, 40]], device=device)
+    ends = wd.endpoints.random(lat, 40, seed=2)
+    a, b = wd.trace(cf, ends), wd.trace(cf, ends)
+    for f in ("nodes", "parent", "cost", "label", "generation", "endpoints"):
+        np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+
+
+def test_competing_generators_grow_separate_trees():
+    lat = wd.Lattice((60, 60), 8, weights=wd.weights.Uniform(seed=1))
+    cf = wd.shortest_paths(lat, [[10, 10], [50, 50]])
+    den = wd.trace(cf, wd.endpoints.random(lat, 60, seed=0))
+    # every node lies in its own generator's region, and paths never change region
+    np.testing.assert_array_equal(den.label, cf.label[tuple(den.nodes.T)])
+    child = den.parent >= 0
+    np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])
+    assert set(den.label[den.roots]) == {0, 1}
+
+
+MASK = np.ones((8, 8), bool)
+MASK[:, 4] = False
+
+
+@pytest.mark.parametrize(
+    "ends,exc,words",
+    [
+        ([[8, 0]], ValueError, "(8, 0)"),
+        ([[0, 4]], ValueError, "masked"),
+        ([[0, 6]], ValueError, "unreachable"),
+        ([[0.5, 1]], TypeError, "endpoints"),
+        (np.zeros((0, 2), int), ValueError, "empty"),
+    ],
+)
+def test_bad_endpoints(ends, exc, words):
+    lat = wd.Lattice((8, 8), 4, mask=MASK)
+    cf = wd.shortest_paths(lat, [[0, 0]])
+    with pytest.raises(exc) as info:
+        wd.trace(cf, ends)
+    assert words in str(info.value)
+
+
+def test_bad_trace_arguments():
+    lat = wd.Lattice((8, 8))
+    cf = wd.shortest_paths(lat, [[0, 0]], limit=3)
+    with pytest.raises(ValueError, match="limit"):
+        wd.trace(cf, [[7, 7]])
+    with pytest.raises(TypeError, match="costfield"):
+        wd.trace(np.zeros((8, 8)), [[1, 1]])
+    with pytest.raises(TypeError, match="extend"):
+        wd.trace(cf, [[1, 1]], extend="x")

@@ -1,0 +1,217 @@
+"""Dendrites: forests of least-cost paths traced back from endpoints to generators."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Iterator
+
+import numpy as np
+import warp as wp
+
+from . import _checks
+from .kernels import dendrite as _kd
+from .sssp import CostField
+
+__all__ = ["Dendrite", "trace"]
+
+
+@dataclass(frozen=True, eq=False)
+class Dendrite:
+    """A forest of lattice paths, each node pointing toward its generator.
+
+    Nodes are listed in the order they were added (one block per :func:`trace`
+    call, sorted by lattice index within a block), so a dendrite grown further
+    keeps the rows it had.
+
+    Attributes:
+        shape: the lattice shape.
+        nodes: ``(N, ndim)`` int64 node coordinates.
+        parent: ``(N,)`` int64 row of the next node toward the root; -1 at roots
+            (generator nodes).
+        cost: ``(N,)`` float32 least path cost from the node's generator.
+        label: ``(N,)`` int32 row of the generator (in the cost field's
+            generator list) the node's path leads to.
+        generation: ``(N,)`` int32 growth iteration that added the node (0 first).
+        endpoints: ``(M,)`` int64 rows of the nodes paths were traced from.
+    """
+
+    shape: tuple
+    nodes: np.ndarray
+    parent: np.ndarray
+    cost: np.ndarray
+    label: np.ndarray
+    generation: np.ndarray
+    endpoints: np.ndarray
+    _padded: np.ndarray = field(repr=False)
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    @property
+    def roots(self) -> np.ndarray:
+        """Rows of the root nodes (generators reached by some path)."""
+        return np.flatnonzero(self.parent < 0)
+
+    @cached_property
+    def depth(self) -> np.ndarray:
+        """``(N,)`` int64 number of edges between each node and its root."""
+        depth = (self.parent >= 0).astype(np.int64)
+        anc = self.parent.copy()
+        # pointer jumping: depth[i] counts the edges up to anc[i]; each round doubles the jump
+        for _ in range(2 + int(np.log2(max(len(self), 1)))):
+            live = np.flatnonzero(anc >= 0)
+            if not len(live):
+                return depth
+            up = anc[live]
+            depth[live] = depth[live] + depth[up]
+            anc[live] = anc[up]
+        raise ValueError("'parent' has a cycle: the dendrite is not a forest")
+
+    @cached_property
+    def order(self) -> np.ndarray:
+        """Rows sorted from the roots outward (every parent before its children)."""
+        return np.argsort(self.depth, kind="stable")
+
+    @cached_property
+    def downstream(self) -> np.ndarray:
+        """``(N,)`` int64 number of endpoints whose path passes through each node (itself included)."""
+        count = np.zeros(len(self), np.int64)
+        np.add.at(count, self.endpoints, 1)
+        depth = self.depth
+        rows = self.order[::-1]
+        # accumulate level by level, deepest first, so children are complete before parents
+        bounds = np.flatnonzero(np.diff(depth[rows])) + 1
+        for level in np.split(rows, bounds):
+            p = self.parent[level]
+            ok = p >= 0
+            np.add.at(count, p[ok], count[level[ok]])
+        return count
+
+    def path(self, row: int) -> np.ndarray:
+        """Rows from node ``row`` to its root (inclusive)."""
+        out = [int(row)]
+        while self.parent[out[-1]] >= 0:
+            out.append(int(self.parent[out[-1]]))
+        return np.asarray(out, dtype=np.int64)
+
+    def paths(self) -> Iterator[np.ndarray]:
+        """The path of every endpoint, as rows from the endpoint to its root."""
+        for e in self.endpoints:
+            yield self.path(e)
+
+
+def _padded_to_coords(padded: np.ndarray, shape: tuple) -> np.ndarray:
+    coords = np.stack(np.unravel_index(padded, tuple(n + 2 for n in shape)), axis=1).astype(np.int64)
+    return coords - 1
+
+
+def _rows_of(all_padded: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """Rows of ``all_padded`` holding each value of ``wanted`` (-1 stays -1)."""
+    order = np.argsort(all_padded, kind="stable")
+    pos = np.searchsorted(all_padded[order], wanted)
+    rows = order[np.minimum(pos, len(order) - 1)]
+    return np.where(wanted >= 0, rows, -1)
+
+
+def trace(
+    costfield: CostField,
+    endpoints,
+    *,
+    extend: Dendrite | None = None,
+    generation: int | None = None,
+) -> Dendrite:
+    """Backtrack least-cost paths from ``endpoints`` to their generators (greedy descent).
+
+    Every endpoint walks, in parallel, to the neighbour its least cost came
+    from until it reaches a generator or a node already on the dendrite;
+    paths that meet share the rest of the way. The predecessor rule is fixed
+    (see :mod:`wdendrite.kernels.dendrite`), so the result depends only on
+    the cost field and the endpoints.
+
+    Args:
+        costfield: from :func:`wdendrite.shortest_paths`.
+        endpoints: ``(M, ndim)`` integer node coordinates with finite cost.
+        extend: a dendrite to grow: walks stop when they reach one of its
+            nodes, and the new nodes are appended after its rows.
+        generation: value stored in ``Dendrite.generation`` for the new nodes
+            (default: one more than ``extend``'s largest, else 0).
+
+    Returns:
+        A :class:`Dendrite` holding ``extend``'s nodes followed by the new ones.
+
+    Raises:
+        ValueError: endpoints out of bounds, on masked nodes or unreachable
+            (the message names the row), or ``extend`` from another lattice shape.
+        TypeError: a ``costfield`` that is not a :class:`CostField`.
+    """
+    if not isinstance(costfield, CostField):
+        raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
+    lattice = costfield.lattice
+    pts = _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
+    dist = costfield.dist
+    bad = ~np.isfinite(dist[tuple(pts.T)])
+    if bad.any():
+        row = int(np.argmax(bad))
+        why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"
+        raise ValueError(
+            f"'endpoints' row {row} = {tuple(pts[row].tolist())} is {why} ({int(bad.sum())} such endpoints)"
+        )
+    if extend is not None:
+        if not isinstance(extend, Dendrite):
+            raise TypeError(f"Expected a Dendrite for 'extend', but got {type(extend).__name__}")
+        if tuple(extend.shape) != lattice.shape:
+            raise ValueError(f"'extend' has shape {extend.shape}, but the cost field's lattice has {lattice.shape}")
+    if generation is None:
+        generation = 0 if extend is None or not len(extend) else int(extend.generation.max()) + 1
+
+    device = costfield.device
+    arrays = lattice.device_arrays(device)
+    size = arrays.mask.shape[0]
+    starts = lattice.padded_indices(pts)
+    old = np.zeros(0, np.int64) if extend is None else extend._padded
+    with wp.ScopedDevice(device):
+        is_root = wp.zeros(size, dtype=wp.uint8)
+        roots = lattice.padded_indices(costfield.generators)
+        wp.launch(_kd.mark_u8_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), wp.uint8(1)],
+                  outputs=[is_root])
+        visited = wp.zeros(size, dtype=wp.int32)
+        if len(old):
+            wp.launch(_kd.mark_kernel, dim=len(old), inputs=[wp.array(old.astype(np.int32), dtype=wp.int32), 1],
+                      outputs=[visited])
+        pred = wp.empty(size, dtype=wp.int32)
+        new_nodes = wp.empty(size, dtype=wp.int32)
+        new_count = wp.zeros(1, dtype=wp.int32)
+        status = wp.empty(len(starts), dtype=wp.int32)
+        wp.launch(
+            _kd.trace_kernel,
+            dim=len(starts),
+            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.weights, arrays.mask,
+                    costfield.packed, is_root, size],
+            outputs=[visited, pred, new_nodes, new_count, status],
+        )
+        n_new = int(new_count.numpy()[0])
+        fresh = np.sort(new_nodes.numpy()[:n_new]).astype(np.int64)
+        fresh_pred = pred.numpy()[fresh].astype(np.int64)
+    if (status.numpy() != 0).any():
+        raise RuntimeError("backtracking found a node with no predecessor; the cost field is inconsistent")
+    all_padded = np.concatenate([old, fresh])
+    coords = _padded_to_coords(fresh, lattice.shape)
+    new_parent = _rows_of(all_padded, fresh_pred)
+    end_rows = np.unique(_rows_of(all_padded, starts.astype(np.int64)))
+    def _cat(name, new, dtype):
+        return np.concatenate([getattr(extend, name), new]).astype(dtype) if extend is not None else new.astype(dtype)
+    return Dendrite(
+        shape=lattice.shape,
+        nodes=_cat("nodes", coords, np.int64).reshape(-1, lattice.ndim),
+        parent=_cat("parent", new_parent, np.int64),
+        cost=_cat("cost", dist[tuple(coords.T)], np.float32),
+        label=_cat("label", costfield.label[tuple(coords.T)], np.int32),
+        generation=_cat("generation", np.full(len(fresh), generation), np.int32),
+        endpoints=np.unique(np.concatenate([extend.endpoints, end_rows])) if extend is not None else end_rows,
+        _padded=all_padded,
+    )
