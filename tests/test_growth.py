@@ -1,0 +1,117 @@
+"""grow(): the Fig 3.12 schedule, both fractal modes, warm starts equal cold starts, competition, bad input."""
+
+import numpy as np
+import pytest
+
+import wdendrite as wd
+from wdendrite import growth, sssp
+from wdendrite.growth import lower_dendrite_weights
+
+LAT = wd.Lattice((96, 96), 8, weights=wd.weights.Uniform(r=10, seed=5))
+PARAMS = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0)
+
+
+def test_schedule_follows_fig_3_12():
+    p = wd.FractalParams(count=5, d=400, alpha=2, beta=3, epsilon=60)
+    assert p.schedule() == [(5, 400.0), (15, 200.0), (45, 100.0)]
+    assert p.band == 40.0
+
+
+@pytest.mark.parametrize("cheap", [0.0, 0.6, 1.0])
+def test_grow_gives_a_valid_forest(cheap):
+    den = wd.grow(LAT, [[48, 48]], PARAMS.__class__(**{**PARAMS.__dict__, "cheap": cheap}), seed=1)
+    assert len({tuple(n) for n in den.nodes.tolist()}) == len(den)
+    child = np.flatnonzero(den.parent >= 0)
+    step = np.abs(den.nodes[den.parent[child]] - den.nodes[child])
+    assert step.max() == 1 and step.sum(axis=1).min() >= 1
+    assert np.all(den.parent[child] != child)
+    # one tree rooted at the generator, and generations count up from the core outward
+    assert den.nodes[den.roots].tolist() == [[48, 48]]
+    gens = np.unique(den.generation)
+    assert gens[0] == 0 and len(gens) > 1
+    assert np.all(den.generation[child] >= den.generation[den.parent[child]])
+    # endpoints never exceed what the schedule asked for
+    assert len(den.endpoints) <= sum(m for m, _ in PARAMS.schedule())
+
+
+def test_new_generators_attach_each_branch_to_the_existing_dendrite():
+    den = wd.grow(LAT, [[48, 48]], PARAMS, seed=3)
+    for g in range(1, den.generation.max() + 1):
+        new = np.flatnonzero(den.generation == g)
+        attach = den.parent[new]
+        # a new branch leaves only from older nodes or its own generation
+        assert np.all(den.generation[attach] <= g)
+        assert np.any(den.generation[attach] < g)
+
+
+def test_warm_starts_give_the_same_dendrite_as_cold_starts(monkeypatch):
+    for cheap in (0.0, 0.5):
+        p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=cheap)
+        warm = wd.grow(LAT, [[48, 48]], p, seed=7)
+        real = sssp.shortest_paths
+
+        def cold(*args, warm_start=None, **kwargs):
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(growth, "shortest_paths", cold)
+        again = wd.grow(LAT, [[48, 48]], p, seed=7)
+        monkeypatch.setattr(growth, "shortest_paths", real)
+        for f in ("nodes", "parent", "cost", "label", "generation", "endpoints"):
+            np.testing.assert_array_equal(getattr(warm, f), getattr(again, f))
+
+
+def test_cheap_former_paths_lower_only_dendrite_edges():
+    cf = wd.shortest_paths(LAT, [[48, 48]])
+    den = wd.trace(cf, [[10, 10], [80, 20]])
+    low = lower_dendrite_weights(LAT, den, 0.5)
+    changed = np.argwhere(low.weights != LAT.weights)
+    assert len(changed) == len(den) - 1
+    np.testing.assert_allclose(low.weights[tuple(changed.T)], LAT.weights[tuple(changed.T)] * 0.5)
+
+
+def test_competition_keeps_dendrites_apart():
+    den = wd.grow(LAT, [[20, 20], [75, 75]], PARAMS, seed=2)
+    child = den.parent >= 0
+    np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])
+    assert sorted(den.label[den.roots].tolist()) == [0, 1]
+    # each tree is whole: every node's path ends at the root of its own label
+    roots = {int(den.label[r]): tuple(den.nodes[r]) for r in den.roots}
+    for row in np.random.default_rng(0).choice(len(den), 50, replace=False):
+        assert tuple(den.nodes[den.path(row)[-1]]) == roots[int(den.label[row])]
+
+
+def test_progress_callback_and_reproducibility():
+    seen = []
+    a = wd.grow(LAT, [[48, 48]], PARAMS, seed=11, progress=lambda i, n, d: seen.append((i, n, len(d))))
+    b = wd.grow(LAT, [[48, 48]], PARAMS, seed=11)
+    assert [s[0] for s in seen] == list(range(1, len(PARAMS.schedule()) + 1))
+    assert seen[-1][2] == len(a)
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    c = wd.grow(LAT, [[48, 48]], PARAMS, seed=12)
+    assert not np.array_equal(a.nodes, c.nodes) or len(a) != len(c)
+
+
+@pytest.mark.parametrize(
+    "kwargs,words",
+    [
+        (dict(alpha=1.0), "alpha"),
+        (dict(alpha=0.5), "alpha"),
+        (dict(beta=0.9), "beta"),
+        (dict(epsilon=0.0), "epsilon"),
+        (dict(epsilon=-1.0), "epsilon"),
+        (dict(count=0), "count"),
+        (dict(d=-5.0), "'d'"),
+        (dict(r=0.0), "'r'"),
+        (dict(cheap=1.5), "cheap"),
+        (dict(cheap=-0.1), "cheap"),
+    ],
+)
+def test_parameters_that_cannot_terminate_or_make_sense(kwargs, words):
+    with pytest.raises(ValueError) as info:
+        wd.FractalParams(**kwargs)
+    assert words in str(info.value)
+
+
+def test_empty_bands_raise():
+    with pytest.raises(ValueError, match="lower 'd'"):
+        wd.grow(LAT, [[48, 48]], wd.FractalParams(d=1e6, epsilon=5e5, alpha=2.0))
