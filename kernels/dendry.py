@@ -27,7 +27,8 @@ from .random import hash3, hash_uniform
 
 wp.set_module_options({"enable_backward": False})
 
-NV = wp.constant(5)  # polyline vertices stored per cell (at most 4 pieces)
+NV = wp.constant(6)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding circle
+BOUND = wp.constant(5)  # position of the bounding circle (centre x, y, radius) in a cell's stride
 SLOT = wp.constant(8)  # blocks per slot
 PRIM = wp.constant(7)  # block id of the terrain primitives
 STATE_NONE = wp.constant(0.0)  # no usable key point (outside the domain, or no segment to join)
@@ -158,7 +159,9 @@ def write_polyline(
     side = wp.vec2(0.0, 0.0)
     if length > 0.0:
         side = wp.vec2(-d[1], d[0]) / length
-    for j in range(NV):
+    lo = pa
+    hi = pa
+    for j in range(BOUND):
         jj = wp.min(j, pieces)
         t = float(jj) / float(pieces)
         pos = pa + t * d
@@ -170,6 +173,15 @@ def write_polyline(
         if jj == pieces:
             pos = pb
         verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
+        lo = wp.min(lo, pos)
+        hi = wp.max(hi, pos)
+    # a slightly inflated circle around the polyline lets searches skip the cell exactly
+    centre = 0.5 * (lo + hi)
+    radius = float(0.0)
+    for j in range(BOUND):
+        v = verts_out[vi * NV + j]
+        radius = wp.max(radius, wp.length(wp.vec2(v[0], v[1]) - centre))
+    verts_out[vi * NV + BOUND] = wp.vec3(centre[0], centre[1], radius * 1.0001 + 1.0e-6)
 
 
 @wp.func
@@ -243,50 +255,91 @@ def fill_segment1(
 
 
 @wp.func
+def ring_offset(k: int, i: int) -> wp.vec2i:
+    """Offset ``i`` (0 .. 8k-1) on the square ring at Chebyshev distance ``k`` >= 1."""
+    side = i / (2 * k)
+    pos = i - side * 2 * k
+    if side == 0:
+        return wp.vec2i(-k + pos, -k)
+    if side == 1:
+        return wp.vec2i(k, -k + pos)
+    if side == 2:
+        return wp.vec2i(k - pos, k)
+    return wp.vec2i(-k, k - pos)
+
+
+@wp.func
+def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, nv: int, best: float) -> wp.vec3:
+    """Closest piece of cell ``o``'s polyline to ``q`` if nearer than ``best`` (squared).
+
+    Returns (squared distance, piece, fraction along it); piece -1 when none beats ``best``.
+    """
+    bd = verts[o * NV + BOUND]
+    gap = wp.length(q - wp.vec2(bd[0], bd[1])) - bd[2]
+    if gap > 0.0 and gap * gap >= best:
+        return wp.vec3(best, -1.0, 0.0)
+    bj = int(-1)
+    bt = float(0.0)
+    for j in range(nv - 1):
+        a = verts[o * NV + j]
+        b = verts[o * NV + j + 1]
+        pa = wp.vec2(a[0], a[1])
+        ab = wp.vec2(b[0], b[1]) - pa
+        den = wp.dot(ab, ab)
+        t = float(0.0)
+        if den > 0.0:
+            t = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
+        d2 = wp.length_sq(q - (pa + t * ab))
+        if d2 < best:
+            best = d2
+            bj = j
+            bt = t
+    return wp.vec3(best, float(bj), bt)
+
+
+@wp.func
 def nearest_on_tree(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
     q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ) -> wp.mat33:
     """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
-    the 3 x 3 cells around the ancestors of ``c``.
+    the 3 x 3 cells around the ancestors of ``c`` (finest level first, centre cell first).
 
     Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
     its polyline, 1 when the vertex exists.
     """
     best = float(1.0e30)
-    ra = wp.vec3(0.0, 0.0, 0.0)
-    rb = wp.vec3(0.0, 0.0, 0.0)
-    rn = wp.vec3(0.0, 0.0, -1.0)
-    for l in range(1, level):
-        shift = level - l
-        anc = wp.vec2i(c[0] >> shift, c[1] >> shift)
+    bo = int(-1)
+    bj = int(0)
+    bnv = int(0)
+    for i in range(1, level):
+        l = level - i
+        anc = wp.vec2i(c[0] >> i, c[1] >> i)
         bi = slot * SLOT + l
         nv = s.pieces[l - 1] + 1
-        for dy in range(-1, 2):
-            for dx in range(-1, 2):
-                o = block_index(blocks, bases, bi, wp.vec2i(anc[0] + dx, anc[1] + dy))
-                if o >= 0:
-                    if keyp[o][3] == STATE_SEGMENT:
-                        for j in range(nv - 1):
-                            a = verts[o * NV + j]
-                            b = verts[o * NV + j + 1]
-                            pa = wp.vec2(a[0], a[1])
-                            ab = wp.vec2(b[0], b[1]) - pa
-                            den = wp.dot(ab, ab)
-                            t = float(0.0)
-                            if den > 0.0:
-                                t = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
-                            d2 = wp.length_sq(q - (pa + t * ab))
-                            if d2 < best:
-                                best = d2
-                                ra = a
-                                rb = b
-                                rn = wp.vec3(b[0], b[1], 0.0)
-                                if j + 2 < nv:
-                                    nx = verts[o * NV + j + 2]
-                                    rn = wp.vec3(nx[0], nx[1], 1.0)
-    return wp.mat33(ra[0], ra[1], ra[2], rb[0], rb[1], rb[2], rn[0], rn[1], rn[2])
+        for k in range(9):
+            off = wp.vec2i(0, 0)
+            if k > 0:
+                off = ring_offset(1, k - 1)
+            o = block_index(blocks, bases, bi, anc + off)
+            if o >= 0:
+                if keyp[o][3] == STATE_SEGMENT:
+                    r = cell_nearest(q, verts, o, nv, best)
+                    if r[1] >= 0.0:
+                        best = r[0]
+                        bo = o
+                        bj = int(r[1])
+                        bnv = nv
+    if bo < 0:
+        return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
+    a = verts[bo * NV + bj]
+    b = verts[bo * NV + bj + 1]
+    rn = wp.vec3(b[0], b[1], 0.0)
+    if bj + 2 < bnv:
+        nx = verts[bo * NV + bj + 2]
+        rn = wp.vec3(nx[0], nx[1], 1.0)
+    return wp.mat33(a[0], a[1], a[2], b[0], b[1], b[2], rn[0], rn[1], rn[2])
 
 
 @wp.func
@@ -354,37 +407,39 @@ def query(
     """(distance in domain units, elevation at the nearest tree point, its level) at ``u``.
 
     The candidates are the segments owned by the (2r+1)^2 cells around ``u`` at every
-    level (r = ``s.r1`` at level 1, else 2). Distance is inf and level 0 when there is none.
+    level (r = ``s.r1`` at level 1, else 2), searched finest level first and ring by ring
+    so that far cells are mostly skipped by their bounding circles. Distance is inf and
+    level 0 when there is no candidate.
     """
     best = float(1.0e30)
     bz = float(0.0)
     bl = int(0)
-    for l in range(1, s.levels + 1):
+    for i in range(s.levels):
+        l = s.levels - i
         pc = cell_of(u, l)
         r = 2
         if l == 1:
             r = s.r1
         bi = slot * SLOT + l
         nv = s.pieces[l - 1] + 1
-        for dy in range(-r, r + 1):
-            for dx in range(-r, r + 1):
-                o = block_index(blocks, bases, bi, wp.vec2i(pc[0] + dx, pc[1] + dy))
-                if o >= 0:
-                    if keyp[o][3] == STATE_SEGMENT:
-                        for j in range(nv - 1):
-                            a = verts[o * NV + j]
-                            b = verts[o * NV + j + 1]
-                            pa = wp.vec2(a[0], a[1])
-                            ab = wp.vec2(b[0], b[1]) - pa
-                            den = wp.dot(ab, ab)
-                            t = float(0.0)
-                            if den > 0.0:
-                                t = wp.clamp(wp.dot(u - pa, ab) / den, 0.0, 1.0)
-                            d2 = wp.length_sq(u - (pa + t * ab))
-                            if d2 < best:
-                                best = d2
-                                bz = a[2] + t * (b[2] - a[2])
-                                bl = l
+        count = (2 * r + 1) * (2 * r + 1)
+        for k in range(count):
+            off = wp.vec2i(0, 0)
+            if k > 0:
+                ring = int(wp.floor((wp.sqrt(float(k)) + 1.0) * 0.5))  # cells 1..9 ring 1, 10..25 ring 2, ...
+                first = (2 * ring - 1) * (2 * ring - 1)
+                off = ring_offset(ring, k - first)
+            o = block_index(blocks, bases, bi, pc + off)
+            if o >= 0:
+                if keyp[o][3] == STATE_SEGMENT:
+                    rr = cell_nearest(u, verts, o, nv, best)
+                    if rr[1] >= 0.0:
+                        best = rr[0]
+                        j = int(rr[1])
+                        a = verts[o * NV + j]
+                        b = verts[o * NV + j + 1]
+                        bz = a[2] + rr[2] * (b[2] - a[2])
+                        bl = l
     if bl == 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
     return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))

@@ -114,10 +114,12 @@ class _Tree:
         best = np.full(len(u), np.inf)
         z = np.zeros(len(u))
         lev = np.zeros(len(u))
+        self.per_level = []
         for level, (s, zz) in enumerate(zip(self.segs, self.zs), start=1):
             t, d = _project(u[:, None, :], s[None, :, 0], s[None, :, 1])
             k = np.argmin(d, axis=1)
             dk = d[np.arange(len(u)), k]
+            self.per_level.append(dk / self.p.resolution)
             better = dk < best
             best = np.where(better, dk, best)
             tk = t[np.arange(len(u)), k]
@@ -168,7 +170,10 @@ def test_level2_distance_matches_global_tree(device):
     # the kernel searches the 3 x 3 cells around each ancestor, not the whole tree: nearly always the same
     same = np.abs(got_d - want_d) < 2e-5
     assert same.mean() > 0.97, same.mean()
-    assert np.mean(got_l[same] == want_l[same]) > 0.99
+    # the level is only defined where one level is clearly nearer (junctions are ties)
+    clear = same & (np.abs(tree.per_level[0] - tree.per_level[1]) > 1e-4)
+    assert clear.mean() > 0.9
+    assert np.mean(got_l[clear] == want_l[clear]) > 0.995
     assert set(np.unique(got_l)) <= {1.0, 2.0}
 
 

@@ -46,6 +46,7 @@ _OUTPUTS = {"distance": 0, "elevation": 1, "level": 2}
 _MODES = ("cached", "pixel")
 _RULES = ("terrain", "lichtenberg")
 _PIECES = (4, 3, 2, 1, 1, 1)
+_STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
 
 
 def _int_in(name: str, value, lo: int, hi: int) -> int:
@@ -218,7 +219,7 @@ class _Slots:
         self.bases = wp.zeros(slots * 8, dtype=int, device=device)
         self.pts1 = wp.zeros(max(1, slots * cap[0]), dtype=wp.vec4, device=device)
         self.keyp = wp.zeros(max(1, slots * cap[1]), dtype=wp.vec4, device=device)
-        self.verts = wp.zeros(max(1, slots * cap[1] * 5), dtype=wp.vec3, device=device)
+        self.verts = wp.zeros(max(1, slots * cap[1] * _STRIDE), dtype=wp.vec3, device=device)
         self.prims = wp.zeros(max(1, slots * cap[2]), dtype=wp.vec3, device=device)
         self.overflow = wp.zeros(1, dtype=int, device=device)
 
@@ -232,7 +233,7 @@ class _Slots:
 
 def _slots_for_pixels(params, output, count, device) -> _Slots:
     cap = _slot_capacity(params, output)
-    per_slot = cap[0] * 16 + cap[1] * (16 + 5 * 12) + cap[2] * 12 + 8 * 20
+    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE) + cap[2] * 12 + 8 * 20
     budget = (256 if wp.get_device(device).is_cuda else 16) * 2**20
     slots = max(1, min(count, budget // per_slot))
     fits_in_memory(slots * per_slot, device, "Dendry per-pixel scratch")
@@ -259,7 +260,7 @@ def _cached_slots(s, params, output, u_first, u_last, device) -> _Slots:
     blocks = plan.blocks.numpy()
     sizes = [int(b[2]) * int(b[3]) for b in blocks]
     cells = sum(sizes[1 : n + 1])
-    need = sizes[0] * 16 + cells * 76 + sizes[7] * 12
+    need = sizes[0] * 16 + cells * (16 + 12 * _STRIDE) + sizes[7] * 12
     fits_in_memory(need, device, "Dendry cached cells")
     slots = _Slots(1, (sizes[0], cells, sizes[7]), device)
     slots.blocks, slots.bases = plan.blocks, plan.bases

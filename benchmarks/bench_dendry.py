@@ -1,0 +1,79 @@
+"""Dendry throughput in pixels per second against the authors' C++ implementation.
+
+Workload: the paper's Table 1 setup (noise domain [0, 4]^2, eps 0.25, delta 0.1,
+beta 0.5, noise 0.05, Perlin control on (-0.2, -0.4)-(1.4, 0.7)) at levels 1-6,
+distance and elevation, and a 1024^2 Lichtenberg figure with 6 levels. The
+cached mode computes whole images; the per-pixel mode, whose cost per pixel
+does not depend on the image size, is timed on a ``--pixel-window`` square
+window of the image. Each case is run once after a warm-up that compiles the
+kernels. Peer: the authors' C++ (-O3) on a machine like ours, one core.
+
+Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
+       [--device cpu]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import warp as wp
+
+from wdendrite import control
+from wdendrite.dendry import DendryParams, dendry
+
+# seconds for a 512^2 image (Table 1 setup) or the Lichtenberg figure, authors' C++ on one core
+PEER = {("table1", 1, "elevation", 512): 10.7, ("table1", 2, "elevation", 512): 13.7,
+        ("table1", 3, "elevation", 512): 24.5, ("table1", 2, "distance", 512): 11.0,
+        ("lichtenberg", 6, "distance", 1024): 113.0}
+
+
+def _case(kind: str, levels: int):
+    if kind == "lichtenberg":
+        p = DendryParams(levels=levels, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0)
+        return dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=p, control=control.lichtenberg())
+    p = DendryParams(levels=levels, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0)
+    ctl = control.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
+    return dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl)
+
+
+def _rate(size: int, mode: str, window: int, device, **kw) -> float:
+    win = None if mode == "cached" else ((size - window) // 2, (size - window) // 2, window, window)
+    t = time.perf_counter()
+    out = dendry((size, size), window=win, mode=mode, device=device, **kw)
+    wp.synchronize_device(device)
+    return out.size / (time.perf_counter() - t)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
+    ap.add_argument("--levels", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
+    ap.add_argument("--pixel-window", type=int, default=96)
+    ap.add_argument("--device", default=None)
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    device = wp.get_device(args.device)
+    # warm-up: compile every kernel once
+    for out in ("distance", "elevation"):
+        for mode in ("cached", "pixel"):
+            dendry((16, 16), output=out, mode=mode, device=device, **_case("table1", 2))
+    print(f"# Dendry throughput on {device} ({device.name}), one launch stream, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    print("| workload | size | levels | output | mode | px/s | peer px/s | ratio |")
+    print("| --- | ---: | ---: | --- | --- | ---: | ---: | ---: |")
+    cases = [("table1", size, lv, out) for size in args.sizes for lv in args.levels for out in ("distance", "elevation")]
+    cases.append(("lichtenberg", 1024, 6, "distance"))
+    for kind, size, levels, out in cases:
+        kw = _case(kind, levels)
+        for mode in ("cached", "pixel"):
+            rate = _rate(size, mode, args.pixel_window, device, output=out, **kw)
+            peer = PEER.get((kind, levels, out, size))
+            peer_rate = size * size / peer if peer else None
+            ratio = f"{rate / peer_rate:.1f}x" if peer_rate else "-"
+            peer_txt = f"{peer_rate:,.0f}" if peer_rate else "-"
+            print(f"| {kind} | {size}^2 | {levels} | {out} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
