@@ -11,7 +11,7 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
-from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
+from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label
 
 wp.set_module_options({"enable_backward": False})
 
@@ -25,23 +25,23 @@ def predecessor(
     node: int,
     flat_offsets: wp.array(dtype=wp.int32),
     weights: wp.array(dtype=float),
+    hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
 ) -> int:
     """The neighbour a least-cost path to ``node`` comes from (-1 if none)."""
-    count = packed.shape[0]
     word = packed[node]
     for k in range(flat_offsets.shape[0]):
         for side in range(2):
             other = node + flat_offsets[k]
-            e = k * count + node
+            lower = node
             if side == 1:
                 other = node - flat_offsets[k]
-                e = k * count + other
+                lower = other
             if mask[other] != wp.uint8(0):
                 src = packed[other]
                 if src != UNREACHED:
-                    if pack_cost(packed_cost(src) + weights[e], packed_label(src)) == word:
+                    if pack_cost(packed_cost(src) + edge_cost(weights, hashed, lower, k), packed_label(src)) == word:
                         return other
     return -1
 
@@ -51,6 +51,7 @@ def trace_kernel(
     starts: wp.array(dtype=wp.int32),
     flat_offsets: wp.array(dtype=wp.int32),
     weights: wp.array(dtype=float),
+    hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
     is_root: wp.array(dtype=wp.uint8),
@@ -80,7 +81,7 @@ def trace_kernel(
             pred_out[node] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
-        prev = predecessor(node, flat_offsets, weights, mask, packed)
+        prev = predecessor(node, flat_offsets, weights, hashed, mask, packed)
         pred_out[node] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK

@@ -19,12 +19,41 @@ Frontiers are flat ``int32`` node lists with their lengths kept in a small
 
 import warp as wp
 
-from .lattice import padded_index
+from .lattice import node_coords, padded_index
+from .weights import WeightParams, edge_weight_at
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
 UNREACHED = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 """Packed state of a node no path has reached."""
+
+
+@wp.struct
+class HashedWeights:
+    """Edge weights recomputed from a hash instead of read from an array."""
+
+    use: int
+    """Nonzero: compute weights with ``params``; zero: read the stored array."""
+    params: WeightParams
+    """The distribution (see :mod:`wdendrite.kernels.weights`)."""
+    shape3: wp.vec3i
+    """Unpadded lattice shape ``(D, H, W)``."""
+    pad3: wp.vec3i
+    """Border width of the padded layout per axis."""
+    offsets: wp.array(dtype=wp.vec3i)
+    """Half-offsets ``(dz, dy, dx)``, shape (K,)."""
+    lengths: wp.array(dtype=float)
+    """Length of each half-offset, shape (K,)."""
+
+
+@wp.func
+def edge_cost(weights: wp.array(dtype=float), hashed: HashedWeights, lower: int, k: int) -> float:
+    """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
+    if hashed.use == 0:
+        return weights[k * (weights.shape[0] / hashed.offsets.shape[0]) + lower]
+    padded = hashed.shape3 + hashed.pad3 + hashed.pad3
+    coords = node_coords(lower, padded) - hashed.pad3
+    return edge_weight_at(hashed.params, hashed.shape3, coords, k, hashed.offsets[k], hashed.lengths[k])
 
 
 @wp.func
@@ -169,6 +198,7 @@ def relax_edge(
 def relax_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
     weights: wp.array(dtype=float),
+    hashed: HashedWeights,
     near_in: wp.array(dtype=wp.int32),
     in_slot: int,
     threads: int,
@@ -196,7 +226,8 @@ def relax_kernel(
     packed state drops is queued in the next near list when its cost is below
     ``threshold`` and in the far pile otherwise; costs above ``limit`` are
     never written. ``weights[k * P + p]`` is the edge ``p <-> p + flat_offsets[k]``
-    of the padded lattice of P nodes.
+    of the padded lattice of P nodes, unless ``hashed.use`` asks for weights
+    recomputed from their hash.
     """
     count = packed.shape[0]
     capacity = near_in.shape[0]
@@ -211,9 +242,17 @@ def relax_kernel(
         for k in range(flat_offsets.shape[0]):
             step = flat_offsets[k]
             # forward edge stored at this node, backward edge stored at the neighbour
-            relax_edge(node + step, cost + weights[k * count + node], label, threshold, limit, generation,
+            w_fwd = float(0.0)
+            w_bwd = float(0.0)
+            if hashed.use == 0:
+                w_fwd = weights[k * count + node]
+                w_bwd = weights[k * count + node - step]
+            else:
+                w_fwd = edge_cost(weights, hashed, node, k)
+                w_bwd = edge_cost(weights, hashed, node - step, k)
+            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation,
                        near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
-            relax_edge(node - step, cost + weights[k * count + node - step], label, threshold, limit, generation,
+            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation,
                        near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
         i += threads
 

@@ -209,3 +209,32 @@ def test_too_big_for_memory_is_refused_before_work(monkeypatch):
     monkeypatch.setattr(_checks, "available_bytes", lambda device: 1000)
     with pytest.raises(MemoryError, match="GiB"):
         wd.shortest_paths(wd.Lattice((64, 64)), [[0, 0]])
+
+
+@pytest.mark.parametrize(
+    "shape,conn,dist",
+    [
+        ((40, 52), 8, wd.weights.Uniform(r=10, seed=3)),
+        ((40, 52), 4, wd.weights.Power(alpha=3, max=11, seed=1) * wd.weights.Tropism("bottom", strength=2.0)),
+        ((12, 14, 10), 26, wd.weights.Polynomial(n=4, seed=2) + wd.weights.Tropism("axis", strength=5.0)),
+        ((12, 14, 10), 6, wd.weights.Uniform(r=50, seed=8)),
+    ],
+)
+def test_unstored_weights_give_the_stored_result(shape, conn, dist, device):
+    stored = wd.Lattice(shape, conn, weights=dist)
+    hashed = wd.Lattice(shape, conn, weights=dist, store_weights=False)
+    assert not hashed.stores_weights and hashed.nbytes_per_node() < stored.nbytes_per_node()
+    np.testing.assert_array_equal(hashed.weights, stored.weights)
+    gens = np.random.default_rng(0).integers(0, min(shape), size=(3, len(shape)))
+    a = wd.shortest_paths(stored, gens, device=device)
+    b = wd.shortest_paths(hashed, gens, device=device)
+    assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()
+    ends = np.argwhere(np.isfinite(a.dist))[::7]
+    da, db = wd.trace(a, ends), wd.trace(b, ends)
+    np.testing.assert_array_equal(da.nodes, db.nodes)
+    np.testing.assert_array_equal(da.parent, db.parent)
+
+
+def test_unstored_weights_need_a_distribution():
+    with pytest.raises(ValueError, match="store_weights"):
+        wd.Lattice((4, 4), weights=np.ones((2, 4, 4)), store_weights=False)

@@ -9,6 +9,8 @@ import numpy as np
 import warp as wp
 
 from . import _checks
+from .kernels import sssp as _ks
+from .kernels import weights as _kw
 
 __all__ = ["Lattice", "half_offsets"]
 
@@ -63,6 +65,9 @@ class LatticeArrays:
     """float32 padded weights, shape (K * P,): entry ``k * P + p`` is the edge ``p <-> p + flat_offsets[k]``."""
     mask: wp.array
     """uint8 usable-node flags of the padded lattice, shape (P,) (0 on the border)."""
+    hashed: object
+    """:class:`~wdendrite.kernels.sssp.HashedWeights`: ``use == 1`` when weights are
+    recomputed in kernels (``weights`` is then a 1-element placeholder)."""
 
 
 class Lattice:
@@ -78,6 +83,10 @@ class Lattice:
             length (1, sqrt(2), sqrt(3)), giving plain lattice distances.
         mask: bool array of ``shape``; ``True`` marks usable nodes. Masked-out
             nodes are never entered. Default: every node usable.
+        store_weights: with a distribution as ``weights``, False stores no
+            weight array: kernels recompute each weight from its hash, so a
+            lattice too large for stored weights still works (with a
+            distribution, the values equal the stored ones bit for bit).
 
     Attributes:
         shape, ndim, connectivity: as given.
@@ -93,7 +102,7 @@ class Lattice:
         MemoryError: when generated weights would not fit in host memory.
     """
 
-    def __init__(self, shape, connectivity: int | None = None, weights=None, mask=None):
+    def __init__(self, shape, connectivity: int | None = None, weights=None, mask=None, *, store_weights: bool = True):
         self.shape = _checks.lattice_shape(shape)
         self.ndim = len(self.shape)
         if connectivity is None:
@@ -107,16 +116,42 @@ class Lattice:
         if self.mask is not None:
             self.mask.flags.writeable = False
         wshape = (len(self.offsets), *self.shape)
-        if weights is None:
-            w = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
+        self.distribution = weights if hasattr(weights, "kernel_params") else None
+        """The weight distribution when weights came from one, else None."""
+        self._weights = None
+        if not store_weights:
+            if self.distribution is None:
+                raise ValueError(
+                    "'store_weights=False' needs 'weights' from a wdendrite.weights distribution, "
+                    f"but got {type(weights).__name__}"
+                )
+            self.distribution.kernel_params(self.shape, "cpu")  # validates the distribution for this shape
+        elif weights is None:
+            self._weights = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
         elif hasattr(weights, "sample"):
             _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
-            w = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), dtype=np.float32)
+            self._weights = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
         else:
-            w = _checks.float_array("weights", weights, wshape).copy()
-        w.flags.writeable = False
-        self.weights = w
+            self._weights = _checks.float_array("weights", weights, wshape).copy()
+        if self._weights is not None:
+            self._weights.flags.writeable = False
         self._device_arrays: dict[str, LatticeArrays] = {}
+
+    @property
+    def stores_weights(self) -> bool:
+        """False when kernels recompute every weight from the distribution's hash."""
+        return self._weights is not None
+
+    @property
+    def weights(self) -> np.ndarray:
+        """``(K, *shape)`` float32 edge weights, read-only.
+
+        For a lattice made with ``store_weights=False`` the array is computed
+        on each access (the same values the kernels compute).
+        """
+        if self._weights is not None:
+            return self._weights
+        return np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
 
     @property
     def num_nodes(self) -> int:
@@ -131,6 +166,10 @@ class Lattice:
         """A lattice of the same shape, connectivity and mask with other ``weights``."""
         return Lattice(self.shape, self.connectivity, weights=weights, mask=self.mask)
 
+    def nbytes_per_node(self) -> int:
+        """Bytes of device memory a shortest-path search needs per lattice node (estimate)."""
+        return 41 + (4 * len(self.offsets) if self.stores_weights else 0)
+
     def device_arrays(self, device=None) -> LatticeArrays:
         """The lattice's padded arrays on ``device`` (uploaded once, then reused)."""
         device = wp.get_device(device)
@@ -143,8 +182,19 @@ class Lattice:
             off3 = np.zeros((len(self.offsets), 3), dtype=np.int32)
             off3[:, 3 - self.ndim :] = self.offsets
             flat = (off3 * np.array([padded[1] * padded[2], padded[2], 1])).sum(axis=1).astype(np.int32)
-            weights = np.zeros((len(self.offsets), *padded), np.float32)
-            weights[(slice(None),) + inner] = self.weights.reshape((len(self.offsets), *shape3))
+            hashed = _ks.HashedWeights()
+            hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
+            hashed.offsets = wp.array(off3, dtype=wp.vec3i, device=device)
+            hashed.lengths = wp.array(self.lengths, dtype=float, device=device)
+            if self.stores_weights:
+                hashed.use = 0
+                hashed.params = _kw.WeightParams()
+                weights = np.zeros((len(self.offsets), *padded), np.float32)
+                weights[(slice(None),) + inner] = self.weights.reshape((len(self.offsets), *shape3))
+            else:
+                hashed.use = 1
+                hashed.params = self.distribution.kernel_params(self.shape, device)
+                weights = np.zeros(1, np.float32)
             mask = np.zeros(padded, np.uint8)
             mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
             self._device_arrays[key] = LatticeArrays(
@@ -155,6 +205,7 @@ class Lattice:
                 flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
                 weights=wp.array(weights.ravel(), dtype=float, device=device),
                 mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
+                hashed=hashed,
             )
         return self._device_arrays[key]
 

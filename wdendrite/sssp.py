@@ -24,9 +24,6 @@ from .lattice import Lattice
 
 __all__ = ["CostField", "shortest_paths"]
 
-_BYTES_PER_NODE = 8 + 4 + 4 + 16 + 4 + 4 + 1
-"""Packed state, stamp, far flag, four frontier lists, dist, label, mask."""
-
 
 @dataclass(frozen=True, eq=False)
 class CostField:
@@ -136,7 +133,11 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
     )
     if not same_mask:
         raise ValueError("'warm_start' was computed with a different 'mask'; a warm start needs the same mask")
-    if old.weights is not lattice.weights:
+    if old.stores_weights != lattice.stores_weights or (
+        not lattice.stores_weights and old.distribution != lattice.distribution
+    ):
+        raise ValueError("'warm_start' was computed with other unstored weights; a warm start needs the same weights")
+    if lattice.stores_weights and old.weights is not lattice.weights:
         raised = int(np.count_nonzero(lattice.weights > old.weights))
         if raised:
             raise ValueError(
@@ -207,7 +208,7 @@ def shortest_paths(
             device = warm_start.device
     device = wp.get_device(device)
     n = lattice.num_nodes
-    need = n * (_BYTES_PER_NODE + 4 * len(lattice.offsets))
+    need = n * lattice.nbytes_per_node()
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
     with wp.ScopedDevice(device):
@@ -222,7 +223,7 @@ def shortest_paths(
             packed = wp.clone(warm_start.packed.to(device))
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
-            if old_arrays.weights is not arrays.weights:
+            if lattice.stores_weights and old_arrays.weights is not arrays.weights:
                 wp.launch(
                     _k.mark_lowered_kernel,
                     dim=size,
@@ -271,7 +272,7 @@ class _Launches:
             cmd = self._relax[(near, far)] = wp.launch(
                 _k.relax_kernel,
                 dim=threads,
-                inputs=[self._arrays.flat_offsets, self._arrays.weights, fr.lists[near], near, threads,
+                inputs=[self._arrays.flat_offsets, self._arrays.weights, self._arrays.hashed, fr.lists[near], near, threads,
                         int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
                 outputs=[self._packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
                 record_cmd=True,
