@@ -9,8 +9,9 @@ from . import endpoints, weights
 from .dendrite import Dendrite, trace
 from .growth import FractalParams, grow
 from .lattice import Lattice
+from .refine import refine
 from .sssp import CostField, shortest_paths
 
 __version__ = "0.1.0"
 
-__all__ = ["CostField", "Dendrite", "FractalParams", "Lattice", "endpoints", "grow", "shortest_paths", "trace", "weights", "__version__"]
+__all__ = ["CostField", "Dendrite", "FractalParams", "Lattice", "endpoints", "grow", "refine", "shortest_paths", "trace", "weights", "__version__"]

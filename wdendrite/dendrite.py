@@ -34,6 +34,7 @@ class Dendrite:
             generator list) the node's path leads to.
         generation: ``(N,)`` int32 growth iteration that added the node (0 first).
         endpoints: ``(M,)`` int64 rows of the nodes paths were traced from.
+        origin, spacing: place nodes in the world (see :attr:`positions`).
     """
 
     shape: tuple
@@ -44,6 +45,19 @@ class Dendrite:
     generation: np.ndarray
     endpoints: np.ndarray
     _padded: np.ndarray = field(repr=False)
+    origin: tuple = None
+    """World position of node (0, ...) (default: the origin)."""
+    spacing: float = 1.0
+    """World distance between neighbouring nodes (refined dendrites use 1/n of their source's)."""
+
+    def __post_init__(self):
+        if self.origin is None:
+            object.__setattr__(self, "origin", (0.0,) * len(self.shape))
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(N, ndim)`` float64 world positions ``origin + nodes * spacing``."""
+        return np.asarray(self.origin, np.float64) + self.nodes * float(self.spacing)
 
     def __len__(self) -> int:
         return len(self.nodes)
@@ -214,4 +228,6 @@ def trace(
         generation=_cat("generation", np.full(len(fresh), generation), np.int32),
         endpoints=np.unique(np.concatenate([extend.endpoints, end_rows])) if extend is not None else end_rows,
         _padded=all_padded,
+        origin=None if extend is None else extend.origin,
+        spacing=1.0 if extend is None else extend.spacing,
     )
