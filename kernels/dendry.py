@@ -91,9 +91,10 @@ def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
     """The jittered key point of cell ``c``: uniform in the cell shrunk by ``eps`` on each side."""
     h = 1.0 / level_factor(level)
     span = 1.0 - 2.0 * s.eps
+    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))  # as in cell_rand, computed once
     return wp.vec2(
-        (float(c[0]) + s.eps + span * cell_rand(s.seed, level, c, 0)) * h,
-        (float(c[1]) + s.eps + span * cell_rand(s.seed, level, c, 1)) * h,
+        (float(c[0]) + s.eps + span * hash_uniform(s.seed, key, wp.uint32(0))) * h,
+        (float(c[1]) + s.eps + span * hash_uniform(s.seed, key, wp.uint32(1))) * h,
     )
 
 
@@ -448,11 +449,11 @@ def query(
 @wp.func
 def primitive(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    c: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    c: wp.vec2i, q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ) -> wp.vec3:
-    """Terrain primitive of cell ``c`` (level ``levels + steps``): (x, y, height), eq. 4 and 7."""
+    """Terrain primitive of cell ``c`` (level ``levels + steps``) at its key point ``q``:
+    (x, y, height), eq. 4 and 7."""
     pl = s.levels + s.steps
-    q = jitter(s, pl, c)
     r = query(s, blocks, bases, slot, q, keyp, verts)
     if r[2] == 0.0:
         return wp.vec3(q[0], q[1], control_value(ctl, to_control(s, q)))
@@ -486,9 +487,13 @@ def elevation(
             if cached != 0:
                 pr = prims[block_index(blocks, bases, slot * SLOT + PRIM, c)]
             else:
-                pr = primitive(s, ctl, blocks, bases, slot, c, keyp, verts)
+                q = jitter(s, pl, c)
+                pr = wp.vec3(q[0], q[1], 0.0)
             r2 = wp.length_sq(wp.vec2(pr[0], pr[1]) - u) / (radius * radius)
             if r2 < 1.0:
+                if cached == 0:
+                    # only primitives that weigh are evaluated
+                    pr = primitive(s, ctl, blocks, bases, slot, c, wp.vec2(pr[0], pr[1]), keyp, verts)
                 g = (1.0 - r2) * (1.0 - r2) * (1.0 - r2)
                 total += g * pr[2]
                 wsum += g
@@ -578,10 +583,15 @@ def evaluate(
     """The requested output at ``u``; in the per-pixel mode first plan and build the slot."""
     if cached == 0:
         pc = cell_of(u, s.levels)
-        m = 0
+        qlo = pc
+        qhi = pc
         if output == OUT_ELEVATION:
-            m = 1  # primitives around u query the tree up to one finest cell away
-        over = plan(s, wp.vec2i(pc[0] - m, pc[1] - m), wp.vec2i(pc[0] + m, pc[1] + m), pc, pc, slot, cap, blocks, bases)
+            # the primitives that weigh lie within two primitive cells of u: their queries start
+            # in the finest cells of that square (1 % wider against rounding)
+            reach = 2.02 / level_factor(s.levels + s.steps)
+            qlo = cell_of(u - wp.vec2(reach, reach), s.levels)
+            qhi = cell_of(u + wp.vec2(reach, reach), s.levels)
+        over = plan(s, qlo, qhi, pc, pc, slot, cap, blocks, bases)
         if over != 0:
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
@@ -641,7 +651,9 @@ def prims_kernel(
     """Cached mode: terrain primitives of slot 0, one thread per primitive cell."""
     k = wp.tid()
     bi = PRIM
-    prims_out[bases[bi] + k] = primitive(s, ctl, blocks, bases, 0, block_cell(blocks, bi, k), keyp, verts)
+    c = block_cell(blocks, bi, k)
+    pl = s.levels + s.steps
+    prims_out[bases[bi] + k] = primitive(s, ctl, blocks, bases, 0, c, jitter(s, pl, c), keyp, verts)
 
 
 @wp.kernel

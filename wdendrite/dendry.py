@@ -163,7 +163,8 @@ def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
 
     Mirrors ``kernels.dendry.plan`` along one axis for every alignment of the query cell.
     """
-    n, m = p.levels, (1 if output == "elevation" else 0)
+    # elevation queries reach 2 primitive cells (+1 %) around the pixel, see kernels.dendry.evaluate
+    n, m = p.levels, (math.ceil(2.02 / 2**p.primitive_steps) if output == "elevation" else 0)
     r1 = 3 if n == 1 else 2
     widest = [0] * (n + 1)
     for q in range(2 ** (n + 1)):
