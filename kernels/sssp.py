@@ -307,14 +307,15 @@ def unpack_kernel(
     mask: wp.array(dtype=wp.uint8),
     shape: wp.vec3i,
     pad: wp.vec3i,
+    limit: float,
     dist_out: wp.array(dtype=float),
     label_out: wp.array(dtype=wp.int32),
 ):
-    """Split the padded packed states into costs (inf when unreached) and labels (-1)."""
+    """Split the padded packed states into costs (inf when unreached or above ``limit``) and labels (-1)."""
     i = wp.tid()
     p = padded_index(i, shape, pad)
     word = packed[p]
-    if word == UNREACHED or mask[p] == wp.uint8(0):
+    if word == UNREACHED or mask[p] == wp.uint8(0) or packed_cost(word) > limit:
         dist_out[i] = wp.inf
         label_out[i] = -1
     else:

@@ -123,6 +123,25 @@ def test_warm_start_equals_cold_start(problem, data):
     np.testing.assert_array_equal(warm.label, cold.label)
 
 
+@SETTINGS
+@given(problems(), st.data())
+def test_warm_start_with_a_lower_limit_equals_cold_start(problem, data):
+    lat, gens = problem
+    split = data.draw(st.integers(1, len(gens)))
+    high = data.draw(st.floats(0.0, 60.0))
+    low = data.draw(st.floats(0.0, high))
+    first = wd.shortest_paths(lat, gens[:split], limit=high)
+    warm = wd.shortest_paths(lat, gens, limit=low, warm_start=first)
+    cold = wd.shortest_paths(lat, gens, limit=low)
+    np.testing.assert_array_equal(warm.dist.view(np.uint32), cold.dist.view(np.uint32))
+    np.testing.assert_array_equal(warm.label, cold.label)
+    # and backtracking from the warm field gives the cold field's paths
+    ends = np.argwhere(np.isfinite(cold.dist))
+    a, b = wd.trace(warm, ends), wd.trace(cold, ends)
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    np.testing.assert_array_equal(a.parent, b.parent)
+
+
 def test_deterministic_bits_on_a_larger_lattice(device):
     lat = wd.Lattice((96, 128), 8, weights=wd.weights.Uniform(r=10, seed=3))
     gens = np.random.default_rng(1).integers(0, 96, size=(12, 2))
@@ -201,8 +220,9 @@ def test_warm_start_mismatches():
         wd.shortest_paths(wd.Lattice((5, 6)), [[0, 0], [4, 4]], warm_start=cf)
     with pytest.raises(ValueError, match="mask"):
         wd.shortest_paths(wd.Lattice((5, 5), mask=np.ones((5, 5), bool)), [[0, 0], [4, 4]], warm_start=cf)
-    with pytest.raises(ValueError, match="limit"):
-        wd.shortest_paths(lat, [[0, 0], [4, 4]], warm_start=cf, limit=3.0)
+    capped = wd.shortest_paths(lat, [[0, 0], [4, 4]], limit=5.0)
+    with pytest.raises(ValueError, match="exceeds the warm start's limit"):
+        wd.shortest_paths(lat, [[0, 0], [4, 4]], warm_start=capped, limit=10.0)
 
 
 def test_too_big_for_memory_is_refused_before_work(monkeypatch):

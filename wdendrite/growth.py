@@ -127,7 +127,8 @@ def grow(
     Each iteration draws endpoints in a cost band around the current dendrite,
     traces them to it, and updates the cost field with a warm start: the
     dendrite's nodes become generators (``params.cheap == 0``) or its edges get
-    cheaper (``0 < cheap <= 1``). Costs are searched only up to ``d + r``.
+    cheaper (``0 < cheap <= 1``). Costs are searched only up to the
+    iteration's ``d + r``.
 
     Several generators grow competing dendrites: every node's ``label`` names
     the generator whose dendrite it belongs to, and the dendrites never share
@@ -157,7 +158,6 @@ def grow(
     rng = np.random.default_rng(seed)
     plan = params.schedule()
     r = params.band
-    limit = params.d + r
     new_generators = params.cheap == 0.0
     bar = None
     if progress is True:
@@ -171,7 +171,7 @@ def grow(
     for it, (m, d) in enumerate(plan):
         if cf is None:
             base = gens if not (new_generators and den is not None) else np.concatenate([gens, den.nodes])
-            cf = shortest_paths(lat, base, limit=limit, device=device)
+            cf = shortest_paths(lat, base, limit=d + r, device=device)
         dist = cf.dist
         available = int(np.count_nonzero((dist > d - r) & (dist < d + r)))
         n = min(m, available)
@@ -182,6 +182,8 @@ def grow(
             if new_generators:
                 den = _relabel(den, first, len(gens), den.label[: len(den)])
             if it + 1 < len(plan):
+                # the next band lies below the next limit: nothing beyond it is searched
+                limit = plan[it + 1][1] + r
                 if new_generators:
                     cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf)
                 else:

@@ -136,6 +136,7 @@ class Lattice:
         if self._weights is not None:
             self._weights.flags.writeable = False
         self._device_arrays: dict[str, LatticeArrays] = {}
+        self._default_delta: float | None = None  # bucket width cached by shortest_paths
 
     @property
     def stores_weights(self) -> bool:

@@ -12,6 +12,8 @@ keeps the coarse path's shape while adding detail.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from . import _checks
@@ -19,7 +21,7 @@ from .dendrite import Dendrite, trace
 from .lattice import Lattice
 from .sssp import shortest_paths
 
-__all__ = ["refine"]
+__all__ = ["refine", "refined_lattice"]
 
 
 def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
@@ -41,13 +43,49 @@ def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
     return keep
 
 
-def _interpolate(coarse_w: np.ndarray, fine_shape, start, n: int) -> np.ndarray:
-    """Multilinear interpolation of coarse weights (K, *coarse) at fine nodes of a window."""
+def _interpolate(coarse_w: np.ndarray, fine_nodes: np.ndarray, start, n: int) -> np.ndarray:
+    """Multilinear interpolation of coarse weights ``(K, *coarse)`` at ``(M, ndim)`` fine nodes -> ``(K, M)``."""
     from scipy.ndimage import map_coordinates
 
-    grids = np.meshgrid(*[(np.arange(f) + s - n // 2) / n for f, s in zip(fine_shape, start)], indexing="ij")
-    coords = np.stack(grids)
+    coords = ((fine_nodes + np.asarray(start)) - n // 2).T / n
     return np.stack([map_coordinates(w, coords, order=1, mode="nearest").astype(np.float32) for w in coarse_w])
+
+
+def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, seed=0):
+    """The masked fine lattice :func:`refine` plans on, with its roots and endpoints.
+
+    Returns:
+        ``(fine_lattice, roots, endpoints, origin)``: roots and endpoints are
+        ``(G, ndim)`` / ``(M, ndim)`` fine coordinates at the centres of the
+        coarse ones' blocks; ``origin`` is the world position of fine node 0.
+        Parameters are as for :func:`refine` (validated there).
+    """
+    rng = np.random.default_rng(seed)
+
+    keep = _block_mask(dendrite, lattice)
+    lo = np.argwhere(keep).min(axis=0)
+    hi = np.argwhere(keep).max(axis=0) + 1
+    window = tuple(slice(a, b) for a, b in zip(lo, hi))
+    fine_shape = tuple(int(b - a) * n for a, b in zip(lo, hi))
+    fine_mask = keep[window]
+    for axis in range(lattice.ndim):
+        fine_mask = np.repeat(fine_mask, n, axis=axis)
+    start = lo * n
+    # weights are only needed where the mask keeps nodes; elsewhere they are never read
+    kept = np.nonzero(fine_mask)
+    per_length = lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)
+    w_int = _interpolate(per_length, np.stack(kept, axis=1), start, n)
+    w_ran = 1.0 + (np.maximum(w_int, 1.0) - 1.0) * rng.random(w_int.shape, dtype=np.float32)
+    # fine edges are 1/n as long as coarse ones, so costs stay in the coarse units
+    w_sub = np.zeros((len(lattice.lengths), *fine_shape), np.float32)
+    w_sub[(slice(None),) + kept] = (e * w_int + (1.0 - e) * w_ran) * (lattice.lengths[:, None] / n)
+    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=w_sub, mask=fine_mask)
+
+    centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
+    roots = np.unique(centre(dendrite.roots), axis=0)
+    ends = np.unique(centre(dendrite.endpoints), axis=0)
+    origin = np.asarray(dendrite.origin, float) + dendrite.spacing * (start - n // 2) / n
+    return fine_lat, roots, ends, origin
 
 
 def refine(
@@ -92,33 +130,7 @@ def refine(
         raise ValueError(f"'dendrite' has shape {dendrite.shape}, but 'lattice' has shape {lattice.shape}")
     if not len(dendrite):
         raise ValueError("'dendrite' is empty: there is nothing to refine")
-    rng = np.random.default_rng(seed)
-
-    keep = _block_mask(dendrite, lattice)
-    lo = np.argwhere(keep).min(axis=0)
-    hi = np.argwhere(keep).max(axis=0) + 1
-    window = tuple(slice(a, b) for a, b in zip(lo, hi))
-    fine_shape = tuple(int(b - a) * n for a, b in zip(lo, hi))
-    fine_mask = keep[window]
-    for axis in range(lattice.ndim):
-        fine_mask = np.repeat(fine_mask, n, axis=axis)
-    start = lo * n
-    w_int = _interpolate(lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim), fine_shape, start, n)
-    w_ran = 1.0 + (np.maximum(w_int, 1.0) - 1.0) * rng.random(w_int.shape, dtype=np.float32)
-    lengths = lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)
-    # fine edges are 1/n as long as coarse ones, so costs stay in the coarse units
-    w_sub = ((e * w_int + (1.0 - e) * w_ran) * lengths / n).astype(np.float32)
-    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=w_sub, mask=fine_mask)
-
-    centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
-    roots = np.unique(centre(dendrite.roots), axis=0)
-    ends = np.unique(centre(dendrite.endpoints), axis=0)
+    fine_lat, roots, ends, origin = refined_lattice(dendrite, lattice, n=n, e=e, seed=seed)
     cf = shortest_paths(fine_lat, roots, device=device)
     fine = trace(cf, ends)
-    origin = np.asarray(dendrite.origin, float) + dendrite.spacing * (start - n // 2) / n
-    return (
-        Dendrite(**{**{f: getattr(fine, f) for f in ("shape", "nodes", "parent", "cost", "label", "generation",
-                                                     "endpoints", "_padded")},
-                    "origin": tuple(origin.tolist()), "spacing": dendrite.spacing / n}),
-        fine_lat,
-    )
+    return dataclasses.replace(fine, origin=tuple(origin.tolist()), spacing=dendrite.spacing / n), fine_lat

@@ -1,0 +1,177 @@
+"""The papers' dendrite workloads: wdendrite against SciPy's Dijkstra plus NumPy backtracking.
+
+Each workload is run both ways in one process on the same lattice, generators
+and endpoints (the fractal one draws its endpoints from each side's own cost
+field with the same seed and schedule):
+
+- simple dendrite: 600^2, 8-connected, weights 1 + 10 R, 15 endpoints;
+- fractal dendrite: 512^2, new generators, schedule reaching about 8930 endpoints;
+- lightning structure: 600^2, power weights (alpha 3), 24 endpoints denser low;
+- 3D tree: 80^3, 26-connected, upward tropism, 17 endpoints in the crown;
+- coral: 50^3, 26-connected, 24 endpoints, then refinement with 5^3 sublattices.
+
+The SciPy side is what a user would write without us: build the sparse graph
+from the same weight array (``Lattice.to_csgraph``), run
+``scipy.sparse.csgraph.dijkstra(min_only=True, return_predecessors=True)`` and
+walk the predecessors with vectorized NumPy. Its refinement step reuses our
+NumPy sublattice builder, so only the path planning differs.
+
+Usage: python benchmarks/bench_dendrites.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import warp as wp
+
+import wdendrite as wd
+from wdendrite.refine import refined_lattice
+
+PAPER = {"simple": "0.94 s", "fractal": "7.55 s", "lightning": "4.16 s", "tree": "3.65 s", "coral": "3.06 s"}
+
+
+# ---------------------------------------------------------------- the peer
+
+def scipy_paths(lat: wd.Lattice, gens: np.ndarray, limit=np.inf):
+    from scipy.sparse.csgraph import dijkstra
+
+    flat = np.ravel_multi_index(tuple(np.asarray(gens).T), lat.shape)
+    dist, pred, _ = dijkstra(lat.to_csgraph(), directed=False, indices=flat, min_only=True,
+                             return_predecessors=True, limit=limit)
+    return dist, pred
+
+
+def scipy_backtrack(pred: np.ndarray, starts: np.ndarray, visited: np.ndarray) -> np.ndarray:
+    """Flat indices of the nodes on the paths from ``starts`` (stopping at visited nodes); marks them."""
+    out = []
+    cur = np.unique(starts)
+    cur = cur[~visited[cur]]
+    while len(cur):
+        visited[cur] = True
+        out.append(cur)
+        cur = np.unique(pred[cur])
+        cur = cur[(cur >= 0)]
+        cur = cur[~visited[cur]]
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
+def scipy_trace(lat, gens, ends):
+    dist, pred = scipy_paths(lat, gens)
+    visited = np.zeros(lat.num_nodes, bool)
+    flat = np.ravel_multi_index(tuple(np.asarray(ends).T), lat.shape)
+    return scipy_backtrack(pred, flat, visited)
+
+
+def scipy_fractal(lat, gens, params: wd.FractalParams, seed):
+    rng = np.random.default_rng(seed)
+    r = params.band
+    visited = np.zeros(lat.num_nodes, bool)
+    sources = np.ravel_multi_index(tuple(np.asarray(gens).T), lat.shape)
+    graph = lat.to_csgraph()
+    from scipy.sparse.csgraph import dijkstra
+
+    count = 0
+    for m, d in params.schedule():
+        # SciPy gets the same help as wdendrite: no costs beyond the band are searched
+        dist, pred, _ = dijkstra(graph, directed=False, indices=sources, min_only=True,
+                                 return_predecessors=True, limit=d + r)
+        band = np.flatnonzero((dist > d - r) & (dist < d + r))
+        pick = band[rng.choice(len(band), size=min(m, len(band)), replace=False)]
+        count += len(pick)
+        new = scipy_backtrack(pred, pick, visited)
+        sources = np.concatenate([sources, new])
+    return int(visited.sum()), count
+
+
+# ---------------------------------------------------------------- workloads
+
+def simple(quick):
+    n = 150 if quick else 600
+    lat = wd.Lattice((n, n), 8, weights=wd.weights.Uniform(r=10, seed=1))
+    gens = np.array([[n // 2, n // 2]])
+    ends = wd.endpoints.random(lat, 15, seed=2)
+    return lat, gens, ends
+
+
+def lightning(quick):
+    n = 150 if quick else 600
+    lat = wd.Lattice((n, n), 8, weights=wd.weights.Power(alpha=3, max=11, seed=3))
+    gens = np.array([[0, n // 2]])
+    ends = wd.endpoints.biased(lat, 24, seed=4, power=3)
+    return lat, gens, ends
+
+
+def tree(quick):
+    n = 30 if quick else 80
+    lat = wd.Lattice((n, n, n), 26, weights=wd.weights.Uniform(r=10, seed=5) * wd.weights.Tropism("top", strength=1.0))
+    gens = np.array([[0, n // 2, n // 2]])
+    crown = wd.endpoints.Disc(center=(int(n * 0.7), n // 2, n // 2), radius=n * 0.3)
+    ends = wd.endpoints.random(lat, 17, seed=6, within=crown)
+    return lat, gens, ends
+
+
+def coral(quick):
+    n = 24 if quick else 50
+    lat = wd.Lattice((n, n, n), 26, weights=wd.weights.Uniform(r=10, seed=7))
+    gens = np.array([[0, n // 2, n // 2]])
+    ends = wd.endpoints.random(lat, 24, seed=8, within=wd.endpoints.Box((n // 2, 0, 0), (n, n, n)))
+    return lat, gens, ends
+
+
+FRACTAL = wd.FractalParams(count=8, d=700.0, alpha=1.6, beta=3.0, epsilon=40.0)
+
+
+def run(name, quick):
+    if name == "fractal":
+        n = 256 if quick else 512
+        lat = wd.Lattice((n, n), 8, weights=wd.weights.Uniform(r=10, seed=9))
+        gens = np.array([[n // 2, n // 2]])
+        params = FRACTAL if not quick else wd.FractalParams(count=10, d=350.0, alpha=1.6, beta=3.0, epsilon=20.0)
+        t = time.perf_counter()
+        den = wd.grow(lat, gens, params, seed=0)
+        ours = time.perf_counter() - t
+        t = time.perf_counter()
+        size, ends = scipy_fractal(lat, gens, params, seed=0)
+        theirs = time.perf_counter() - t
+        return ours, theirs, f"{len(den.endpoints)} / {ends} endpoints, {len(den)} / {size} nodes"
+    lat, gens, ends = {"simple": simple, "lightning": lightning, "tree": tree, "coral": coral}[name](quick)
+    t = time.perf_counter()
+    cf = wd.shortest_paths(lat, gens)
+    den = wd.trace(cf, ends)
+    if name == "coral":
+        den, _ = wd.refine(den, lat, n=5, e=0.75, seed=0)
+    ours = time.perf_counter() - t
+    coarse = wd.trace(cf, ends)  # the coarse dendrite SciPy's refinement starts from (outside the timing)
+    t = time.perf_counter()
+    nodes = scipy_trace(lat, gens, ends)
+    size = len(nodes)
+    if name == "coral":
+        # the same refinement, planned with SciPy on the same sublattice builder
+        fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=5, e=0.75, seed=0)
+        size = len(scipy_trace(fine_lat, roots, fends))
+    theirs = time.perf_counter() - t
+    return ours, theirs, f"{len(den)} / {size} nodes"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small sizes (a smoke test)")
+    args = ap.parse_args()
+    wp.config.quiet = True
+    wp.init()
+    for warm in (simple, tree):  # load the kernels and SciPy outside the measurements
+        lat, gens, ends = warm(True)
+        wd.trace(wd.shortest_paths(lat, gens), ends)
+        scipy_trace(lat, gens, ends)
+    print(f"# bench_dendrites  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}  device={wp.get_device()}")
+    print(f"{'workload':>10} | {'wdendrite s':>11} | {'scipy+numpy s':>13} | {'speed-up':>8} | {'paper (2007 CPU)':>16} | sizes (ours / scipy)")
+    for name in ("simple", "fractal", "lightning", "tree", "coral"):
+        ours, theirs, note = run(name, args.quick)
+        print(f"{name:>10} | {ours:11.3f} | {theirs:13.3f} | {theirs / ours:7.1f}x | {PAPER[name]:>16} | {note}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
