@@ -8,7 +8,7 @@ field with the same seed and schedule):
 - fractal dendrite: 512^2, new generators, schedule reaching about 8930 endpoints;
 - lightning structure: 600^2, power weights (alpha 3), 24 endpoints denser low;
 - 3D tree: 80^3, 26-connected, upward tropism, 17 endpoints in the crown;
-- coral: 50^3, 26-connected, 24 endpoints, then refinement with 5^3 sublattices.
+- coral: 50^3, 26-connected, 24 endpoints, then refinement with 3^3 sublattices.
 
 The SciPy side is what a user would write without us: build the sparse graph
 from the same weight array (``Lattice.to_csgraph``), run
@@ -142,7 +142,7 @@ def run(name, quick):
     cf = wd.shortest_paths(lat, gens)
     den = wd.trace(cf, ends)
     if name == "coral":
-        den, _ = wd.refine(den, lat, n=5, e=0.75, seed=0)
+        den, _ = wd.refine(den, lat, n=3, e=0.75, seed=0)
     ours = time.perf_counter() - t
     coarse = wd.trace(cf, ends)  # the coarse dendrite SciPy's refinement starts from (outside the timing)
     t = time.perf_counter()
@@ -150,7 +150,7 @@ def run(name, quick):
     size = len(nodes)
     if name == "coral":
         # the same refinement, planned with SciPy on the same sublattice builder
-        fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=5, e=0.75, seed=0)
+        fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=3, e=0.75, seed=0)
         size = len(scipy_trace(fine_lat, roots, fends))
     theirs = time.perf_counter() - t
     return ours, theirs, f"{len(den)} / {size} nodes"

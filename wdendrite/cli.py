@@ -33,22 +33,57 @@ def _costs(args) -> None:
           f"({cf.rounds} rounds) -> {args.out}")
 
 
+def _fractal(args) -> None:
+    import warp as wp
+
+    from . import FractalParams, Lattice, grow, weights
+    from .io import save_png
+
+    wp.config.quiet = True
+    n = args.size
+    lat = Lattice((n, n), connectivity=8, weights=weights.Uniform(r=10.0, seed=args.seed))
+    # a sparse, readable fractal: the first branches reach most of the way out
+    params = FractalParams(count=6, d=1.2 * n, alpha=1.8, beta=2.5, epsilon=0.12 * n, cheap=args.cheap)
+    t0 = time.perf_counter()
+    den = grow(lat, [[n // 2, n // 2]], params, seed=args.seed, device=args.device, progress=not args.quiet)
+    dt = time.perf_counter() - t0
+    # brightness grows with the number of endpoints a node carries (thicker trunks)
+    img = np.zeros(lat.shape)
+    img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
+    save_png(args.out, img, overwrite=args.force)
+    print(f"fractal dendrite on {n}x{n}: {len(den.endpoints)} endpoints, {len(den)} nodes "
+          f"in {dt:.3f} s -> {args.out}")
+
+
+def _common(p, out: str) -> None:
+    p.add_argument("--size", type=int, default=256, help="lattice side in nodes (default: 256)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
+    p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: Warp's default)")
+    p.add_argument("-o", "--out", default=out, help=f"output PNG (default: {out})")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="wdendrite", description="Dendritic shapes grown with NVIDIA Warp kernels.")
     sub = p.add_subparsers(dest="command", required=True)
+    f = sub.add_parser("fractal", help="a fractal dendrite grown from the centre (thesis Fig 3.12), as a PNG")
+    _common(f, "fractal.png")
+    f.add_argument("--cheap", type=float, default=0.0,
+                   help="D, weight factor of the dendrite's edges; 0 = new generators (default: 0)")
+    f.set_defaults(run=_fractal)
     c = sub.add_parser("costs", help="shortest-path cost field of a random lattice, as a PNG")
-    c.add_argument("--size", type=int, default=256, help="lattice side in nodes (default: 256)")
+    _common(c, "costs.png")
     c.add_argument("--generators", type=int, default=5, help="number of random generators (default: 5)")
-    c.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    c.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: Warp's default)")
-    c.add_argument("-o", "--out", default="costs.png", help="output PNG (default: costs.png)")
-    c.add_argument("--force", action="store_true", help="overwrite an existing output")
     c.set_defaults(run=_costs)
     return p
 
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    if args.size < 8:
+        print(f"wdendrite: error: --size must be at least 8, got {args.size}", file=sys.stderr)
+        return 2
     try:
         args.run(args)
     except (ValueError, TypeError, FileExistsError, MemoryError) as exc:

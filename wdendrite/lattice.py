@@ -102,7 +102,10 @@ class Lattice:
         MemoryError: when generated weights would not fit in host memory.
     """
 
-    def __init__(self, shape, connectivity: int | None = None, weights=None, mask=None, *, store_weights: bool = True):
+    def __init__(
+        self, shape, connectivity: int | None = None, weights=None, mask=None, *, store_weights: bool = True,
+        _adopt: bool = False,
+    ):
         self.shape = _checks.lattice_shape(shape)
         self.ndim = len(self.shape)
         if connectivity is None:
@@ -132,7 +135,10 @@ class Lattice:
             _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
             self._weights = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
         else:
-            self._weights = _checks.float_array("weights", weights, wshape).copy()
+            checked = _checks.float_array("weights", weights, wshape)
+            # own the array: copy unless float_array already made a private one
+            # (``_adopt``: the caller hands over an array nobody else holds)
+            self._weights = checked.copy() if np.may_share_memory(checked, weights) and not _adopt else checked
         if self._weights is not None:
             self._weights.flags.writeable = False
         self._device_arrays: dict[str, LatticeArrays] = {}
@@ -204,7 +210,8 @@ class Lattice:
                 padded_shape=padded,
                 offsets=wp.array(off3, dtype=wp.vec3i, device=device),
                 flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
-                weights=wp.array(weights.ravel(), dtype=float, device=device),
+                # on the CPU the device array can use the padded NumPy buffer itself
+                weights=wp.array(weights.ravel(), dtype=float, device=device, copy=not device.is_cpu),
                 mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
                 hashed=hashed,
             )

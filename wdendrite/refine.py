@@ -79,7 +79,7 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
     # fine edges are 1/n as long as coarse ones, so costs stay in the coarse units
     w_sub = np.zeros((len(lattice.lengths), *fine_shape), np.float32)
     w_sub[(slice(None),) + kept] = (e * w_int + (1.0 - e) * w_ran) * (lattice.lengths[:, None] / n)
-    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=w_sub, mask=fine_mask)
+    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=w_sub, mask=fine_mask, _adopt=True)
 
     centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
     roots = np.unique(centre(dendrite.roots), axis=0)
