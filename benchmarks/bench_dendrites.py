@@ -11,6 +11,7 @@ field with the same seed and schedule):
 - coral: 50^3, 26-connected, 24 endpoints, then refinement with 3^3 sublattices.
 
 The SciPy side is what a user would write without us: build the sparse graph
+import logging
 from the same weight array (``Lattice.to_csgraph``), run
 ``scipy.sparse.csgraph.dijkstra(min_only=True, return_predecessors=True)`` and
 walk the predecessors with vectorized NumPy. Its refinement step reuses our
@@ -160,7 +161,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (a smoke test)")
     args = ap.parse_args()
-    wp.config.quiet = True
+    wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
     for warm in (simple, tree):  # load the kernels and SciPy outside the measurements
         lat, gens, ends = warm(True)

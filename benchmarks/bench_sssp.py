@@ -12,6 +12,7 @@ Usage: python benchmarks/bench_sssp.py [--quick] [--device cpu|cuda]
 
 from __future__ import annotations
 
+import logging
 import argparse
 import os
 import tempfile
@@ -62,7 +63,7 @@ def wdendrite_case(shape, connectivity, gens, out, device="cpu"):
 
         import wdendrite as wd
 
-        wp.config.quiet = True
+        wp.config.log_level = logging.WARNING  # no start-up banner
         wp.init()
         wd.shortest_paths(wd.Lattice((4,) * len(shape), connectivity), [[0] * len(shape)], device=device)  # load kernels
         cost, g = _inputs(tuple(shape), gens)

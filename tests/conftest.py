@@ -1,9 +1,11 @@
 """Shared fixtures: one ``device`` per available Warp device."""
 
+import logging
+
 import pytest
 import warp as wp
 
-wp.config.quiet = True
+wp.config.log_level = logging.WARNING  # no start-up banner
 wp.init()
 
 DEVICES = [str(d) for d in wp.get_devices()]

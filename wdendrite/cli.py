@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import argparse
 import sys
 import time
@@ -15,7 +16,7 @@ def _costs(args) -> None:
     from . import Lattice, shortest_paths, weights
     from .io import save_png
 
-    wp.config.quiet = True
+    wp.config.log_level = logging.WARNING  # no start-up banner
     n = args.size
     lat = Lattice((n, n), connectivity=8, weights=weights.Uniform(r=10.0, seed=args.seed))
     rng = np.random.default_rng(args.seed)
@@ -39,7 +40,7 @@ def _fractal(args) -> None:
     from . import FractalParams, Lattice, grow, weights
     from .io import save_png
 
-    wp.config.quiet = True
+    wp.config.log_level = logging.WARNING  # no start-up banner
     n = args.size
     lat = Lattice((n, n), connectivity=8, weights=weights.Uniform(r=10.0, seed=args.seed))
     # a sparse, readable fractal: the first branches reach most of the way out
