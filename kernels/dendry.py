@@ -18,6 +18,8 @@ where its cells start in the flat arrays:
 In the cached mode one slot (0) covers a whole window and each stage is one
 launch over its cells; in the per-pixel mode each thread owns a slot, plans
 blocks just around its pixel and fills them itself with the same functions.
+The module is longer than most because both modes must share every function
+that decides a value: that sharing is what makes them agree bit for bit.
 """
 
 import warp as wp
@@ -485,7 +487,10 @@ def elevation(
             c = wp.vec2i(pc[0] + dx, pc[1] + dy)
             pr = wp.vec3(0.0, 0.0, 0.0)
             if cached != 0:
-                pr = prims[block_index(blocks, bases, slot * SLOT + PRIM, c)]
+                i = block_index(blocks, bases, slot * SLOT + PRIM, c)
+                if i < 0:
+                    return wp.nan  # the window's primitive block was planned too small (never expected)
+                pr = prims[i]
             else:
                 q = jitter(s, pl, c)
                 pr = wp.vec3(q[0], q[1], 0.0)

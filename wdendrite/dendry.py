@@ -241,8 +241,11 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
     return _Slots(slots, cap, device)
 
 
-def _cached_slots(s, params, output, u_first, u_last, device) -> _Slots:
-    """Plan and fill slot 0 for all queries between grid points ``u_first`` and ``u_last``."""
+def _cached_slots(s, params, output, u_first, u_last, device) -> tuple[_Slots, list[int]]:
+    """Plan slot 0 for all queries between grid points ``u_first`` and ``u_last``; allocate it.
+
+    Returns the slot storage and the cell count of each of its 8 blocks.
+    """
     n = params.levels
     f = float(2 ** (n - 1))
     pf = float(2 ** (n - 1 + params.primitive_steps))
