@@ -115,3 +115,25 @@ def test_parameters_that_cannot_terminate_or_make_sense(kwargs, words):
 def test_empty_bands_raise():
     with pytest.raises(ValueError, match="lower 'd'"):
         wd.grow(LAT, [[48, 48]], wd.FractalParams(d=1e6, epsilon=5e5, alpha=2.0))
+
+
+def test_masks_confine_growth_to_a_surface():
+    # a spherical shell one node thick: growth must stay on it (lichen on a rock)
+    z, y, x = np.mgrid[:24, :24, :24]
+    r = np.sqrt((z - 11.5) ** 2 + (y - 11.5) ** 2 + (x - 11.5) ** 2)
+    shell = (r > 9.0) & (r <= 10.5)
+    lat = wd.Lattice((24, 24, 24), 26, weights=wd.weights.Uniform(seed=3), mask=shell)
+    seed_node = np.argwhere(shell)[0]
+    den = wd.grow(lat, [seed_node], wd.FractalParams(count=4, d=40.0, alpha=2.0, beta=2.0, epsilon=6.0), seed=0)
+    assert len(den) > 20
+    assert shell[tuple(den.nodes.T)].all()
+
+
+def test_masked_letters_keep_paths_inside():
+    mask = np.zeros((30, 60), bool)
+    mask[5:25, 5:10] = mask[5:25, 20:25] = mask[13:17, 5:25] = True  # an "H"
+    lat = wd.Lattice((30, 60), 8, weights=wd.weights.Uniform(seed=1), mask=mask)
+    cf = wd.shortest_paths(lat, [[15, 15]])
+    assert np.isinf(cf.dist[~mask]).all() and np.isfinite(cf.dist[mask]).all()
+    den = wd.trace(cf, [[5, 5], [24, 9], [6, 24], [24, 20]])
+    assert mask[tuple(den.nodes.T)].all()
