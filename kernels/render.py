@@ -1,0 +1,155 @@
+"""Distance-field brightness kernels: Euclidean splats, brightness ``exp(-(d/T)^2)``, box blurs, colour maps.
+
+Fields are handled as 3D inside kernels (a 2D image is ``(1, H, W)``) with
+flat C-order indices, like :mod:`wdendrite.kernels.lattice`. The nearest
+node of a pixel is kept as one ``uint64`` word per pixel: the float32 bits
+of the distance in the high half and the node row in the low half (the same
+packing as the shortest-path kernels), so ``atomic_min`` settles distance
+and label together, and among equal distances the lowest row, whatever the
+order in which threads arrive.
+"""
+
+import warp as wp
+
+from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.kernel
+def splat_distance_kernel(
+    nodes_in: wp.array(dtype=wp.vec3i),
+    shape: wp.vec3i,
+    radius: float,
+    packed_out: wp.array(dtype=wp.uint64),
+):
+    """Each node writes ``pack(distance, row)`` into every cell within ``radius`` of it (atomic minimum)."""
+    row = wp.tid()
+    c = nodes_in[row]
+    r = int(wp.floor(radius))
+    r2 = radius * radius
+    z0 = wp.max(c[0] - r, 0)
+    z1 = wp.min(c[0] + r, shape[0] - 1)
+    for z in range(z0, z1 + 1):
+        dz = float(z - c[0])
+        for dy_i in range(-r, r + 1):
+            y = c[1] + dy_i
+            dy = float(dy_i)
+            rest = r2 - dz * dz - dy * dy
+            if y >= 0 and y < shape[1] and rest >= 0.0:
+                # only the columns inside the disc of this row
+                half = int(wp.floor(wp.sqrt(rest)))
+                x0 = wp.max(c[2] - half, 0)
+                x1 = wp.min(c[2] + half, shape[2] - 1)
+                base = (z * shape[1] + y) * shape[2]
+                for x in range(x0, x1 + 1):
+                    dx = float(x - c[2])
+                    d = wp.sqrt(dz * dz + dy * dy + dx * dx)
+                    wp.atomic_min(packed_out, base + x, pack_cost(d, row))
+
+
+@wp.kernel
+def unpack_nearest_kernel(
+    packed_in: wp.array(dtype=wp.uint64),
+    dist_out: wp.array(dtype=float),
+    label_out: wp.array(dtype=wp.int32),
+):
+    """Split packed words into distances (inf where no node reached) and node rows (-1)."""
+    i = wp.tid()
+    word = packed_in[i]
+    if word == UNREACHED:
+        dist_out[i] = wp.inf
+        label_out[i] = -1
+    else:
+        dist_out[i] = packed_cost(word)
+        label_out[i] = packed_label(word)
+
+
+@wp.kernel
+def brightness_kernel(
+    dist_in: wp.array(dtype=float),
+    label_in: wp.array(dtype=wp.int32),
+    widths_in: wp.array(dtype=float),
+    reach: float,
+    clamp: float,
+    value_out: wp.array(dtype=float),
+):
+    """``V = exp(-(d / T)^2)`` with ``T`` the width of the nearest node; 0 beyond ``reach * T``.
+
+    With ``clamp < 1``, values above ``clamp`` become 1 (the thesis' variant).
+    """
+    i = wp.tid()
+    row = label_in[i]
+    v = float(0.0)
+    if row >= 0:
+        t = widths_in[row]
+        d = dist_in[i]
+        if d <= reach * t:
+            q = d / t
+            v = wp.exp(-q * q)
+            if v > clamp:
+                v = 1.0
+    value_out[i] = v
+
+
+@wp.kernel
+def box_blur_rows_kernel(
+    src_in: wp.array2d(dtype=float),
+    radius: int,
+    dst_out: wp.array2d(dtype=float),
+):
+    """Mean over ``2 radius + 1`` pixels of each row (running sum; zero outside the image)."""
+    y = wp.tid()
+    w = src_in.shape[1]
+    scale = 1.0 / float(2 * radius + 1)
+    acc = float(0.0)
+    for x in range(0, wp.min(radius, w)):
+        acc += src_in[y, x]
+    for x in range(w):
+        if x + radius < w:
+            acc += src_in[y, x + radius]
+        if x - radius - 1 >= 0:
+            acc -= src_in[y, x - radius - 1]
+        dst_out[y, x] = acc * scale
+
+
+@wp.kernel
+def box_blur_cols_kernel(
+    src_in: wp.array2d(dtype=float),
+    radius: int,
+    dst_out: wp.array2d(dtype=float),
+):
+    """Mean over ``2 radius + 1`` pixels of each column (running sum; zero outside the image)."""
+    x = wp.tid()
+    h = src_in.shape[0]
+    scale = 1.0 / float(2 * radius + 1)
+    acc = float(0.0)
+    for y in range(0, wp.min(radius, h)):
+        acc += src_in[y, x]
+    for y in range(h):
+        if y + radius < h:
+            acc += src_in[y + radius, x]
+        if y - radius - 1 >= 0:
+            acc -= src_in[y - radius - 1, x]
+        dst_out[y, x] = acc * scale
+
+
+@wp.kernel
+def colorize_kernel(
+    value_in: wp.array2d(dtype=float),
+    glow_in: wp.array2d(dtype=float),
+    lut_in: wp.array(dtype=wp.vec3),
+    glow_color: wp.vec3,
+    background_in: wp.array2d(dtype=wp.vec3),
+    rgb_out: wp.array2d(dtype=wp.vec3),
+):
+    """``background + lut(value) + glow * glow_color`` per pixel, clipped to [0, 1] (additive light)."""
+    y, x = wp.tid()
+    v = wp.clamp(value_in[y, x], 0.0, 1.0)
+    n = lut_in.shape[0]
+    f = v * float(n - 1)
+    k = wp.min(int(f), n - 2)
+    t = f - float(k)
+    col = lut_in[k] * (1.0 - t) + lut_in[k + 1] * t
+    c = background_in[y, x] + col + glow_color * glow_in[y, x]
+    rgb_out[y, x] = wp.vec3(wp.clamp(c[0], 0.0, 1.0), wp.clamp(c[1], 0.0, 1.0), wp.clamp(c[2], 0.0, 1.0))

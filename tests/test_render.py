@@ -1,0 +1,216 @@
+"""Brightness images: exp(-(d/T)^2) against SciPy distances, tapering (eq. 2), branches, compositing, bad input."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.sparse.csgraph import dijkstra
+
+import wdendrite as wd
+from wdendrite.dendrite import Dendrite
+from wdendrite.render import (
+    Taper,
+    branch_order,
+    brightness,
+    colorize,
+    composite,
+    distance_field,
+    glow,
+    node_widths,
+    thesis_width,
+)
+
+LAT = wd.Lattice((40, 48), 8, weights=wd.weights.Uniform(r=10, seed=3))
+
+
+def _dendrite(n_end=6, seed=1, lat=LAT):
+    cf = wd.shortest_paths(lat, [[1, lat.shape[1] // 2]])
+    ep = wd.endpoints.random(lat, n_end, within=wd.endpoints.Box((20, 2), (38, 45)), seed=seed)
+    return wd.trace(cf, ep)
+
+
+DEN = _dendrite()
+
+
+def empty_dendrite(shape=(8, 8)):
+    nd = len(shape)
+    return Dendrite(shape=shape, nodes=np.zeros((0, nd), np.int64), parent=np.zeros(0, np.int64),
+                    cost=np.zeros(0, np.float32), label=np.zeros(0, np.int32), generation=np.zeros(0, np.int32),
+                    endpoints=np.zeros(0, np.int64), _padded=np.zeros(0, np.int64))
+
+
+def _unit_path_distance(den):
+    """Octile distance from the dendrite's nodes by SciPy's Dijkstra on a unit-weight 8-connected lattice."""
+    unit = wd.Lattice(den.shape, 8)
+    src = np.ravel_multi_index(tuple(den.nodes.T), den.shape)
+    d = dijkstra(unit.to_csgraph(), indices=src, min_only=True)
+    return d.reshape(den.shape)
+
+
+@pytest.mark.parametrize("t", [1.6, 5.0])
+def test_path_brightness_is_exp_of_scipy_dijkstra_distance(t, device):
+    v = brightness(DEN, t, metric="path", reach=3.0, device=device)
+    d = _unit_path_distance(DEN)
+    ref = np.where(d <= 3.0 * t, np.exp(-((d / t) ** 2)), 0.0)
+    np.testing.assert_allclose(v, ref, atol=2e-6)
+    assert np.all(v[tuple(DEN.nodes.T)] == 1.0)
+
+
+def test_euclidean_brightness_matches_scipy_distance_transform(device):
+    t = 2.5
+    v = brightness(DEN, t, metric="euclidean", reach=3.0, device=device)
+    free = np.ones(DEN.shape, bool)
+    free[tuple(DEN.nodes.T)] = False
+    d = ndimage.distance_transform_edt(free)
+    ref = np.where(d <= 3.0 * t, np.exp(-((d / t) ** 2)), 0.0)
+    np.testing.assert_allclose(v, ref, atol=2e-6)
+
+
+def test_width_of_the_nearest_node_is_used(device):
+    widths = np.linspace(1.0, 4.0, len(DEN)).astype(np.float32)
+    dist, label = distance_field(DEN, limit=12.0, metric="euclidean", device=device)
+    v = brightness(DEN, widths, metric="euclidean", reach=3.0, device=device)
+    ok = label >= 0
+    t = widths[label[ok]]
+    ref = np.where(dist[ok] <= 3 * t, np.exp(-((dist[ok] / t) ** 2)), 0.0)
+    np.testing.assert_allclose(v[ok], ref, atol=2e-6)
+    # the label names a node at exactly that distance
+    nodes = DEN.nodes[label[ok]]
+    pix = np.argwhere(ok)
+    np.testing.assert_allclose(np.linalg.norm(nodes - pix, axis=1), dist[ok], rtol=1e-6)
+
+
+def test_weighted_lattice_path_costs_match_scipy():
+    t = 12.0
+    v = brightness(DEN, t, metric="path", lattice=LAT, reach=2.0)
+    src = np.ravel_multi_index(tuple(DEN.nodes.T), DEN.shape)
+    d = dijkstra(LAT.to_csgraph(), indices=src, min_only=True).reshape(DEN.shape)
+    ref = np.where(d <= 2.0 * t, np.exp(-((d / t) ** 2)), 0.0)
+    np.testing.assert_allclose(v, ref, atol=1e-5)
+
+
+def test_taper_formula_along_a_single_path():
+    den = _dendrite(n_end=1, seed=4)
+    taper = Taper(start=5.0, end=1.0, beta=2.0, along="path")
+    w = node_widths(den, taper)
+    u = den.cost.astype(np.float64) / den.cost.max()
+    np.testing.assert_allclose(w, 5.0 * (1 - u**2) + 1.0 * u**2, rtol=1e-6)
+    tip = den.endpoints[0]
+    assert w[den.roots[0]] == pytest.approx(5.0) and w[tip] == pytest.approx(1.0)
+
+
+def test_taper_along_the_dendrite_uses_the_largest_cost():
+    w = node_widths(DEN, Taper(4.0, 2.0, along="dendrite"))
+    u = DEN.cost / DEN.cost.max()
+    np.testing.assert_allclose(w, 4.0 * (1 - u) + 2.0 * u, rtol=1e-5)
+
+
+def test_branches_main_path_reaches_the_farthest_tip_and_sides_taper_from_their_start():
+    br = branch_order(DEN)
+    far = DEN.endpoints[np.argmax(DEN.cost[DEN.endpoints])]
+    main = DEN.path(far)
+    assert np.all(br.order[main] == 0)
+    assert np.count_nonzero(br.order == 0) == len(main)
+    # a branch starts at a node whose parent is on a lower-order branch
+    child = np.flatnonzero(DEN.parent >= 0)
+    assert np.all(br.order[child] >= br.order[DEN.parent[child]])
+    w = node_widths(DEN, Taper(5.0, 2.0, along="branch"), side=Taper(3.0, 0.5, along="branch"))
+    sides = np.flatnonzero(br.order > 0)
+    assert len(sides)
+    # side branch nodes are never wider than where they attach, and their tips reach 0.5
+    assert np.all(w[sides] <= w[br.attach[sides]] + 1e-6)
+    tips = np.intersect1d(DEN.endpoints, sides)
+    deepest = tips[np.isclose(DEN.cost[tips], br.tip_cost[tips])]
+    np.testing.assert_allclose(w[deepest], 0.5, rtol=1e-5)
+    const = node_widths(DEN, 5.0, side=1.6)
+    assert set(np.unique(const[br.order == 0])) == {5.0} and set(np.unique(const[sides])) == {np.float32(1.6)}
+
+
+def test_thesis_variant_with_clamp():
+    t = thesis_width(0.2)  # a = 1e-4: T = 1 / (0.2 * 0.01) = 500 cost units
+    assert t == pytest.approx(500.0)
+    v = brightness(DEN, 3.0, clamp=0.7)
+    assert not np.any((v > 0.7) & (v < 1.0))
+    plain = brightness(DEN, 3.0)
+    np.testing.assert_array_equal(v == 1.0, plain > 0.7)
+
+
+def test_composite_modes_and_gains():
+    rng = np.random.default_rng(0)
+    a, b = rng.random((5, 6)).astype(np.float32), rng.random((5, 6)).astype(np.float32)
+    np.testing.assert_allclose(composite([a, b]), np.maximum(a, b))
+    np.testing.assert_allclose(composite([a, b], mode="add"), np.clip(a + b, 0, 1))
+    np.testing.assert_allclose(composite([a, b], mode="screen"), 1 - (1 - a) * (1 - b), rtol=1e-6)
+    np.testing.assert_allclose(composite([a, b], gains=[0.5, 0.0]), 0.5 * a)
+
+
+def test_glow_keeps_the_total_and_is_symmetric(device):
+    img = np.zeros((61, 61), np.float32)
+    img[30, 30] = 1.0
+    g = glow(img, radius=4.0, device=device)
+    assert g.sum() == pytest.approx(1.0, rel=1e-5)
+    np.testing.assert_allclose(g, g[::-1, ::-1], atol=1e-7)
+    np.testing.assert_allclose(g, g.T, atol=1e-7)
+    assert g[30, 30] == g.max()
+    # spread close to the asked radius (three box passes approximate a Gaussian)
+    ys = np.arange(61) - 30
+    sigma = np.sqrt((g.sum(axis=1) * ys**2).sum())
+    assert 3.5 < sigma < 4.5
+
+
+def test_colorize_adds_light_over_the_background(device):
+    v = np.array([[0.0, 1.0]], np.float32)
+    rgb = colorize(v, device=device)
+    np.testing.assert_allclose(rgb[0, 0], 0.0)
+    np.testing.assert_allclose(rgb[0, 1], 1.0)
+    bg = colorize(v, background=(0.1, 0.2, 0.3), glow=np.array([[1.0, 0.0]], np.float32), glow_color=(0.5, 0, 0))
+    np.testing.assert_allclose(bg[0, 0], [0.6, 0.2, 0.3], atol=1e-6)
+    grey = colorize(np.full((2, 2), 0.25, np.float32), colormap="grey")
+    np.testing.assert_allclose(grey, 0.25, atol=1e-6)
+
+
+def test_rows_render_a_subset():
+    br = branch_order(DEN)
+    main = br.order == 0
+    v = brightness(DEN, 2.0, rows=main, metric="euclidean")
+    free = np.ones(DEN.shape, bool)
+    free[tuple(DEN.nodes[main].T)] = False
+    d = ndimage.distance_transform_edt(free)
+    np.testing.assert_allclose(v, np.where(d <= 6.0, np.exp(-((d / 2.0) ** 2)), 0.0), atol=2e-6)
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: brightness(DEN, 0.0), "width"),
+        (lambda: brightness(DEN, -1.0), "width"),
+        (lambda: Taper(0.0, 1.0), "start"),
+        (lambda: Taper(2.0, -1.0), "end"),
+        (lambda: Taper(2.0, 1.0, beta=0), "beta"),
+        (lambda: Taper(2.0, 1.0, along="tip"), "along"),
+        (lambda: brightness(empty_dendrite()), "empty"),
+        (lambda: node_widths(empty_dendrite(), 1.0), "empty"),
+        (lambda: brightness(DEN, 2.0, metric="manhattan"), "metric"),
+        (lambda: brightness(DEN, 2.0, clamp=1.5), "clamp"),
+        (lambda: brightness(DEN, 2.0, reach=0), "reach"),
+        (lambda: brightness(DEN, np.ones(3)), "width"),
+        (lambda: brightness(DEN, 2.0, rows=np.zeros(0, int)), "rows"),
+        (lambda: colorize(np.zeros((2, 2)), colormap="jet"), "colormap"),
+        (lambda: composite([]), "layers"),
+        (lambda: composite([np.zeros((2, 2)), np.zeros((3, 2))]), "layers"),
+        (lambda: composite([np.zeros((2, 2))], mode="multiply"), "mode"),
+        (lambda: glow(np.zeros((4, 4)), radius=-1), "radius"),
+        (lambda: thesis_width(0.0), "factor"),
+    ],
+)
+def test_bad_input_names_the_parameter(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_brightness_refuses_3d_dendrites():
+    lat = wd.Lattice((6, 6, 6))
+    den = wd.trace(wd.shortest_paths(lat, [[0, 0, 0]]), [[5, 5, 5]])
+    with pytest.raises(ValueError, match="2D"):
+        brightness(den, 1.0)
+    with pytest.raises(TypeError, match="Dendrite"):
+        brightness(np.zeros((3, 2)), 1.0)

@@ -1,0 +1,546 @@
+"""Brightness images of dendrites (Xu & Mould lightning), tapering, compositing and colour maps.
+
+A pixel at distance ``d`` from the dendrite gets the brightness
+``V = exp(-(d / T)^2)``, where ``T`` (pixels, or cost units on a weighted
+lattice) is the width of the dendrite node nearest to the pixel. Widths can
+be constant (the paper shows T = 5.0, with a faint halo, and 1.6), differ
+between the main stroke and side branches, or taper along each path
+(constructive path planning, eq. 2)::
+
+    T_i = Ts * (1 - (d_i / d_max)^beta) + Tf * (d_i / d_max)^beta
+
+The distance is either a path cost (``metric="path"``: a shortest-path
+search with the dendrite's nodes as generators, stopped ``reach * T`` away;
+on a unit-weight lattice this is the octile distance, on the dendrite's own
+random lattice it gives the papers' ragged halo) or the Euclidean distance
+to the nearest node (``metric="euclidean"``: every node writes into a disc of
+radius ``reach * T``).
+
+Typical use::
+
+    v = brightness(den, Taper(start=5.0, end=1.0))
+    rgb = colorize(v, glow=glow(v, radius=12))
+    wd.io.save_png("lightning.png", rgb)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+import warp as wp
+
+from . import _checks
+from .dendrite import Dendrite
+from .kernels import render as _k
+from .lattice import Lattice
+from .sssp import shortest_paths
+
+__all__ = [
+    "COLORMAPS",
+    "Taper",
+    "branch_order",
+    "brightness",
+    "colorize",
+    "composite",
+    "distance_field",
+    "glow",
+    "node_widths",
+    "thesis_width",
+]
+
+Metric = Literal["path", "euclidean"]
+_METRICS = ("path", "euclidean")
+TaperAlong = Literal["branch", "path", "dendrite"]
+_ALONG = ("branch", "path", "dendrite")
+
+
+def _choice(name: str, value, allowed: tuple[str, ...]) -> str:
+    if value not in allowed:
+        raise ValueError(f"Expected '{name}' in {allowed}, but got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Taper:
+    """A width that changes along each path: ``T = Ts (1 - u^beta) + Tf u^beta`` with ``u = d / d_max``.
+
+    ``d`` is the path cost from where the measured stretch starts and
+    ``d_max`` its value at the farthest tip reached through the node (see
+    ``along``), so ``T`` goes from ``start`` to ``end``.
+    """
+
+    start: float
+    """Ts: width at the start of the stretch (pixels or cost units), > 0."""
+    end: float
+    """Tf: width at the farthest tip, > 0."""
+    beta: float = 1.0
+    """Shape of the taper, > 0 (1: linear in path cost, as for the papers' lightning)."""
+    along: TaperAlong = "branch"
+    """What ``d`` is measured along: ``"branch"`` from where a branch leaves its parent branch
+    (every side branch tapers on its own), ``"path"`` from the root (the whole path from root
+    to each tip), ``"dendrite"`` from the root with ``d_max`` the dendrite's largest cost."""
+
+    def __post_init__(self):
+        for name in ("start", "end", "beta"):
+            value = getattr(self, name)
+            if isinstance(value, bool):
+                raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+            x = _checks.nonnegative(name, value, allow_none=False)
+            if x == 0:
+                raise ValueError(f"Expected a positive '{name}' for Taper, but got {value!r}")
+        _choice("along", self.along, _ALONG)
+
+    def widths(self, d: np.ndarray, d_max: np.ndarray) -> np.ndarray:
+        """Eq. 2 for path costs ``d`` and ``d_max`` (arrays of one shape); ``u`` is clipped to [0, 1]."""
+        d = np.asarray(d, np.float64)
+        d_max = np.asarray(d_max, np.float64)
+        u = np.divide(d, d_max, out=np.zeros(np.broadcast(d, d_max).shape), where=d_max > 0)
+        ub = np.clip(u, 0.0, 1.0) ** self.beta
+        return self.start * (1.0 - ub) + self.end * ub
+
+
+Width = float | Taper | np.ndarray
+
+
+def thesis_width(factor: float, a: float = 1e-4) -> float:
+    """The ``T`` that makes ``exp(-(d/T)^2)`` equal the thesis' ``exp(-a (d * factor)^2)`` (Fig 4.8).
+
+    In the thesis a larger width factor gives a *narrower* path; ``a`` is about 1/10000.
+    Combine with ``brightness(..., clamp=0.7)`` for the thesis' rule that values above 0.7 become 1.
+    """
+    factor = _checks.positive("factor", factor)
+    a = _checks.positive("a", a)
+    return 1.0 / (factor * math.sqrt(a))
+
+
+def _check_dendrite(dendrite, what: str = "dendrite") -> Dendrite:
+    if not isinstance(dendrite, Dendrite):
+        raise TypeError(f"Expected a wdendrite.Dendrite for '{what}', but got {type(dendrite).__name__}")
+    if len(dendrite) == 0:
+        raise ValueError(f"'{what}' is empty (no nodes): there is nothing to render")
+    return dendrite
+
+
+def _levels(dendrite: Dendrite) -> list[np.ndarray]:
+    """Rows grouped by depth, roots first."""
+    rows = dendrite.order
+    depth = dendrite.depth[rows]
+    return np.split(rows, np.flatnonzero(np.diff(depth)) + 1)
+
+
+@dataclass(frozen=True)
+class Branches:
+    """A dendrite cut into branches: each node continues into the child leading to the farthest tip."""
+
+    order: np.ndarray
+    """``(N,)`` int32: 0 on the main path of every root, k + 1 on branches leaving an order-k branch."""
+    attach: np.ndarray
+    """``(N,)`` int64 row where the node's branch leaves its parent branch (the root for order 0)."""
+    tip_cost: np.ndarray
+    """``(N,)`` float64 largest path cost of an endpoint (or node) reached through the node."""
+
+
+def branch_order(dendrite: Dendrite) -> Branches:
+    """Split ``dendrite`` into branches (a main path per root, then side branches) and order them."""
+    den = _check_dendrite(dendrite)
+    n = len(den)
+    cost = den.cost.astype(np.float64)
+    tip = cost.copy()
+    levels = _levels(den)
+    for level in levels[::-1]:
+        p = den.parent[level]
+        ok = p >= 0
+        np.maximum.at(tip, p[ok], tip[level[ok]])
+    # heir of a node: its child with the farthest tip (lowest row on ties)
+    child = np.flatnonzero(den.parent >= 0)
+    heir = np.full(n, -1, np.int64)
+    if len(child):
+        keys = np.lexsort((child, -tip[child], den.parent[child]))
+        ordered = child[keys]
+        first = np.ones(len(ordered), bool)
+        first[1:] = den.parent[ordered[1:]] != den.parent[ordered[:-1]]
+        heir[den.parent[ordered[first]]] = ordered[first]
+    order = np.zeros(n, np.int32)
+    attach = np.arange(n, dtype=np.int64)
+    for level in levels[1:]:
+        p = den.parent[level]
+        starts = heir[p] != level
+        order[level] = order[p] + starts.astype(np.int32)
+        attach[level] = np.where(starts, p, attach[p])
+    return Branches(order=order, attach=attach, tip_cost=tip)
+
+
+def _taper_widths(den: Dendrite, br: Branches, taper: Taper) -> np.ndarray:
+    cost = den.cost.astype(np.float64)
+    if taper.along == "branch":
+        base = cost[br.attach]
+        d, d_max = cost - base, br.tip_cost - base
+    elif taper.along == "path":
+        base = cost[den.roots].min() if len(den.roots) else 0.0
+        d, d_max = cost - base, br.tip_cost - base
+    else:
+        d, d_max = cost, np.full(len(den), cost.max())
+    return taper.widths(d, d_max)
+
+
+def _lerp(start: np.ndarray, taper: Taper, d: np.ndarray, d_max: np.ndarray) -> np.ndarray:
+    u = np.divide(d, d_max, out=np.zeros(len(d)), where=d_max > 0)
+    ub = np.clip(u, 0.0, 1.0) ** taper.beta
+    return start * (1.0 - ub) + np.minimum(taper.end, start) * ub
+
+
+def _width_values(name: str, width, den: Dendrite, br: Branches) -> np.ndarray:
+    """Widths of all nodes from a float, a Taper or an (N,) array."""
+    if isinstance(width, Taper):
+        return _taper_widths(den, br, width)
+    if np.ndim(width) == 0:
+        return np.full(len(den), _checks.positive(name, width))
+    return _checks.float_array(name, width, (len(den),), positive=True).astype(np.float64)
+
+
+def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = None) -> np.ndarray:
+    """The width ``T`` of every node of ``dendrite``.
+
+    Args:
+        dendrite: a non-empty :class:`~wdendrite.Dendrite`.
+        width: a constant ``T`` > 0, a :class:`Taper`, or an ``(N,)`` array of positive widths.
+        side: optional width of the side branches (order >= 1 in :func:`branch_order`);
+            ``width`` then applies to the main paths only. A side :class:`Taper` with
+            ``along="branch"`` starts no wider than its parent branch where it leaves it.
+
+    Returns:
+        ``(N,)`` float32 widths, > 0.
+
+    Raises:
+        ValueError: a non-positive width, a bad Taper, an empty dendrite.
+    """
+    den = _check_dendrite(dendrite)
+    br = branch_order(den)
+    out = _width_values("width", width, den, br)
+    if side is None:
+        return out.astype(np.float32)
+    if not isinstance(side, Taper):
+        side_w = _width_values("side", side, den, br)
+        out = np.where(br.order > 0, side_w, out)
+        return out.astype(np.float32)
+    cost = den.cost.astype(np.float64)
+    for k in range(1, int(br.order.max()) + 1):
+        rows = np.flatnonzero(br.order == k)
+        if side.along == "branch":
+            # a side branch starts at most as wide as its parent branch where it leaves it
+            start = np.minimum(side.start, out[br.attach[rows]])
+            base = cost[br.attach[rows]]
+            out[rows] = _lerp(start, side, cost[rows] - base, br.tip_cost[rows] - base)
+        else:
+            out[rows] = _taper_widths(den, br, side)[rows]
+    return out.astype(np.float32)
+
+
+def _nearest(dendrite: Dendrite, reach_cost: float, metric: str, lattice: Lattice | None, rows, device):
+    """Distance to the nearest chosen node and its row (into ``dendrite``) as flat device arrays."""
+    nodes = dendrite.nodes if rows is None else dendrite.nodes[rows]
+    index = np.arange(len(dendrite)) if rows is None else np.asarray(rows, np.int64)
+    shape = tuple(dendrite.shape)
+    if metric == "path":
+        if lattice is None:
+            lattice = _unit_lattice(shape)
+        elif not isinstance(lattice, Lattice):
+            raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
+        elif lattice.shape != shape:
+            raise ValueError(f"'lattice' has shape {lattice.shape}, but the dendrite has shape {shape}")
+        cf = shortest_paths(lattice, nodes, limit=reach_cost, device=device)
+        dist, label = cf.dist_array.flatten(), cf.label_array.flatten()
+        if rows is not None:
+            label = wp.array(np.where(cf.label.ravel() >= 0, index[np.maximum(cf.label.ravel(), 0)], -1).astype(np.int32),
+                             device=cf.device)
+        return dist, label
+    device = wp.get_device(device)
+    n = int(np.prod(shape))
+    shape3 = (1,) * (3 - len(shape)) + shape
+    with wp.ScopedDevice(device):
+        packed = wp.full(n, value=wp.uint64(0xFFFFFFFFFFFFFFFF), dtype=wp.uint64)
+        nodes3 = np.zeros((len(nodes), 3), np.int32)
+        nodes3[:, 3 - len(shape):] = nodes
+        wp.launch(_k.splat_distance_kernel, dim=len(nodes),
+                  inputs=[wp.array(nodes3, dtype=wp.vec3i), wp.vec3i(*shape3), float(reach_cost)], outputs=[packed])
+        dist = wp.empty(n, dtype=float)
+        label = wp.empty(n, dtype=wp.int32)
+        wp.launch(_k.unpack_nearest_kernel, dim=n, inputs=[packed], outputs=[dist, label])
+        if rows is not None:
+            lab = label.numpy()
+            label = wp.array(np.where(lab >= 0, index[np.maximum(lab, 0)], -1).astype(np.int32))
+    return dist, label
+
+
+_UNIT_LATTICES: dict[tuple, Lattice] = {}
+
+
+def _unit_lattice(shape: tuple) -> Lattice:
+    # building a large lattice costs more than the search; keep the last few unit lattices
+    lat = _UNIT_LATTICES.get(shape)
+    if lat is None:
+        if len(_UNIT_LATTICES) >= 4:
+            _UNIT_LATTICES.pop(next(iter(_UNIT_LATTICES)))
+        lat = _UNIT_LATTICES[shape] = Lattice(shape, 8 if len(shape) == 2 else 26)
+    return lat
+
+
+def _check_rows(rows, n: int):
+    if rows is None:
+        return None
+    r = np.asarray(rows)
+    if r.dtype == np.bool_:
+        if r.shape != (n,):
+            raise ValueError(f"Expected a bool 'rows' mask of shape ({n},), but got shape {r.shape}")
+        r = np.flatnonzero(r)
+    if r.dtype.kind not in "iu" or r.ndim != 1:
+        raise TypeError(f"Expected 'rows' as a 1D integer array or bool mask, but got {r.dtype} {r.shape}")
+    if len(r) == 0:
+        raise ValueError("'rows' is empty: at least one node must be rendered")
+    if r.min() < 0 or r.max() >= n:
+        raise ValueError(f"'rows' must index the dendrite's {n} nodes, but has values in [{r.min()}, {r.max()}]")
+    return r.astype(np.int64)
+
+
+def distance_field(
+    dendrite: Dendrite,
+    *,
+    limit: float,
+    metric: Metric = "euclidean",
+    lattice: Lattice | None = None,
+    rows=None,
+    device=None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distance from every lattice node to the nearest dendrite node, up to ``limit``.
+
+    Args:
+        dendrite: a non-empty dendrite (2D or 3D).
+        limit: largest distance searched (lattice units or path cost), > 0.
+        metric: ``"euclidean"`` (straight-line distance to the nearest node) or
+            ``"path"`` (least path cost over ``lattice``).
+        lattice: the lattice for ``metric="path"`` (default: unit weights, 8- or
+            26-connected, i.e. octile distances).
+        rows: only these dendrite rows (int array or ``(N,)`` bool mask) act as sources.
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        ``(dist, label)`` of the dendrite's shape: float32 distance (inf beyond
+        ``limit``) and int32 row of the nearest node (-1 beyond ``limit``).
+    """
+    den = _check_dendrite(dendrite)
+    limit = _checks.positive("limit", limit)
+    _choice("metric", metric, _METRICS)
+    dist, label = _nearest(den, limit, metric, lattice, _check_rows(rows, len(den)), device)
+    return dist.numpy().reshape(den.shape), label.numpy().reshape(den.shape)
+
+
+def brightness(
+    dendrite: Dendrite,
+    width: Width = 5.0,
+    *,
+    side: Width | None = None,
+    metric: Metric = "path",
+    lattice: Lattice | None = None,
+    reach: float = 3.0,
+    clamp: float | None = None,
+    rows=None,
+    device=None,
+) -> np.ndarray:
+    """The papers' lightning brightness ``V = exp(-(d/T)^2)`` of a 2D dendrite.
+
+    Args:
+        dendrite: a non-empty 2D dendrite.
+        width: ``T`` of every node: a constant > 0 (the papers' 5.0 or 1.6), a
+            :class:`Taper` or an ``(N,)`` array (see :func:`node_widths`).
+        side: optional width of side branches (see :func:`node_widths`).
+        metric: ``"path"`` (path cost from the dendrite over ``lattice``, as in the
+            papers) or ``"euclidean"`` (straight-line distance to the nearest node).
+        lattice: lattice of the path costs (default: unit weights, 8-connected).
+            Pass the dendrite's own weighted lattice for ragged halos; widths are
+            then in its cost units.
+        reach: the search stops at ``reach * max(T)`` and a pixel is dark beyond
+            ``reach * T`` of its node (3: V < 1.3e-4 there), > 0.
+        clamp: values above it become 1 (the thesis uses 0.7), in (0, 1]; None: no clamp.
+        rows: render only these dendrite rows (int array or bool mask).
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        ``(H, W)`` float32 brightness in [0, 1].
+
+    Raises:
+        ValueError: an empty or 3D dendrite, a non-positive width or reach,
+            ``clamp`` outside (0, 1], an unknown metric.
+    """
+    den = _check_dendrite(dendrite)
+    if den.ndim != 2:
+        raise ValueError(f"brightness() renders 2D dendrites, but the dendrite has shape {den.shape}; "
+                         "use wdendrite.geometry for 3D")
+    reach = _checks.positive("reach", reach)
+    if clamp is None:
+        clamp_f = 2.0
+    else:
+        clamp_f = _checks.positive("clamp", clamp)
+        if clamp_f > 1:
+            raise ValueError(f"Expected 'clamp' in (0, 1], but got {clamp!r}")
+    _choice("metric", metric, _METRICS)
+    widths = node_widths(den, width, side=side)
+    sel = _check_rows(rows, len(den))
+    t_max = float(widths.max() if sel is None else widths[sel].max())
+    dist, label = _nearest(den, reach * t_max, metric, lattice, sel, device)
+    device = dist.device
+    out = wp.empty(dist.shape[0], dtype=float, device=device)
+    wp.launch(_k.brightness_kernel, dim=dist.shape[0],
+              inputs=[dist, label, wp.array(widths, dtype=float, device=device), reach, clamp_f],
+              outputs=[out], device=device)
+    return out.numpy().reshape(den.shape)
+
+
+def _image(name: str, value) -> np.ndarray:
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
+        raise TypeError(f"Expected a real-valued image for '{name}', but got dtype {arr.dtype}")
+    if arr.ndim != 2:
+        raise ValueError(f"Expected a 2D (H, W) image for '{name}', but got shape {arr.shape}")
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+Blend = Literal["max", "add", "screen"]
+_BLENDS = ("max", "add", "screen")
+
+
+def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Sequence[float] | None = None) -> np.ndarray:
+    """Combine brightness images of several graphs (the papers' main stroke plus forks).
+
+    Args:
+        layers: ``(H, W)`` images of one shape, values in [0, 1].
+        mode: ``"max"`` (the brighter wins), ``"add"`` (sum, clipped to 1) or
+            ``"screen"`` (``1 - prod(1 - v)``, light adding up without clipping).
+        gains: a factor per layer (default 1 each), >= 0.
+
+    Returns:
+        ``(H, W)`` float32 in [0, 1].
+    """
+    _choice("mode", mode, _BLENDS)
+    imgs = [_image(f"layers[{i}]", v) for i, v in enumerate(layers)]
+    if not imgs:
+        raise ValueError("'layers' is empty: at least one image is needed")
+    for i, v in enumerate(imgs[1:], 1):
+        if v.shape != imgs[0].shape:
+            raise ValueError(f"'layers[{i}]' has shape {v.shape}, but 'layers[0]' has shape {imgs[0].shape}")
+    g = [1.0] * len(imgs) if gains is None else [_checks.nonnegative(f"gains[{i}]", x, allow_none=False)
+                                                  for i, x in enumerate(gains)]
+    if len(g) != len(imgs):
+        raise ValueError(f"Expected {len(imgs)} 'gains', one per layer, but got {len(g)}")
+    scaled = [np.clip(v * gi, 0.0, 1.0) for v, gi in zip(imgs, g)]
+    if mode == "max":
+        out = np.maximum.reduce(scaled)
+    elif mode == "add":
+        out = np.clip(np.add.reduce(scaled), 0.0, 1.0)
+    else:
+        out = 1.0 - np.multiply.reduce([1.0 - v for v in scaled])
+    return out.astype(np.float32)
+
+
+def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=None) -> np.ndarray:
+    """A soft halo: ``value`` blurred by ``passes`` box filters (close to a Gaussian of sigma ~ ``radius``).
+
+    Args:
+        value: ``(H, W)`` brightness.
+        radius: blur scale in pixels, > 0 (box half-width ``radius * sqrt(3 / passes)``).
+        passes: box filters per axis, >= 1.
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        ``(H, W)`` float32; the blur keeps the image's total (away from its edges).
+    """
+    img = _image("value", value)
+    radius = _checks.positive("radius", radius)
+    if isinstance(passes, bool) or not isinstance(passes, (int, np.integer)) or passes < 1:
+        raise ValueError(f"Expected an integer 'passes' >= 1, but got {passes!r}")
+    # a box of half-width h has variance h (h + 1) / 3; pick h so the passes add up to radius^2
+    half = max(1, int(round(0.5 * (math.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
+    device = wp.get_device(device)
+    h, w = img.shape
+    with wp.ScopedDevice(device):
+        a = wp.array(img, dtype=float)
+        b = wp.empty_like(a)
+        for _ in range(passes):
+            wp.launch(_k.box_blur_rows_kernel, dim=h, inputs=[a, half], outputs=[b])
+            wp.launch(_k.box_blur_cols_kernel, dim=w, inputs=[b, half], outputs=[a])
+        return a.numpy()
+
+
+COLORMAPS: dict[str, tuple[tuple[float, float, float], ...]] = {
+    "grey": ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),
+    "lightning": ((0.0, 0.0, 0.0), (0.28, 0.22, 0.62), (0.62, 0.62, 1.0), (1.0, 1.0, 1.0)),
+    "fire": ((0.0, 0.0, 0.0), (0.6, 0.05, 0.0), (1.0, 0.55, 0.0), (1.0, 1.0, 0.75)),
+    "ice": ((0.0, 0.0, 0.0), (0.05, 0.25, 0.45), (0.45, 0.8, 0.95), (1.0, 1.0, 1.0)),
+    "moss": ((0.0, 0.0, 0.0), (0.1, 0.25, 0.05), (0.4, 0.6, 0.15), (0.85, 0.9, 0.45)),
+    "lichen": ((0.0, 0.0, 0.0), (0.35, 0.4, 0.25), (0.7, 0.75, 0.5), (0.95, 0.95, 0.8)),
+}
+"""Colour maps from dark (V = 0) to bright (V = 1), as evenly spaced RGB stops in [0, 1]."""
+
+
+def _lut(colormap: str, size: int = 256) -> np.ndarray:
+    stops = np.asarray(COLORMAPS[colormap], np.float64)
+    x = np.linspace(0.0, 1.0, len(stops))
+    t = np.linspace(0.0, 1.0, size)
+    return np.stack([np.interp(t, x, stops[:, c]) for c in range(3)], axis=1).astype(np.float32)
+
+
+def _rgb(name: str, value, shape) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float32)
+    if arr.shape == (3,):
+        return np.broadcast_to(arr, (*shape, 3)).copy()
+    if arr.shape != (*shape, 3):
+        raise ValueError(f"Expected '{name}' as an RGB triple or an image of shape {(*shape, 3)}, but got {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def colorize(
+    value: np.ndarray,
+    *,
+    colormap: str = "lightning",
+    glow: np.ndarray | None = None,
+    glow_color: tuple[float, float, float] = (0.45, 0.4, 1.0),
+    background=None,
+    device=None,
+) -> np.ndarray:
+    """An RGB picture: ``background + colormap(value) + glow * glow_color``, clipped to [0, 1].
+
+    Light adds up, as for lightning over a sky. The colour maps start from
+    black, so with the default black background the picture is ``colormap(value)``.
+
+    Args:
+        value: ``(H, W)`` brightness in [0, 1].
+        colormap: a name of :data:`COLORMAPS`.
+        glow: optional ``(H, W)`` halo (e.g. from :func:`glow`).
+        glow_color: RGB of the halo in [0, 1].
+        background: an RGB triple or an ``(H, W, 3)`` image in [0, 1] (default black).
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        ``(H, W, 3)`` float32 in [0, 1].
+    """
+    img = _image("value", value)
+    if colormap not in COLORMAPS:
+        raise ValueError(f"Expected 'colormap' in {tuple(COLORMAPS)}, but got {colormap!r}")
+    halo = np.zeros_like(img) if glow is None else _image("glow", glow)
+    if halo.shape != img.shape:
+        raise ValueError(f"'glow' has shape {halo.shape}, but 'value' has shape {img.shape}")
+    gc = np.asarray(glow_color, np.float32)
+    if gc.shape != (3,) or not np.isfinite(gc).all():
+        raise ValueError(f"Expected 'glow_color' as an RGB triple, but got {glow_color!r}")
+    bg = _rgb("background", (0.0, 0.0, 0.0) if background is None else background, img.shape)
+    device = wp.get_device(device)
+    with wp.ScopedDevice(device):
+        out = wp.empty(img.shape, dtype=wp.vec3)
+        wp.launch(_k.colorize_kernel, dim=img.shape,
+                  inputs=[wp.array(img, dtype=float), wp.array(halo, dtype=float),
+                          wp.array(_lut(colormap), dtype=wp.vec3), wp.vec3(*gc.tolist()),
+                          wp.array(bg, dtype=wp.vec3)],
+                  outputs=[out])
+        return out.numpy()
