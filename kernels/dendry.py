@@ -62,6 +62,7 @@ class Setup:
     steps: int  # the primitives sit on the grid of level `levels + steps`
     rule: int  # 0: join the nearest of a, midpoint, b; 1: join at 45 degrees downstream
     r1: int  # query neighbourhood radius at level 1 (3 when levels == 1, else 2)
+    need_z: int  # 0: elevations of finer key points are not needed (distance, level), skip the control there
     # query domain -> control coordinates: c = c_lo + (x - d_lo) * scale
     d_lo: wp.vec2
     c_lo: wp.vec2
@@ -126,17 +127,24 @@ def block_index(blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi
 
 
 @wp.func
-def catmull_rom(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2, s: float) -> wp.vec2:
-    """Chordal Catmull-Rom point at fraction ``s`` of the way from p1 to p2 (Barry-Goldman)."""
-    t0 = float(0.0)
-    t1 = t0 + wp.length(p1 - p0) + 1.0e-6
+def catmull_rom_knots(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2) -> wp.vec3:
+    """Chordal knots t1, t2, t3 (t0 = 0) of the Catmull-Rom spline through p0..p3."""
+    t1 = wp.length(p1 - p0) + 1.0e-6
     t2 = t1 + wp.length(p2 - p1) + 1.0e-6
-    t3 = t2 + wp.length(p3 - p2) + 1.0e-6
+    return wp.vec3(t1, t2, t2 + wp.length(p3 - p2) + 1.0e-6)
+
+
+@wp.func
+def catmull_rom(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2, k: wp.vec3, s: float) -> wp.vec2:
+    """Chordal Catmull-Rom point at fraction ``s`` of the way from p1 to p2 (Barry-Goldman), knots ``k``."""
+    t1 = k[0]
+    t2 = k[1]
+    t3 = k[2]
     t = t1 + s * (t2 - t1)
-    a1 = ((t1 - t) * p0 + (t - t0) * p1) / (t1 - t0)
+    a1 = ((t1 - t) * p0 + t * p1) / t1
     a2 = ((t2 - t) * p1 + (t - t1) * p2) / (t2 - t1)
     a3 = ((t3 - t) * p2 + (t - t2) * p3) / (t3 - t2)
-    b1 = ((t2 - t) * a1 + (t - t0) * a2) / (t2 - t0)
+    b1 = ((t2 - t) * a1 + t * a2) / t2
     b2 = ((t3 - t) * a2 + (t - t1) * a3) / (t3 - t1)
     return ((t2 - t) * b1 + (t - t1) * b2) / (t2 - t1)
 
@@ -162,26 +170,29 @@ def write_polyline(
     side = wp.vec2(0.0, 0.0)
     if length > 0.0:
         side = wp.vec2(-d[1], d[0]) / length
+    knots = catmull_rom_knots(p0, pa, pb, p3)
+    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))  # cell_rand's key, computed once
+    amp = s.delta[level - 1] * length
+    verts_out[vi * NV] = a
     lo = pa
     hi = pa
-    for j in range(BOUND):
-        jj = wp.min(j, pieces)
-        t = float(jj) / float(pieces)
+    for j in range(1, pieces):
+        t = float(j) / float(pieces)
         pos = pa + t * d
-        if s.smoothing != 0 and jj > 0 and jj < pieces:
-            pos = catmull_rom(p0, pa, pb, p3, t)
-        if jj > 0 and jj < pieces:
-            shift = (2.0 * cell_rand(s.seed, level, c, 8 + jj) - 1.0) * s.delta[level - 1] * length
-            pos = pos + shift * side
-        if jj == pieces:
-            pos = pb
+        if s.smoothing != 0:
+            pos = catmull_rom(p0, pa, pb, p3, knots, t)
+        pos = pos + (2.0 * hash_uniform(s.seed, key, wp.uint32(8 + j)) - 1.0) * amp * side
         verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
+    for j in range(pieces, BOUND):
+        verts_out[vi * NV + j] = b
+    lo = wp.min(lo, pb)
+    hi = wp.max(hi, pb)
     # a slightly inflated circle around the polyline lets searches skip the cell exactly
     centre = 0.5 * (lo + hi)
     radius = float(0.0)
-    for j in range(BOUND):
+    for j in range(pieces + 1):
         v = verts_out[vi * NV + j]
         radius = wp.max(radius, wp.length(wp.vec2(v[0], v[1]) - centre))
     verts_out[vi * NV + BOUND] = wp.vec3(centre[0], centre[1], radius * 1.0001 + 1.0e-6)
@@ -392,7 +403,9 @@ def fill_levelk(
             tc = wp.min(tp + h / wp.sqrt(den), 1.0)
     x = pa + tc * ab
     zx = m[0, 2] + tc * (m[1, 2] - m[0, 2])
-    zq = wp.max(control_value(ctl, cp), zx + s.slope[level - 1] * wp.length(q - x) / s.resolution)
+    zq = zx + s.slope[level - 1] * wp.length(q - x) / s.resolution
+    if s.need_z != 0:
+        zq = wp.max(control_value(ctl, cp), zq)
     keyp[vi] = wp.vec4(q[0], q[1], zq, STATE_SEGMENT)
     p3 = 2.0 * x - q
     if tc < 1.0:
@@ -663,13 +676,18 @@ def prims_kernel(
 
 @wp.kernel
 def image_kernel(
-    s: Setup, ctl: Control, output: int, cached: int, cap: wp.vec3i, first: int, origin: wp.vec2i, width: int,
+    s: Setup, ctl: Control, output: int, cached: int, cap: wp.vec3i, nslots: int, first: int, origin: wp.vec2i,
+    width: int,
     x0: wp.vec2, step: wp.vec2,
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
     image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
 ):
     """Pixels ``first + tid`` of a window (row-major, ``width`` wide) at global pixel ``origin``.
+
+    In the per-pixel mode thread ``tid`` works in slot ``tid % nslots``: one slot per thread
+    where threads run concurrently (CUDA), a single reused slot on the CPU, which runs the
+    threads of a launch one after the other and so keeps the slot in cache.
 
     Pixel (row, col) of the whole image sits at ``x0 + (col + 0.5, row + 0.5) * step`` in
     domain units; ``x0`` and ``step`` are already in grid units.
@@ -684,18 +702,18 @@ def image_kernel(
     )
     slot = 0
     if cached == 0:
-        slot = t
+        slot = t % nslots
     image_out[row, col] = evaluate(s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)
 
 
 @wp.kernel
 def points_kernel(
-    s: Setup, ctl: Control, output: int, cap: wp.vec3i, first: int, points_in: wp.array(dtype=wp.vec2),
+    s: Setup, ctl: Control, output: int, cap: wp.vec3i, nslots: int, first: int, points_in: wp.array(dtype=wp.vec2),
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
     values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ):
-    """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units)."""
+    """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units), slots as in image_kernel."""
     t = wp.tid()
     i = first + t
-    values_out[i] = evaluate(s, ctl, points_in[i], output, 0, t, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)
+    values_out[i] = evaluate(s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)

@@ -135,8 +135,9 @@ class DendryParams:
         return tuple((2.0 * 3.0 ** max(5 - k, 0) - 1.0) ** -0.6 for k in range(1, 7))
 
 
-def _setup(p: DendryParams, domain, control_domain) -> _kd.Setup:
+def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s = _kd.Setup()
+    s.need_z = int(output == "elevation")
     s.levels = p.levels
     s.seed = wp.uint32(p.seed % 2**32)
     s.eps = p.eps
@@ -233,12 +234,26 @@ class _Slots:
 
 
 def _slots_for_pixels(params, output, count, device) -> _Slots:
+    """Scratch for the per-pixel mode: one slot per concurrent thread.
+
+    Warp's CPU backend runs the threads of a launch one after the other, so a single
+    slot serves them all and stays in cache; CUDA threads run together and each needs its own.
+    """
     cap = _slot_capacity(params, output)
     per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE) + cap[2] * 12 + 8 * 20
-    budget = (256 if wp.get_device(device).is_cuda else 16) * 2**20
-    slots = max(1, min(count, budget // per_slot))
+    if wp.get_device(device).is_cuda:
+        slots = max(1, min(count, (256 * 2**20) // per_slot))
+    else:
+        slots = 1
     fits_in_memory(slots * per_slot, device, "Dendry per-pixel scratch")
     return _Slots(slots, cap, device)
+
+
+def _launch_chunks(count: int, slots: _Slots, device):
+    """(first, size) of the launches covering ``count`` threads: one on the CPU, slot-sized on CUDA."""
+    nslots = len(slots.blocks) // 8
+    step = nslots if wp.get_device(device).is_cuda else count
+    return nslots, [(first, min(step, count - first)) for first in range(0, count, step)]
 
 
 def _cached_slots(s, params, output, u_first, u_last, device) -> tuple[_Slots, list[int]]:
@@ -326,7 +341,7 @@ def dendry(
     _check_output_mode(output, mode)
     r0, c0, h, w = _window(window, shape)
     device = wp.get_device(device)
-    s = _setup(params, domain, control_domain)
+    s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
     res = params.resolution
     x0 = wp.vec2(domain[0][0] * res, domain[0][1] * res)
@@ -340,14 +355,14 @@ def dendry(
         slots, sizes = _cached_slots(s, params, output, u_first, u_last, device)
         _fill_cached(s, ctl, params, output, slots, sizes, device)
         wp.launch(_kd.image_kernel, dim=h * w,
-                  inputs=[s, ctl, code, 1, slots.cap, 0, origin, w, x0, step, *slots.arrays()],
+                  inputs=[s, ctl, code, 1, slots.cap, 1, 0, origin, w, x0, step, *slots.arrays()],
                   outputs=[out, slots.overflow], device=device)
     else:
         slots = _slots_for_pixels(params, output, h * w, device)
-        chunk = len(slots.blocks) // 8
-        for first in range(0, h * w, chunk):
-            wp.launch(_kd.image_kernel, dim=min(chunk, h * w - first),
-                      inputs=[s, ctl, code, 0, slots.cap, first, origin, w, x0, step, *slots.arrays()],
+        nslots, chunks = _launch_chunks(h * w, slots, device)
+        for first, size in chunks:
+            wp.launch(_kd.image_kernel, dim=size,
+                      inputs=[s, ctl, code, 0, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
                       outputs=[out, slots.overflow], device=device)
     slots.check()
     return out.numpy()
@@ -385,7 +400,7 @@ def dendry_points(
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, "pixel")
     device = wp.get_device(device)
-    s = _setup(params, domain, control_domain)
+    s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
     n = len(pts)
     out = wp.zeros(max(n, 1), dtype=float, device=device)
@@ -393,10 +408,10 @@ def dendry_points(
         return np.zeros(0, np.float32)
     u = wp.array((pts.astype(np.float64) * params.resolution).astype(np.float32), dtype=wp.vec2, device=device)
     slots = _slots_for_pixels(params, output, n, device)
-    chunk = len(slots.blocks) // 8
-    for first in range(0, n, chunk):
-        wp.launch(_kd.points_kernel, dim=min(chunk, n - first),
-                  inputs=[s, ctl, _OUTPUTS[output], slots.cap, first, u, *slots.arrays()],
+    nslots, chunks = _launch_chunks(n, slots, device)
+    for first, size in chunks:
+        wp.launch(_kd.points_kernel, dim=size,
+                  inputs=[s, ctl, _OUTPUTS[output], slots.cap, nslots, first, u, *slots.arrays()],
                   outputs=[out, slots.overflow], device=device)
     slots.check()
     return out.numpy()[:n]
