@@ -55,7 +55,7 @@ def _world(dendrite: Dendrite) -> np.ndarray:
 
 
 def _radii(dendrite: Dendrite, radius: Width, side: Width | None) -> np.ndarray:
-    return node_widths(dendrite, radius, side=side).astype(np.float64)
+    return node_widths(dendrite, radius, side=side, _name="radius").astype(np.float64)
 
 
 def _trimesh(vertices: np.ndarray, faces: np.ndarray):
@@ -284,7 +284,7 @@ def isosurface(
     """
     den = _check_3d(dendrite, "isosurface()")
     _choice("metric", metric, _METRICS)
-    r = node_widths(den, radius, side=side)
+    r = node_widths(den, radius, side=side, _name="radius")
     limit = float(r.max()) + 2.0
     dist, label = _nearest(den, limit, metric, lattice, None, device)
     out = wp.empty(dist.shape[0], dtype=float, device=dist.device)

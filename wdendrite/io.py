@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["atomic_write", "save_png"]
+__all__ = [
+    "DENDRITE_FORMATS", "MESH_FORMATS", "atomic_write", "load_dendrite", "save_dendrite", "save_mesh", "save_png",
+    "save_svg", "svg_polylines",
+]
 
 
 def _target(path, overwrite: bool) -> Path:
@@ -55,3 +59,189 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     else:
         pil = Image.fromarray((img * 65535 + 0.5).astype(np.uint16))
     return atomic_write(path, lambda tmp: pil.save(tmp, format="PNG"), overwrite=overwrite)
+
+
+MESH_FORMATS = ("obj", "ply", "stl", "glb")
+"""Mesh file formats :func:`save_mesh` writes (through trimesh)."""
+DENDRITE_FORMATS = ("npz", "json")
+"""Dendrite graph formats :func:`save_dendrite` writes."""
+
+
+def _format(path, format, allowed: tuple[str, ...], what: str) -> str:
+    fmt = Path(path).suffix.lower().lstrip(".") if format is None else str(format).lower().lstrip(".")
+    if fmt not in allowed:
+        source = f"'format' {format!r}" if format is not None else f"the suffix of 'path' {str(path)!r}"
+        raise ValueError(f"Unknown {what} format from {source}; allowed formats: {', '.join(allowed)}")
+    return fmt
+
+
+def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False) -> Path:
+    """Write a :class:`trimesh.Trimesh` as OBJ, PLY, STL or GLB (atomically).
+
+    Args:
+        path: output file; its folder must exist.
+        mesh: the mesh.
+        format: one of :data:`MESH_FORMATS` (default: from the suffix of ``path``).
+        overwrite: replace an existing file.
+
+    Raises:
+        ValueError: an unknown format (the message lists the allowed ones) or a missing folder.
+        FileExistsError: ``path`` exists and ``overwrite`` is False.
+    """
+    fmt = _format(path, format, MESH_FORMATS, "mesh")
+    if not hasattr(mesh, "export") or not len(getattr(mesh, "faces", ())):
+        raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh'")
+    return atomic_write(path, lambda tmp: mesh.export(tmp, file_type=fmt), overwrite=overwrite)
+
+
+def _widths_for(dendrite, width) -> np.ndarray:
+    from .render import node_widths
+
+    return np.ones(len(dendrite), np.float32) if width is None else node_widths(dendrite, width)
+
+
+def save_dendrite(path, dendrite, *, width=None, format: str | None = None, overwrite: bool = False) -> Path:
+    """Write a dendrite graph as NPZ or JSON (atomically).
+
+    The file holds ``shape``, ``nodes`` (N, ndim), ``parent`` (N,), ``cost``,
+    ``label``, ``generation``, ``endpoints``, ``origin``, ``spacing`` and
+    ``width`` (N,): the node widths from ``width`` (a constant, a
+    :class:`~wdendrite.render.Taper` or an array; default 1).
+
+    Raises:
+        ValueError: unknown format (allowed: npz, json), an empty dendrite, a missing folder.
+        FileExistsError: ``path`` exists and ``overwrite`` is False.
+    """
+    from .dendrite import Dendrite
+
+    fmt = _format(path, format, DENDRITE_FORMATS, "dendrite")
+    if not isinstance(dendrite, Dendrite):
+        raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
+    if not len(dendrite):
+        raise ValueError("'dendrite' is empty (no nodes): there is nothing to save")
+    data = {
+        "shape": np.asarray(dendrite.shape, np.int64),
+        "nodes": dendrite.nodes.astype(np.int64),
+        "parent": dendrite.parent.astype(np.int64),
+        "cost": dendrite.cost.astype(np.float32),
+        "label": dendrite.label.astype(np.int32),
+        "generation": dendrite.generation.astype(np.int32),
+        "endpoints": dendrite.endpoints.astype(np.int64),
+        "origin": np.asarray(dendrite.origin, np.float64),
+        "spacing": np.float64(dendrite.spacing),
+        "width": _widths_for(dendrite, width).astype(np.float32),
+    }
+
+    def write(tmp):
+        if fmt == "npz":
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **data)
+        else:
+            with open(tmp, "w") as f:
+                json.dump({k: np.asarray(v).tolist() for k, v in data.items()}, f)
+
+    return atomic_write(path, write, overwrite=overwrite)
+
+
+def load_dendrite(path):
+    """Read a file written by :func:`save_dendrite`.
+
+    Returns:
+        ``(dendrite, width)``: the :class:`~wdendrite.Dendrite` and its ``(N,)`` float32 widths.
+    """
+    from .dendrite import Dendrite
+
+    path = Path(path)
+    fmt = _format(path, None, DENDRITE_FORMATS, "dendrite")
+    if fmt == "npz":
+        with np.load(path) as z:
+            raw = {k: z[k] for k in z.files}
+    else:
+        with open(path) as f:
+            raw = {k: np.asarray(v) for k, v in json.load(f).items()}
+    shape = tuple(int(n) for n in raw["shape"])
+    nodes = raw["nodes"].astype(np.int64).reshape(-1, len(shape))
+    padded = np.ravel_multi_index(tuple((nodes + 1).T), tuple(n + 2 for n in shape)).astype(np.int64)
+    den = Dendrite(
+        shape=shape,
+        nodes=nodes,
+        parent=raw["parent"].astype(np.int64),
+        cost=raw["cost"].astype(np.float32),
+        label=raw["label"].astype(np.int32),
+        generation=raw["generation"].astype(np.int32),
+        endpoints=raw["endpoints"].astype(np.int64),
+        _padded=padded,
+        origin=tuple(float(x) for x in raw["origin"]),
+        spacing=float(raw["spacing"]),
+    )
+    return den, raw["width"].astype(np.float32)
+
+
+def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, float]]:
+    """The branches of a 2D dendrite as ``(points (P, 2) as (x, y), stroke width)`` pairs.
+
+    Each branch (see :func:`wdendrite.render.branch_order`) runs from where it
+    leaves its parent branch to its tip; its stroke is twice its mean width.
+    """
+    from .render import branch_order, node_widths
+
+    br = branch_order(dendrite)
+    w = node_widths(dendrite, width, side=side)
+    pos = dendrite.positions[:, ::-1]
+    out = []
+    rows = dendrite.order  # roots first, so every branch lists its nodes from its start to its tip
+    rows = rows[np.argsort(br.start[rows], kind="stable")]
+    cuts = np.flatnonzero(np.diff(br.start[rows])) + 1
+    for chain in np.split(rows, cuts):
+        s = chain[0]
+        if dendrite.parent[s] >= 0:
+            chain = np.concatenate([[dendrite.parent[s]], chain])
+        if len(chain) >= 2:
+            out.append((pos[chain], 2.0 * float(w[chain].mean())))
+    return out
+
+
+def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", background: str | None = "white",
+             overwrite: bool = False) -> Path:
+    """Write a 2D dendrite as SVG polylines, one per branch, in lattice pixel units.
+
+    Args:
+        path: output ``.svg`` file; its folder must exist.
+        dendrite: a non-empty 2D dendrite.
+        width: node widths as in :func:`wdendrite.render.node_widths` (stroke = 2 x mean width of a branch).
+        side: optional side-branch width.
+        color: stroke colour (any SVG colour).
+        background: fill of a background rectangle, or None for none.
+        overwrite: replace an existing file.
+
+    Raises:
+        ValueError: a 3D or empty dendrite, a missing folder.
+        FileExistsError: ``path`` exists and ``overwrite`` is False.
+    """
+    from .dendrite import Dendrite
+
+    if not isinstance(dendrite, Dendrite):
+        raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
+    if not len(dendrite):
+        raise ValueError("'dendrite' is empty (no nodes): there is nothing to draw")
+    if dendrite.ndim != 2:
+        raise ValueError(f"SVG export needs a 2D dendrite, but the dendrite has shape {tuple(dendrite.shape)}; "
+                         "use save_mesh for 3D geometry")
+    h, w = (np.asarray(dendrite.shape) * float(dendrite.spacing)).tolist()
+    ox, oy = float(dendrite.origin[1]), float(dendrite.origin[0])
+    lines = [f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{ox:g} {oy:g} {w:g} {h:g}" '
+             f'width="{w:g}" height="{h:g}">']
+    if background is not None:
+        lines.append(f'<rect x="{ox:g}" y="{oy:g}" width="{w:g}" height="{h:g}" fill="{background}"/>')
+    for pts, stroke in svg_polylines(dendrite, width=width, side=side):
+        coords = " ".join(f"{x:g},{y:g}" for x, y in pts)
+        lines.append(f'<polyline points="{coords}" fill="none" stroke="{color}" stroke-width="{stroke:.3g}" '
+                     'stroke-linecap="round" stroke-linejoin="round"/>')
+    lines.append("</svg>")
+    text = "\n".join(lines) + "\n"
+
+    def write(tmp):
+        with open(tmp, "w") as f:
+            f.write(text)
+
+    return atomic_write(path, write, overwrite=overwrite)

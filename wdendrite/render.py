@@ -137,6 +137,8 @@ class Branches:
 
     order: np.ndarray
     """``(N,)`` int32: 0 on the main path of every root, k + 1 on branches leaving an order-k branch."""
+    start: np.ndarray
+    """``(N,)`` int64 row of the first node of the node's branch (a root for order 0)."""
     attach: np.ndarray
     """``(N,)`` int64 row where the node's branch leaves its parent branch (the root for order 0)."""
     tip_cost: np.ndarray
@@ -165,12 +167,14 @@ def branch_order(dendrite: Dendrite) -> Branches:
         heir[den.parent[ordered[first]]] = ordered[first]
     order = np.zeros(n, np.int32)
     attach = np.arange(n, dtype=np.int64)
+    start = np.arange(n, dtype=np.int64)
     for level in levels[1:]:
         p = den.parent[level]
         starts = heir[p] != level
         order[level] = order[p] + starts.astype(np.int32)
         attach[level] = np.where(starts, p, attach[p])
-    return Branches(order=order, attach=attach, tip_cost=tip)
+        start[level] = np.where(starts, level, start[p])
+    return Branches(order=order, start=start, attach=attach, tip_cost=tip)
 
 
 def _taper_widths(den: Dendrite, br: Branches, taper: Taper) -> np.ndarray:
@@ -201,7 +205,7 @@ def _width_values(name: str, width, den: Dendrite, br: Branches) -> np.ndarray:
     return _checks.float_array(name, width, (len(den),), positive=True).astype(np.float64)
 
 
-def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = None) -> np.ndarray:
+def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = None, _name: str = "width") -> np.ndarray:
     """The width ``T`` of every node of ``dendrite``.
 
     Args:
@@ -219,7 +223,7 @@ def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = 
     """
     den = _check_dendrite(dendrite)
     br = branch_order(den)
-    out = _width_values("width", width, den, br)
+    out = _width_values(_name, width, den, br)
     if side is None:
         return out.astype(np.float32)
     if not isinstance(side, Taper):

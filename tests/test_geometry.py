@@ -1,0 +1,146 @@
+"""Meshes: closed tubes/spheres with the asked radii, isosurfaces on the iso level, rock regions, previews."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import wdendrite as wd
+from wdendrite.geometry import (
+    field_mesh,
+    isosurface,
+    preview,
+    region_mesh,
+    signed_region_field,
+    spheres,
+    surface_nodes,
+    tubes,
+)
+from wdendrite.render import Taper, node_widths
+
+LAT = wd.Lattice((20, 20, 20), 26, weights=wd.weights.Uniform(r=10, seed=4))
+DEN = wd.trace(wd.shortest_paths(LAT, [[1, 10, 10]]), [[18, 3, 3], [18, 16, 15], [15, 10, 3], [12, 17, 8]])
+
+
+def _empty3():
+    from tests.test_render import empty_dendrite
+
+    return empty_dendrite((4, 4, 4))
+
+
+def test_spheres_are_closed_with_the_asked_radii():
+    r = node_widths(DEN, Taper(2.0, 0.5))
+    mesh = spheres(DEN, Taper(2.0, 0.5), subdivisions=2)
+    assert mesh.is_watertight and mesh.volume > 0
+    per = len(mesh.vertices) // len(DEN)
+    v = mesh.vertices.reshape(len(DEN), per, 3)
+    centers = DEN.positions[:, ::-1]
+    np.testing.assert_allclose(np.linalg.norm(v - centers[:, None], axis=2), r[:, None].repeat(per, 1), rtol=1e-5)
+    # sum of sphere volumes, less the inscribed icosphere's polygon error
+    exact = (4 / 3 * np.pi * r.astype(float) ** 3).sum()
+    assert 0.95 * exact < mesh.volume < exact
+
+
+def test_tubes_are_closed_and_follow_every_edge():
+    mesh = tubes(DEN, 0.3, sides=10, joints=False)
+    assert mesh.is_watertight and mesh.volume > 0
+    child = np.flatnonzero(DEN.parent >= 0)
+    length = np.linalg.norm(DEN.positions[child] - DEN.positions[DEN.parent[child]], axis=1).sum()
+    polygon_area = 0.5 * 10 * 0.3**2 * np.sin(2 * np.pi / 10)
+    assert mesh.volume == pytest.approx(polygon_area * length, rel=1e-6)
+    tapered = tubes(DEN, Taper(1.0, 0.2))
+    assert tapered.is_watertight and tapered.volume > 0
+    assert tapered.bounds[0].min() >= -1.0 - 1e-9
+
+
+def test_isosurface_vertices_lie_on_the_iso_level():
+    iso = isosurface(DEN, 1.5)
+    assert iso.is_watertight and iso.volume > 0
+    # distance of every vertex to the nearest node is close to the radius (marching cubes interpolates
+    # linearly between lattice nodes, so allow a fraction of a cell)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(DEN.positions[:, ::-1]).query(iso.vertices)
+    assert np.abs(d - 1.5).max() < 0.5 and np.abs(d - 1.5).mean() < 0.1
+
+
+def test_field_mesh_matches_a_sphere_and_has_outward_faces():
+    z, y, x = np.mgrid[:24, :24, :24].astype(np.float32)
+    f = np.sqrt((x - 12.3) ** 2 + (y - 11.6) ** 2 + (z - 12.0) ** 2) - 7.0
+    mesh = field_mesh(f, 0.0, spacing=0.5, origin=(1.0, 2.0, 3.0))
+    assert mesh.is_watertight and mesh.volume > 0
+    c = np.array([12.3, 11.6, 12.0]) * 0.5 + [3.0, 2.0, 1.0]
+    np.testing.assert_allclose(np.linalg.norm(mesh.vertices - c, axis=1), 3.5, atol=0.03)
+    assert mesh.volume == pytest.approx(4 / 3 * np.pi * 3.5**3, rel=0.02)
+    # linear interpolation on the level: trilinear field value at each vertex is ~0
+    coords = ((mesh.vertices - [3.0, 2.0, 1.0]) / 0.5)[:, ::-1].T
+    vals = ndimage.map_coordinates(f, coords, order=1)
+    assert np.abs(vals).max() < 0.02
+    smooth = field_mesh(f, 0.0, smooth=10)
+    assert smooth.volume == pytest.approx(4 / 3 * np.pi * 7.0**3, rel=0.03)
+
+
+def test_rock_from_a_label_segmentation():
+    lat = wd.Lattice((24, 24, 24), 6, weights=wd.weights.Uniform(r=10, seed=1))
+    gens = np.array([[12, 12, 12], [2, 2, 2], [21, 21, 3], [3, 21, 21], [21, 3, 21], [12, 1, 12], [12, 22, 12]])
+    cf = wd.shortest_paths(lat, gens)
+    inside = cf.label == 0
+    rock = region_mesh(cf.label, 0)
+    assert rock.is_watertight and rock.volume > 0
+    # the surface runs halfway between inside and outside nodes: volume close to the node count
+    assert rock.volume == pytest.approx(inside.sum(), rel=0.15)
+    # the signed field equals a SciPy reference built from the same boundary nodes
+    field = signed_region_field(inside, band=3.0)
+    seeds = np.zeros_like(inside)
+    seeds[tuple(surface_nodes(inside).T)] = True
+    seeds |= ~inside & ndimage.binary_dilation(inside)  # outside nodes next to the rock
+    d = np.minimum(ndimage.distance_transform_edt(~seeds), 3.0) + 0.5
+    np.testing.assert_allclose(field, np.where(inside, -d, d), atol=1e-5)
+
+
+def test_surface_nodes_of_a_ball():
+    z, y, x = np.mgrid[:15, :15, :15]
+    ball = (x - 7) ** 2 + (y - 7) ** 2 + (z - 7) ** 2 <= 25
+    s = surface_nodes(ball)
+    assert ball[tuple(s.T)].all()
+    eroded = ndimage.binary_erosion(ball)
+    assert len(s) == (ball & ~eroded).sum()
+
+
+def test_preview_is_a_nonblank_shaded_picture(device):
+    img = preview(tubes(DEN, 0.8), size=(64, 80), device=device)
+    assert img.shape == (64, 80, 3) and img.dtype == np.float32
+    hit = np.any(np.abs(img - 1.0) > 1e-6, axis=2)
+    assert 0.02 < hit.mean() < 0.9
+    assert img[hit].std() > 0.02  # shading varies over the surface
+    assert np.all(img[0, 0] == 1.0)
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: tubes(_empty3()), ValueError, "empty"),
+        (lambda: spheres(_empty3()), ValueError, "empty"),
+        (lambda: isosurface(_empty3()), ValueError, "empty"),
+        (lambda: tubes(DEN, 0.0), ValueError, "radius"),
+        (lambda: tubes(DEN, Taper(1.0, 0.5), sides=2), ValueError, "sides"),
+        (lambda: spheres(DEN, -1.0), ValueError, "radius"),
+        (lambda: field_mesh(np.zeros((4, 4))), ValueError, "3D"),
+        (lambda: field_mesh(np.zeros((4, 4, 4)), 1.0), ValueError, "level"),
+        (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 3), ValueError, "region"),
+        (lambda: region_mesh(np.zeros((4, 4), np.int32), 0), ValueError, "3D"),
+        (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 0, band=0.5), ValueError, "band"),
+        (lambda: isosurface(DEN, metric="cheb"), ValueError, "metric"),
+        (lambda: preview(np.zeros(3)), ValueError, "mesh"),
+    ],
+)
+def test_bad_input(call, exc, match):
+    with pytest.raises(exc, match=match):
+        call()
+
+
+def test_meshes_need_3d_dendrites():
+    lat = wd.Lattice((10, 10), 8)
+    den2 = wd.trace(wd.shortest_paths(lat, [[0, 0]]), [[9, 9]])
+    for fn in (tubes, spheres, isosurface):
+        with pytest.raises(ValueError, match="3D"):
+            fn(den2)

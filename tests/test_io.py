@@ -1,0 +1,145 @@
+"""Writing files: atomic writes, refusal to overwrite or write into missing folders, round trips."""
+
+import json
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import wdendrite as wd
+from wdendrite.io import (
+    DENDRITE_FORMATS,
+    MESH_FORMATS,
+    atomic_write,
+    load_dendrite,
+    save_dendrite,
+    save_mesh,
+    save_png,
+    save_svg,
+    svg_polylines,
+)
+from wdendrite.render import Taper, branch_order, node_widths
+
+LAT2 = wd.Lattice((24, 30), 8, weights=wd.weights.Uniform(r=10, seed=2))
+DEN2 = wd.trace(wd.shortest_paths(LAT2, [[1, 15]]), [[22, 3], [22, 27], [15, 10], [20, 15]])
+LAT3 = wd.Lattice((12, 12, 12), 26, weights=wd.weights.Uniform(r=10, seed=2))
+DEN3 = wd.trace(wd.shortest_paths(LAT3, [[1, 6, 6]]), [[10, 2, 2], [10, 10, 9], [9, 6, 2]])
+
+
+def _leftovers(folder):
+    return [p for p in os.listdir(folder) if p.startswith(".")]
+
+
+def test_png_8_and_16_bit_round_trip(tmp_path):
+    img = np.linspace(0, 1, 64 * 32).reshape(64, 32)
+    p8 = save_png(tmp_path / "a.png", img)
+    p16 = save_png(tmp_path / "b.png", img, bits=16)
+    a8 = np.asarray(Image.open(p8))
+    a16 = np.asarray(Image.open(p16))
+    assert a8.dtype == np.uint8 and np.abs(a8 / 255.0 - img).max() <= 0.5 / 255 + 1e-9
+    assert a16.dtype.itemsize == 2 or a16.dtype == np.int32
+    assert np.abs(a16 / 65535.0 - img).max() <= 0.5 / 65535 + 1e-9
+    rgb = np.random.default_rng(0).random((8, 9, 3))
+    back = np.asarray(Image.open(save_png(tmp_path / "c.png", rgb)))
+    assert back.shape == (8, 9, 3)
+    assert not _leftovers(tmp_path)
+
+
+def test_existing_file_needs_overwrite_and_missing_folder_is_refused(tmp_path):
+    p = save_png(tmp_path / "a.png", np.zeros((4, 4)))
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        save_png(p, np.ones((4, 4)))
+    save_png(p, np.ones((4, 4)), overwrite=True)
+    assert np.asarray(Image.open(p)).min() == 255
+    with pytest.raises(ValueError, match="folder"):
+        save_png(tmp_path / "missing" / "a.png", np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="folder"):
+        save_mesh(tmp_path / "missing" / "a.obj", _box())
+    with pytest.raises(ValueError, match="folder"):
+        save_dendrite(tmp_path / "missing" / "d.json", DEN2)
+
+
+def test_interrupted_write_leaves_no_file(tmp_path):
+    def broken(tmp):
+        with open(tmp, "w") as f:
+            f.write("half")
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write(tmp_path / "x.txt", broken)
+    assert os.listdir(tmp_path) == []
+    # an interrupted overwrite keeps the old file intact
+    (tmp_path / "y.txt").write_text("old")
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write(tmp_path / "y.txt", broken, overwrite=True)
+    assert (tmp_path / "y.txt").read_text() == "old"
+    assert os.listdir(tmp_path) == ["y.txt"]
+
+
+def _box():
+    import trimesh
+
+    return trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+
+
+@pytest.mark.parametrize("fmt", MESH_FORMATS)
+def test_mesh_formats_load_back(tmp_path, fmt):
+    import trimesh
+
+    from wdendrite.geometry import tubes
+
+    mesh = tubes(DEN3, 0.4, sides=6)
+    p = save_mesh(tmp_path / f"m.{fmt}", mesh)
+    back = trimesh.load(p, force="mesh", process=True)
+    assert back.volume == pytest.approx(mesh.volume, rel=1e-3)
+    np.testing.assert_allclose(back.bounds, mesh.bounds, atol=1e-4)
+    assert not _leftovers(tmp_path)
+
+
+def test_unknown_formats_list_the_allowed_ones(tmp_path):
+    with pytest.raises(ValueError, match="obj, ply, stl, glb"):
+        save_mesh(tmp_path / "m.fbx", _box())
+    with pytest.raises(ValueError, match="obj, ply, stl, glb"):
+        save_mesh(tmp_path / "m.obj", _box(), format="dae")
+    with pytest.raises(ValueError, match="npz, json"):
+        save_dendrite(tmp_path / "d.csv", DEN2)
+    assert os.listdir(tmp_path) == []
+    assert DENDRITE_FORMATS == ("npz", "json")
+
+
+@pytest.mark.parametrize("fmt", DENDRITE_FORMATS)
+@pytest.mark.parametrize("den", [DEN2, DEN3], ids=["2d", "3d"])
+def test_dendrite_round_trip(tmp_path, fmt, den):
+    taper = Taper(3.0, 0.5)
+    p = save_dendrite(tmp_path / f"d.{fmt}", den, width=taper)
+    back, width = load_dendrite(p)
+    for f in ("nodes", "parent", "cost", "label", "generation", "endpoints"):
+        np.testing.assert_array_equal(getattr(back, f), getattr(den, f))
+    assert back.shape == tuple(den.shape) and back.spacing == den.spacing
+    np.testing.assert_allclose(width, node_widths(den, taper))
+    np.testing.assert_array_equal(back.depth, den.depth)
+    # the loaded dendrite works with the rest of the package
+    np.testing.assert_array_equal(back._padded, den._padded)
+    if fmt == "json":
+        raw = json.loads(p.read_text())
+        assert {"nodes", "parent", "cost", "width"} <= set(raw)
+
+
+def test_svg_polylines_cover_every_edge_once(tmp_path):
+    p = save_svg(tmp_path / "d.svg", DEN2, width=Taper(2.0, 0.5))
+    root = ET.parse(p).getroot()
+    polys = [el for el in root.iter() if el.tag.endswith("polyline")]
+    edges = set()
+    for el in polys:
+        pts = np.array([[float(v) for v in xy.split(",")] for xy in el.get("points").split()])
+        for a, b in zip(pts[:-1], pts[1:]):
+            edges.add((tuple(a), tuple(b)))
+        assert float(el.get("stroke-width")) > 0
+    want = {(tuple(DEN2.nodes[DEN2.parent[i], ::-1].astype(float)), tuple(DEN2.nodes[i, ::-1].astype(float)))
+            for i in np.flatnonzero(DEN2.parent >= 0)}
+    assert edges == want
+    assert len(polys) == len(np.unique(branch_order(DEN2).start)) == len(svg_polylines(DEN2))
+    with pytest.raises(ValueError, match="2D"):
+        save_svg(tmp_path / "e.svg", DEN3)
