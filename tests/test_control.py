@@ -95,3 +95,25 @@ def test_grid_equals_evaluate_at_pixel_centres(device):
 def test_bad_input_raises(make, match):
     with pytest.raises((ValueError, TypeError), match=match):
         make()
+
+
+def test_drained_control_has_no_interior_minimum(device):
+    from scipy.ndimage import minimum_filter
+
+    base = control.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
+    g = base.grid((65, 65), device=device)
+    inner = (g == minimum_filter(g, size=3, mode="nearest"))[1:-1, 1:-1]
+    assert inner.any()  # the base field has a pit inside its rectangle
+    d = control.drained(base, samples=65)
+    v = d.values
+    assert (v >= g - 1e-6).all() and d.domain == base.domain
+    # every interior sample has a strictly lower 8-neighbour: water reaches the border
+    pad = np.pad(v, 1, constant_values=np.inf)
+    lower = np.zeros(v.shape, bool)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if dr or dc:
+                lower |= pad[1 + dr : 1 + dr + 65, 1 + dc : 1 + dc + 65] < v
+    assert lower[1:-1, 1:-1].all()
+    with pytest.raises(ValueError, match="samples"):
+        control.drained(base, samples=2)
