@@ -11,8 +11,8 @@ field with the same seed and schedule):
 - coral: 50^3, 26-connected, 24 endpoints, then refinement with 3^3 sublattices.
 
 The SciPy side is what a user would write without us: build the sparse graph
-import logging
-from the same weight array (``Lattice.to_csgraph``), run
+from the same weights (``Lattice.to_csgraph``; for the refined lattice only
+its usable edges are evaluated), run
 ``scipy.sparse.csgraph.dijkstra(min_only=True, return_predecessors=True)`` and
 walk the predecessors with vectorized NumPy. Its refinement step reuses our
 NumPy sublattice builder, so only the path planning differs.
@@ -23,6 +23,7 @@ Usage: python benchmarks/bench_dendrites.py [--quick]
 from __future__ import annotations
 
 import argparse
+import logging
 import time
 
 import numpy as np

@@ -12,8 +12,8 @@ Usage: python benchmarks/bench_sssp.py [--quick] [--device cpu|cuda]
 
 from __future__ import annotations
 
-import logging
 import argparse
+import logging
 import os
 import tempfile
 

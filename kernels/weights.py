@@ -28,6 +28,7 @@ CONSTANT = wp.constant(0)
 UNIFORM = wp.constant(1)
 POWER = wp.constant(2)
 POLYNOMIAL = wp.constant(3)
+REFINED = wp.constant(4)
 
 # bias field kinds (BiasTerm.kind)
 RAMP = wp.constant(0)
@@ -72,19 +73,24 @@ class WeightParams:
     """Everything :func:`edge_weight` needs: a distribution and its bias terms."""
 
     kind: int
-    """CONSTANT, UNIFORM, POWER or POLYNOMIAL."""
+    """CONSTANT, UNIFORM, POWER, POLYNOMIAL or REFINED."""
     seed: wp.uint32
     """Hash seed."""
     a: float
-    """CONSTANT: value; UNIFORM: r; POWER: alpha; POLYNOMIAL: n."""
+    """CONSTANT: value; UNIFORM: r; POWER: alpha; POLYNOMIAL: n; REFINED: e."""
     b: float
-    """POWER: max (R is uniform in (1, max)); unused otherwise."""
+    """POWER: max (R is uniform in (1, max)); REFINED: n, fine nodes per coarse node; unused otherwise."""
     num_terms: int
     """Number of entries of ``terms`` in use."""
     terms: wp.array(dtype=BiasTerm)
     """Bias terms, applied in order (at least one entry, so the array is never empty)."""
     maps: wp.array(dtype=float)
-    """Concatenated per-node map values in [0, 1] (at least one entry)."""
+    """Concatenated per-node map values in [0, 1] (at least one entry); REFINED: the
+    coarse weights per unit length, ``K`` blocks of the coarse lattice in C order."""
+    grid: wp.vec3i
+    """REFINED: coarse lattice shape ``(D, H, W)``."""
+    grid_start: wp.vec3i
+    """REFINED: fine index of the window's first node in the whole fine lattice."""
 
 
 @wp.func
@@ -99,6 +105,42 @@ def base_weight(params: WeightParams, node: int, k: int) -> float:
     elif params.kind == POLYNOMIAL:
         w = 1.0 + wp.pow(100.0 * u, params.a)
     return w
+
+
+@wp.func
+def refined_base(params: WeightParams, shape3: wp.vec3i, node: int, k: int) -> float:
+    """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4).
+
+    ``W_int`` interpolates the coarse weights per unit length linearly at the
+    fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``), and
+    ``W_ran`` is uniform between 1 and ``W_int``.
+    """
+    n = params.b
+    half = float(int(n) / 2)
+    c = node_coords(node, shape3) + params.grid_start
+    count = params.grid[0] * params.grid[1] * params.grid[2]
+    # corner of the interpolation cell and the weights along each axis
+    lo = wp.vec3i(0, 0, 0)
+    t = wp.vec3(0.0, 0.0, 0.0)
+    for a in range(3):
+        x = wp.clamp((float(c[a]) - half) / n, 0.0, float(params.grid[a] - 1))
+        i = wp.min(int(wp.floor(x)), wp.max(params.grid[a] - 2, 0))
+        lo[a] = i
+        t[a] = wp.min(x - float(i), 1.0)
+    w_int = float(0.0)
+    for corner in range(8):
+        q = wp.vec3i(lo[0] + (corner >> 2) % 2, lo[1] + (corner >> 1) % 2, lo[2] + corner % 2)
+        f = float(1.0)
+        for a in range(3):
+            q[a] = wp.min(q[a], params.grid[a] - 1)
+            if (corner >> (2 - a)) % 2 == 1:
+                f = f * t[a]
+            else:
+                f = f * (1.0 - t[a])
+        w_int = w_int + f * params.maps[k * count + node_index(q, params.grid)]
+    u = hash_unit(params.seed, wp.uint32(node), wp.uint32(k))
+    w_ran = 1.0 + (wp.max(w_int, 1.0) - 1.0) * u
+    return (params.a * w_int + (1.0 - params.a) * w_ran) / n
 
 
 @wp.func
@@ -153,7 +195,12 @@ def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offse
             add = add + s
         else:
             scale = scale * (1.0 + s)
-    return length * (base_weight(params, node, k) + add) * scale
+    base = float(0.0)
+    if params.kind == REFINED:
+        base = refined_base(params, shape3, node, k)
+    else:
+        base = base_weight(params, node, k)
+    return length * (base + add) * scale
 
 
 @wp.func

@@ -57,3 +57,26 @@ def test_refine_needs_the_matching_lattice():
     lat, den = _coarse((10, 10), 4, 2)
     with pytest.raises(ValueError, match="shape"):
         wd.refine(den, wd.Lattice((11, 10)))
+
+
+def test_refined_weights_follow_the_thesis_formula():
+    # independent reference: SciPy's linear interpolation and the NumPy version of the hash
+    from scipy.ndimage import map_coordinates
+
+    from test_weights import _reference_u
+
+    from wdendrite.refine import Refined
+
+    lat = wd.Lattice((9, 11), 8, weights=wd.weights.Uniform(r=20, seed=2))
+    n, e, start = 5, 0.7, (3, 4)
+    per_length = (lat.weights / lat.lengths[:, None, None]).astype(np.float32)
+    dist = Refined(per_length, n, e, start, seed=17)
+    fine_shape = (20, 25)
+    got = dist.sample(fine_shape, lat.lengths, offsets=lat.offsets)
+    grid = np.stack(np.meshgrid(*[(np.arange(f) + s - n // 2) / n for f, s in zip(fine_shape, start)], indexing="ij"))
+    u = _reference_u(fine_shape, len(lat.lengths), 17)
+    for k in range(len(lat.lengths)):
+        w_int = map_coordinates(per_length[k].astype(np.float64), grid, order=1, mode="nearest")
+        w_ran = 1 + (np.maximum(w_int, 1) - 1) * u[k]
+        want = (e * w_int + (1 - e) * w_ran) * lat.lengths[k] / n
+        np.testing.assert_allclose(got[k], want, rtol=2e-5)

@@ -198,7 +198,7 @@ def trace(
             wp.launch(_kd.mark_kernel, dim=len(old), inputs=[wp.array(old.astype(np.int32), dtype=wp.int32), 1],
                       outputs=[visited])
         pred = wp.empty(size, dtype=wp.int32)
-        new_nodes = wp.empty(size, dtype=wp.int32)
+        new_nodes = wp.empty(max(1, lattice.num_usable), dtype=wp.int32)
         new_count = wp.zeros(1, dtype=wp.int32)
         status = wp.empty(len(starts), dtype=wp.int32)
         wp.launch(

@@ -143,6 +143,7 @@ class Lattice:
             self._weights.flags.writeable = False
         self._device_arrays: dict[str, LatticeArrays] = {}
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
+        self._num_usable: int | None = None
 
     @property
     def stores_weights(self) -> bool:
@@ -164,6 +165,13 @@ class Lattice:
     def num_nodes(self) -> int:
         """Number of nodes, usable or not."""
         return int(np.prod(self.shape))
+
+    @property
+    def num_usable(self) -> int:
+        """Number of usable (unmasked) nodes."""
+        if self._num_usable is None:
+            self._num_usable = self.num_nodes if self.mask is None else int(np.count_nonzero(self.mask))
+        return self._num_usable
 
     def __repr__(self) -> str:
         masked = "" if self.mask is None else f", {int(self.mask.sum())} usable nodes"
@@ -227,8 +235,9 @@ class Lattice:
         """Every usable undirected edge as flat node indices ``(u, v)`` int64 and weights float32.
 
         An edge is usable when both ends are inside the lattice and unmasked.
+        Unstored weights are evaluated for these edges only.
         """
-        us, vs, ws = [], [], []
+        us, vs, ks = [], [], []
         index = np.arange(self.num_nodes, dtype=np.int64).reshape(self.shape)
         mask = np.ones(self.shape, bool) if self.mask is None else self.mask
         for k, off in enumerate(self.offsets):
@@ -237,8 +246,13 @@ class Lattice:
             ok = mask[src] & mask[dst]
             us.append(index[src][ok])
             vs.append(index[dst][ok])
-            ws.append(self.weights[k][src][ok])
-        return np.concatenate(us), np.concatenate(vs), np.concatenate(ws)
+            ks.append(np.full(len(us[-1]), k, np.int64))
+        u, v, k = np.concatenate(us), np.concatenate(vs), np.concatenate(ks)
+        if self.stores_weights:
+            w = self.weights.reshape(len(self.offsets), -1)[k, u]
+        else:
+            w = self.distribution.evaluate(self.shape, self.lengths, u, k, offsets=self.offsets)
+        return u, v, w
 
     def to_csgraph(self):
         """The lattice as a symmetric ``scipy.sparse.csr_matrix`` of shape (N, N) (needs SciPy).

@@ -5,9 +5,10 @@ a finer lattice, with ``n`` odd so the coarse node sits at its block's
 centre. Blocks of neighbouring nodes touch, which stitches them into one
 graph; everything else is masked out, so the ordinary shortest-path and
 backtracking kernels run on it. Fine edge weights are
-``W_sub = e * W_int + (1 - e) * W_ran``: ``W_int`` interpolates the coarse
-weights linearly, ``W_ran`` is uniform between 1 and ``W_int``; ``0.5 < e < 1``
-keeps the coarse path's shape while adding detail.
+``W_sub = e * W_int + (1 - e) * W_ran`` (see :class:`Refined`): ``W_int``
+interpolates the coarse weights linearly, ``W_ran`` is uniform between 1 and
+``W_int``; ``0.5 < e < 1`` keeps the coarse path's shape while adding detail.
+The kernels compute fine weights on the fly, so only the mask is stored.
 """
 
 from __future__ import annotations
@@ -16,12 +17,53 @@ import dataclasses
 
 import numpy as np
 
+import warp as wp
+
 from . import _checks
 from .dendrite import Dendrite, trace
+from .kernels import weights as _kw
 from .lattice import Lattice
 from .sssp import shortest_paths
+from .weights import Distribution
 
-__all__ = ["refine", "refined_lattice"]
+__all__ = ["Refined", "refine", "refined_lattice"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Refined(Distribution):
+    """Sublattice weights ``W_sub = (e * W_int + (1 - e) * W_ran) * length / n`` (thesis 4.4).
+
+    ``W_int`` interpolates the coarse weights per unit length linearly at each
+    fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``);
+    ``W_ran`` is uniform between 1 and ``W_int``, from the hash of ``seed``.
+    Computed in the kernels, so a refined lattice stores no weight array.
+    """
+
+    coarse: np.ndarray
+    """``(K, *coarse_shape)`` float32 coarse weights divided by their edge lengths."""
+    n: int
+    """Fine nodes per coarse node along each axis (odd, >= 3)."""
+    e: float
+    """Share of the interpolated weight, in (0.5, 1)."""
+    start: tuple
+    """Fine index, in the whole fine lattice, of the window's node (0, ...)."""
+    seed: int = 0
+    """Hash seed of ``W_ran``."""
+
+    def _base(self):
+        return _kw.REFINED, self.e, float(self.n), self.seed
+
+    def _bound(self) -> float:
+        return float(self.coarse.max(initial=1.0)) / self.n + 1.0
+
+    def kernel_params(self, shape, device=None):
+        params = super().kernel_params(shape, device)
+        ndim = self.coarse.ndim - 1
+        params.maps = wp.array(np.ascontiguousarray(self.coarse, np.float32).ravel(), dtype=float,
+                               device=wp.get_device(device))
+        params.grid = wp.vec3i(*((1,) * (3 - ndim) + self.coarse.shape[1:]))
+        params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in self.start)))
+        return params
 
 
 def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
@@ -41,14 +83,6 @@ def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
     if lattice.mask is not None:
         keep &= lattice.mask
     return keep
-
-
-def _interpolate(coarse_w: np.ndarray, fine_nodes: np.ndarray, start, n: int) -> np.ndarray:
-    """Multilinear interpolation of coarse weights ``(K, *coarse)`` at ``(M, ndim)`` fine nodes -> ``(K, M)``."""
-    from scipy.ndimage import map_coordinates
-
-    coords = ((fine_nodes + np.asarray(start)) - n // 2).T / n
-    return np.stack([map_coordinates(w, coords, order=1, mode="nearest").astype(np.float32) for w in coarse_w])
 
 
 def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, seed=0):
@@ -71,15 +105,10 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
     for axis in range(lattice.ndim):
         fine_mask = np.repeat(fine_mask, n, axis=axis)
     start = lo * n
-    # weights are only needed where the mask keeps nodes; elsewhere they are never read
-    kept = np.nonzero(fine_mask)
-    per_length = lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)
-    w_int = _interpolate(per_length, np.stack(kept, axis=1), start, n)
-    w_ran = 1.0 + (np.maximum(w_int, 1.0) - 1.0) * rng.random(w_int.shape, dtype=np.float32)
-    # fine edges are 1/n as long as coarse ones, so costs stay in the coarse units
-    w_sub = np.zeros((len(lattice.lengths), *fine_shape), np.float32)
-    w_sub[(slice(None),) + kept] = (e * w_int + (1.0 - e) * w_ran) * (lattice.lengths[:, None] / n)
-    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=w_sub, mask=fine_mask, _adopt=True)
+    per_length = (lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
+    # the kernels compute each fine weight when they need it: no (K, *fine_shape) array
+    dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)))
+    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=False)
 
     centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
     roots = np.unique(centre(dendrite.roots), axis=0)

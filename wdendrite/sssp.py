@@ -79,8 +79,10 @@ class CostField:
 class _Frontiers:
     """Near lists (slots 0, 1) and far piles (slots 2, 3) with their lengths."""
 
-    def __init__(self, n: int, device):
-        self.lists = [wp.empty(n, dtype=wp.int32, device=device) for _ in range(4)]
+    def __init__(self, n: int, device, capacity: int | None = None):
+        # a node sits in a list at most once, so lists need room for the usable nodes only
+        cap = n if capacity is None else max(1, capacity)
+        self.lists = [wp.empty(cap, dtype=wp.int32, device=device) for _ in range(4)]
         self.counts = wp.zeros(4, dtype=wp.int32, device=device)
         self.far_min = wp.full(1, math.inf, dtype=float, device=device)
         self.stamp = wp.zeros(n, dtype=wp.int32, device=device)
@@ -231,7 +233,7 @@ def shortest_paths(
     with wp.ScopedDevice(device):
         arrays = lattice.device_arrays(device)
         size = arrays.mask.shape[0]
-        fr = _Frontiers(size, device)
+        fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
             packed = wp.empty(size, dtype=wp.uint64)
             wp.launch(_k.init_state_kernel, dim=size, inputs=[arrays.mask], outputs=[packed])
@@ -325,6 +327,11 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
     With ``fifo`` (single-threaded devices), one launch empties the near list
     as a work queue, so a round is a whole bucket; otherwise a round relaxes
     one generation of the near list into the other.
+
+    ``stamp[node] == generation`` marks a node queued in the list being filled.
+    The work queue keeps one generation throughout (taking a node out clears
+    its stamp), so a node is queued at most once and the ring never holds more
+    than the usable nodes; generation rounds number each list they fill.
     """
     launches = _Launches(arrays, packed, fr, limit, fifo)
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
@@ -335,7 +342,7 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
         counts = fr.read()
         n_near = int(counts[near])
         if n_near:
-            generation += 1
+            generation = 1 if fifo else generation + 1
             if fifo:
                 launches.relax(near, far, 1, threshold, generation)
                 relaxed += int(fr.read()[near])
@@ -354,7 +361,7 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
         previous = threshold
         threshold = max(threshold + delta, fr.far_minimum() + delta)
         fr.reset_far_min()
-        generation += 1
+        generation = 1 if fifo else generation + 1
         fr.set_count(3 - far, 0)
         launches.split(near, far, fr.threads(n_far), previous, threshold, generation)
         fr.set_count(2 + far, 0)
