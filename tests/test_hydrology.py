@@ -98,8 +98,38 @@ def test_d8_accumulation_equals_brute_force_and_conserves_area():
     np.testing.assert_array_equal(area, want)
     ends = np.array([[rec[(r, c)] is None for c in range(15)] for r in range(12)])
     assert area[ends].sum() == z.size
+    # D-infinity splits flow but ends in the same cells (those without a lower neighbour)
+    dinf = hydrology.flow_accumulation(z, method="dinf")
+    assert np.isclose(dinf[ends].sum(), z.size) and (dinf >= 1).all()
     filled = hydrology.flow_accumulation(z, filled=True)
     assert filled.max() <= z.size and filled[ends].sum() >= 1
+
+
+def test_dinf_splits_flow_by_angle_and_conserves_area():
+    theta = np.deg2rad(30.0)
+    rows, cols = np.mgrid[0:6, 0:7]
+    z = rows * np.sin(theta) - cols * np.cos(theta)  # falls towards the east and the north
+    area = hydrology.flow_accumulation(z, method="dinf")
+    # reference: inside, 1 - 30/45 of a cell's area goes east and 30/45 north-east; the top row
+    # (no north-east) sends all east, the last column (no east) all north, into the corner (0, 6)
+    f = 30.0 / 45.0
+    want = np.ones(z.shape)
+    for i in np.argsort(-z.ravel(), kind="stable"):
+        r, c = divmod(int(i), 7)
+        if c < 6 and r > 0:
+            want[r, c + 1] += (1 - f) * want[r, c]
+            want[r - 1, c + 1] += f * want[r, c]
+        elif c < 6:
+            want[r, c + 1] += want[r, c]
+        elif r > 0:
+            want[r - 1, c] += want[r, c]
+    np.testing.assert_allclose(area, want, rtol=1e-9)
+    assert np.isclose(area[0, 6], z.size)
+    # on a cardinal slope D-infinity and D8 agree
+    zc = -cols.astype(float) + 1e-9 * rows
+    np.testing.assert_allclose(hydrology.flow_accumulation(zc, method="dinf"), hydrology.flow_accumulation(zc))
+    with pytest.raises(ValueError, match="method"):
+        hydrology.flow_accumulation(zc, method="mfd")
 
 
 def test_d8_on_a_tilted_plane_collects_along_rows():
