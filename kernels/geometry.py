@@ -84,7 +84,7 @@ def preview_kernel(
     half_extent: wp.vec2,
     depth: float,
     light: wp.vec3,
-    color: wp.vec3,
+    face_colors_in: wp.array(dtype=wp.vec3),
     background: wp.vec3,
     rgb_out: wp.array2d(dtype=wp.vec3),
 ):
@@ -103,6 +103,7 @@ def preview_kernel(
         key = wp.max(wp.dot(n, -light), 0.0)
         head = wp.max(wp.dot(n, -forward), 0.0)
         shade = 0.15 + 0.6 * key + 0.3 * head
+        color = face_colors_in[q.face]
         rgb_out[y, x] = wp.vec3(
             wp.min(color[0] * shade, 1.0), wp.min(color[1] * shade, 1.0), wp.min(color[2] * shade, 1.0)
         )

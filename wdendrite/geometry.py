@@ -387,41 +387,59 @@ def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -
         return out.numpy().reshape(shape)
 
 
+def _scene(mesh, color) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices, faces and per-face colours of one mesh or a list of meshes (one colour each)."""
+    meshes = list(mesh) if isinstance(mesh, (list, tuple)) else [mesh]
+    cols = np.asarray(color, np.float32)
+    if cols.ndim == 1:
+        cols = np.broadcast_to(cols, (len(meshes), cols.shape[0]))
+    if cols.shape != (len(meshes), 3) or not np.isfinite(cols).all():
+        raise ValueError(f"Expected 'color' as one RGB triple or one per mesh ({len(meshes)}), but got {color!r}")
+    vs, fs, cs, base = [], [], [], 0
+    for m, c in zip(meshes, cols):
+        v = np.asarray(getattr(m, "vertices", None), np.float64)
+        f = np.asarray(getattr(m, "faces", None))
+        if v.ndim != 2 or v.shape[1:] != (3,) or f.ndim != 2 or f.shape[1:] != (3,):
+            raise ValueError("Expected triangle meshes with (V, 3) 'vertices' and (F, 3) 'faces' for 'mesh'")
+        vs.append(v)
+        fs.append(f + base)
+        cs.append(np.broadcast_to(c, (len(f), 3)))
+        base += len(v)
+    faces = np.concatenate(fs)
+    if not len(faces):
+        raise ValueError("'mesh' has no faces: there is nothing to show")
+    return np.concatenate(vs), faces, np.concatenate(cs).astype(np.float32)
+
+
 def preview(
     mesh,
     *,
     size: tuple[int, int] = (480, 480),
     elevation: float = 25.0,
     azimuth: float = -60.0,
-    color: Sequence[float] = (0.82, 0.76, 0.66),
+    color: Sequence = (0.82, 0.76, 0.66),
     background: Sequence[float] = (1.0, 1.0, 1.0),
     device=None,
 ) -> np.ndarray:
     """A shaded picture of a mesh without a display (orthographic Warp ray casting).
 
     Args:
-        mesh: a :class:`trimesh.Trimesh` (or anything with ``vertices`` and ``faces``).
+        mesh: a :class:`trimesh.Trimesh` (anything with ``vertices`` and ``faces``), or a list of them.
         size: ``(H, W)`` pixels.
         elevation, azimuth: view direction in degrees (``z`` is up; azimuth from ``+x`` toward ``+y``).
-        color: surface RGB in [0, 1].
+        color: surface RGB in [0, 1], or one RGB per mesh of a list.
         background: RGB in [0, 1].
         device: Warp device (default: Warp's default device).
 
     Returns:
         ``(H, W, 3)`` float32 in [0, 1], ready for :func:`wdendrite.io.save_png`.
     """
-    verts = np.asarray(getattr(mesh, "vertices", None), np.float64)
-    faces = np.asarray(getattr(mesh, "faces", None))
-    if verts.ndim != 2 or verts.shape[1:] != (3,) or faces.ndim != 2 or faces.shape[1:] != (3,):
-        raise ValueError("Expected a triangle mesh with (V, 3) 'vertices' and (F, 3) 'faces' for 'mesh'")
-    if not len(faces):
-        raise ValueError("'mesh' has no faces: there is nothing to show")
+    verts, faces, face_colors = _scene(mesh, color)
     if len(size) != 2 or any(_int_arg("size", s, 1) <= 0 for s in size):
         raise ValueError(f"Expected 'size' as (H, W) positive ints, but got {size!r}")
-    col = np.asarray(color, np.float32)
     bg = np.asarray(background, np.float32)
-    if col.shape != (3,) or bg.shape != (3,):
-        raise ValueError(f"Expected RGB triples for 'color' and 'background', but got {color!r}, {background!r}")
+    if bg.shape != (3,):
+        raise ValueError(f"Expected an RGB triple for 'background', but got {background!r}")
     el, az = math.radians(float(elevation)), math.radians(float(azimuth))
     forward = -np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
     right = np.cross(forward, [0.0, 0.0, 1.0])
@@ -445,7 +463,7 @@ def preview(
         out = wp.empty((h, w), dtype=wp.vec3)
         wp.launch(_kg.preview_kernel, dim=(h, w),
                   inputs=[wmesh.id, wp.vec3(*center), wp.vec3(*forward), wp.vec3(*right), wp.vec3(*up),
-                          wp.vec2(ext_x, ext_y), depth, wp.vec3(*light), wp.vec3(*col.tolist()),
+                          wp.vec2(ext_x, ext_y), depth, wp.vec3(*light), wp.array(face_colors, dtype=wp.vec3),
                           wp.vec3(*bg.tolist())],
                   outputs=[out])
         return out.numpy()

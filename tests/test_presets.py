@@ -1,0 +1,146 @@
+"""Presets at small sizes: every model runs, is reproducible from its seed, and has the papers' properties."""
+
+import numpy as np
+import pytest
+
+from wdendrite import presets
+from wdendrite.geometry import surface_nodes
+from wdendrite.presets import LightningParams, Result
+
+SMALL_2D = {
+    "simple_dendrite": lambda s: presets.simple_dendrite((64, 64), endpoints=5, seed=s),
+    "fractal_grid": lambda s: presets.fractal_grid(40, alphas=(2.0, 1.5), betas=(2.0, 3.0), seed=s),
+    "dla_imitation": lambda s: presets.dla_imitation((80, 80), seed=s),
+    "weight_distributions": lambda s: presets.weight_distributions((48, 48), endpoints=5, seed=s),
+    "tropisms": lambda s: presets.tropisms((48, 48), endpoints=5, seed=s),
+    "competition": lambda s: presets.competition((64, 64), seed=s),
+    "letters": lambda s: presets.letters("Hi", height=40, seed=s),
+    "lightning": lambda s: presets.lightning((96, 96), params=LightningParams(forks=3, minor_forks=3), seed=s),
+    "width_demo": lambda s: presets.width_demo((64, 40), seed=s),
+    "taper_demo": lambda s: presets.taper_demo((64, 64), endpoints=3, seed=s),
+}
+SMALL_3D = {
+    "elm_tree": lambda s: presets.elm_tree((24, 24, 24), endpoints=5, seed=s),
+    "tropism_objects": lambda s: presets.tropism_objects((20, 20, 20), toward=("axis", "top"), endpoints=5, seed=s),
+    "staghorn_coral": lambda s: presets.staghorn_coral((16, 16, 16), endpoints=4, refine_n=3, seed=s),
+    "rock": lambda s: presets.rock((24, 24, 24), seed=s),
+    "lichen_on_rock": lambda s: presets.lichen_on_rock((32, 32, 32), count=3, seed=s),
+    "moss": lambda s: presets.moss((12, 24, 24), endpoints=20, seed=s),
+}
+CACHE = {}
+
+
+def run(name, seed=1):
+    key = (name, seed)
+    if key not in CACHE:
+        CACHE[key] = {**SMALL_2D, **SMALL_3D}[name](seed)
+    return CACHE[key]
+
+
+@pytest.mark.parametrize("name", sorted({**SMALL_2D, **SMALL_3D}))
+def test_preset_returns_a_picture_and_is_reproducible(name):
+    res = run(name)
+    assert isinstance(res, Result)
+    img = res.image
+    assert img.ndim == 3 and img.shape[2] == 3 and img.dtype == np.float32
+    assert 0.0 <= img.min() and img.max() <= 1.0
+    assert img.std() > 0.01  # not blank
+    again = {**SMALL_2D, **SMALL_3D}[name](1)
+    np.testing.assert_array_equal(again.image, img)
+    if res.dendrite is not None:
+        np.testing.assert_array_equal(again.dendrite.nodes, res.dendrite.nodes)
+    if name in SMALL_3D:
+        assert res.mesh is not None and len(res.mesh.faces) > 0
+
+
+def test_lightning_main_stroke_runs_from_the_top_to_the_bottom():
+    res = run("lightning")
+    den = res.dendrite
+    assert den.nodes[den.roots, 0].max() <= 3
+    assert den.nodes[:, 0].max() >= 96 - 4
+    # the stroke is bright, the sky between branches dark, and the halo wider than the core
+    v = res.parts["value"]
+    assert np.all(v[tuple(den.nodes.T)] > 0.99)
+    assert (v > 0.5).mean() < 0.3
+    assert (res.parts["glow"] > 0.02).sum() > (v > 0.5).sum()
+    second = res.parts["second"]
+    assert second is not None and len(second)
+
+
+def test_competing_dendrites_never_share_or_touch_nodes():
+    den = run("competition").dendrite
+    assert set(np.unique(den.label)) == {0, 1}
+    a = den.nodes[den.label == 0]
+    b = den.nodes[den.label == 1]
+    assert not ({tuple(p) for p in a} & {tuple(p) for p in b})
+
+
+def test_letter_paths_stay_inside_the_letters():
+    res = run("letters")
+    mask = res.parts["mask"]
+    assert mask[tuple(res.dendrite.nodes.T)].all()
+    custom = np.zeros((30, 30), bool)
+    custom[5:25, 10:14] = True
+    bar = presets.letters(mask=custom, seed=0)
+    assert custom[tuple(bar.dendrite.nodes.T)].all()
+
+
+def test_lichen_never_enters_the_rock_and_rock_mesh_is_closed():
+    res = run("lichen_on_rock")
+    inside = res.parts["costfield"].label == 0
+    surf = np.zeros_like(inside)
+    surf[tuple(surface_nodes(inside).T)] = True
+    interior = inside & ~surf
+    assert not interior[tuple(res.dendrite.nodes.T)].any()
+    assert surf[tuple(res.dendrite.nodes[res.dendrite.endpoints].T)].all()
+    assert res.parts["rock"].is_watertight
+    rock = run("rock")
+    assert rock.mesh.is_watertight and rock.mesh.volume > 0
+
+
+def test_moss_grows_from_the_plane_and_trees_from_their_root():
+    den = run("moss").dendrite
+    assert np.all(den.nodes[den.roots, 0] == 0)
+    elm = run("elm_tree")
+    assert elm.dendrite.nodes[elm.dendrite.roots].tolist() == [[1, 12, 12]]
+    assert elm.mesh.is_watertight
+
+
+def test_weight_distributions_n0_gives_straight_runs():
+    dens = run("weight_distributions").parts["dendrites"]
+    assert set(dens) == {0, 1, 4, 8}
+    steps = {}
+    for n, den in dens.items():
+        child = np.flatnonzero(den.parent >= 0)
+        step = den.nodes[den.parent[child]] - den.nodes[child]
+        # direction changes along paths: none but a few corners for n = 0, many for erratic weights
+        turns = 0
+        for p in den.paths():
+            d = np.diff(den.nodes[p], axis=0)
+            turns += int(np.any(d[1:] != d[:-1], axis=1).sum())
+        steps[n] = turns / max(len(child), 1)
+    assert steps[0] < steps[1] < steps[8]
+
+
+def test_coral_is_refined():
+    res = run("staghorn_coral")
+    assert res.dendrite.spacing == pytest.approx(1 / 3)
+    assert len(res.dendrite) > len(res.parts["coarse"])
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: presets.simple_dendrite((4, 4)), "shape"),
+        (lambda: presets.simple_dendrite((10, 10, 10)), "2D"),
+        (lambda: presets.elm_tree((30, 30)), "3D"),
+        (lambda: presets.simple_dendrite((32, 32), endpoints=0), "endpoints"),
+        (lambda: LightningParams(glow_radius=0), "glow_radius"),
+        (lambda: LightningParams(minor_gain=2.0), "minor_gain"),
+        (lambda: LightningParams(main_width=-1.0), "main_width"),
+        (lambda: presets.letters(mask=np.zeros((10, 10), bool)), "non-empty"),
+    ],
+)
+def test_bad_input(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()

@@ -1,0 +1,532 @@
+"""The papers' models, one call each (Xu & Mould 2007, constructive path planning, Xu 2008 thesis).
+
+Every preset is seeded, uses the papers' parameters by default (lattice
+sizes included), takes smaller sizes for quick runs, and returns a
+:class:`Result` holding the data and a picture::
+
+    res = wd.presets.lightning(seed=3)
+    wd.io.save_png("lightning.png", res.image)
+    res = wd.presets.elm_tree(shape=(40, 40, 40))
+    wd.io.save_mesh("elm.glb", res.mesh)
+
+Pictures of 2D models are ``(H, W, 3)`` float images (ink on paper, or
+light on a night sky); pictures of 3D models are ray-cast previews.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _checks
+from . import endpoints as _ep
+from . import geometry as _geo
+from . import render as _r
+from . import weights as _w
+from .dendrite import Dendrite, trace
+from .growth import FractalParams, grow
+from .lattice import Lattice
+from .refine import refine
+from .sssp import shortest_paths
+
+__all__ = [
+    "LightningParams",
+    "Result",
+    "competition",
+    "dla_imitation",
+    "elm_tree",
+    "fractal_grid",
+    "letters",
+    "lichen_on_rock",
+    "lightning",
+    "moss",
+    "rock",
+    "simple_dendrite",
+    "staghorn_coral",
+    "taper_demo",
+    "tropism_objects",
+    "tropisms",
+    "weight_distributions",
+    "width_demo",
+]
+
+_PAPER = (1.0, 1.0, 1.0)
+_ROCK = (0.62, 0.6, 0.57)
+_LICHEN = (0.78, 0.74, 0.32)
+_MOSS = (0.35, 0.55, 0.18)
+_WOOD = (0.55, 0.45, 0.33)
+_CORAL = (0.93, 0.72, 0.6)
+
+
+@dataclass(frozen=True)
+class Result:
+    """What a preset made: the picture and the data behind it."""
+
+    image: np.ndarray
+    """``(H, W, 3)`` float32 picture in [0, 1]."""
+    dendrite: Dendrite | None = None
+    """The main dendrite (None when the model has none, e.g. a rock)."""
+    mesh: object = None
+    """A :class:`trimesh.Trimesh` for 3D models, else None."""
+    parts: dict = field(default_factory=dict)
+    """Everything else worth keeping (further dendrites, lattices, cost fields, per-panel data)."""
+
+
+def _shape(shape, ndim: int) -> tuple[int, ...]:
+    s = _checks.lattice_shape(shape)
+    if len(s) != ndim:
+        raise ValueError(f"Expected a {ndim}D 'shape', but got {shape!r}")
+    if min(s) < 8:
+        raise ValueError(f"Expected at least 8 nodes per axis in 'shape', but got {shape!r}")
+    return s
+
+
+def _count(name: str, value, low: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"Expected an integer '{name}' >= {low}, but got {value!r}")
+    return int(value)
+
+
+def _ink(value: np.ndarray) -> np.ndarray:
+    """Dark strokes on white paper."""
+    v = np.clip(np.asarray(value, np.float32), 0.0, 1.0)
+    return np.repeat((1.0 - v)[..., None], 3, axis=2)
+
+
+def _drawing(den: Dendrite, width=1.6) -> np.ndarray:
+    return _ink(_r.brightness(den, width, metric="euclidean"))
+
+
+def _tile(panels: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:
+    """Panels of one size in a grid with white gaps."""
+    h, w = panels[0].shape[:2]
+    rows = math.ceil(len(panels) / columns)
+    out = np.ones((rows * h + (rows - 1) * gap, columns * w + (columns - 1) * gap, 3), np.float32)
+    for i, p in enumerate(panels):
+        r, c = divmod(i, columns)
+        out[r * (h + gap): r * (h + gap) + h, c * (w + gap): c * (w + gap) + w] = p
+    return out
+
+
+def _mean_weight(lat: Lattice) -> float:
+    return float(lat.weights[0].mean())
+
+
+# --------------------------------------------------------------------------- 2D dendrites
+
+
+def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, seed: int = 0) -> Result:
+    """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints)."""
+    shape = _shape(shape, 2)
+    lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
+    gen = np.array([[shape[0] // 2, shape[1] // 2]])
+    cf = shortest_paths(lat, gen)
+    den = trace(cf, _ep.random(lat, _count("endpoints", endpoints), seed=seed))
+    return Result(_drawing(den), den, parts={"lattice": lat})
+
+
+def _fractal_params(cell: int, mean: float, alpha: float, beta: float, iterations: int, count: int) -> FractalParams:
+    d = 0.4 * cell * mean
+    # epsilon between the last and the next d, so the schedule has exactly `iterations` steps
+    eps = d / alpha ** (iterations - 0.5)
+    return FractalParams(count=count, d=d, alpha=alpha, beta=beta, epsilon=eps)
+
+
+def fractal_grid(
+    cell: int = 170,
+    *,
+    alphas=(2.0, 1.5, 1.2),
+    betas=(2.0, 3.0, 4.0),
+    iterations: int = 3,
+    count: int = 4,
+    seed: int = 0,
+) -> Result:
+    """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8)."""
+    cell = _count("cell", cell, 16)
+    panels, dens = [], {}
+    for b in betas:
+        for a in alphas:
+            lat = Lattice((cell, cell), 8, weights=_w.Uniform(r=10, seed=seed))
+            p = _fractal_params(cell // 2, _mean_weight(lat), a, b, _count("iterations", iterations), count)
+            den = grow(lat, [[cell // 2, cell // 2]], p, seed=seed)
+            dens[(a, b)] = den
+            panels.append(_drawing(den, 1.2))
+    return Result(_tile(panels, len(alphas)), dens[(alphas[0], betas[0])], parts={"dendrites": dens})
+
+
+def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
+                  seed: int = 0) -> Result:
+    """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations)."""
+    shape = _shape(shape, 2)
+    lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
+    p = _fractal_params(min(shape) // 2, _mean_weight(lat), alpha, beta, _count("iterations", iterations), count)
+    den = grow(lat, [[shape[0] // 2, shape[1] // 2]], p, seed=seed)
+    return Result(_drawing(den, 1.0), den, parts={"lattice": lat, "params": p})
+
+
+def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band: bool = False):
+    """One drawing per weight distribution; endpoints fixed, or (``band``) on one cost contour of each field."""
+    gen = np.array([[shape[0] // 2, shape[1] // 2]])
+    ep = _ep.random(shape, endpoints, seed=seed, min_spacing=min(shape) / 12)
+    panels, dens = [], []
+    for dist in distributions:
+        lat = Lattice(shape, 8, weights=dist)
+        cf = shortest_paths(lat, gen)
+        if band:
+            # the contour is stretched toward the cheap side, and so is the dendrite
+            d = float(np.quantile(cf.dist[np.isfinite(cf.dist)], 0.25))
+            ep = _ep.in_band(cf, endpoints, d, 0.08 * d, seed=seed, min_spacing=min(shape) / 20)
+        den = trace(cf, ep)
+        dens.append(den)
+        panels.append(_drawing(den, 1.2))
+    return panels, dens
+
+
+def _polynomial(shape, n: float, seed: int):
+    """``W = 1 + v^n`` (thesis section 4.2); for n > 4, v is drawn from (0, 100^(4/n)) instead of (0, 100).
+
+    Float32 path costs cannot resolve weights spanning 1e16 (n = 8): cheap edges
+    vanish in the sums and backtracking meets ties. Capping the largest weight
+    at 1e8 (as for n = 4) keeps every edge visible and the paths just as erratic.
+    """
+    if n <= 4:
+        return _w.Polynomial(n=n, seed=seed)
+    lengths = Lattice((2, 2), 8).lengths
+    v = np.random.default_rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
+    return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
+
+
+def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 20, seed: int = 0) -> Result:
+    """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic."""
+    shape = _shape(shape, 2)
+    panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed) for n in ns],
+                                      _count("endpoints", endpoints), seed)
+    return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
+
+
+def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), strength: float = 12.0,
+             endpoints: int = 20, seed: int = 0) -> Result:
+    """Spatially biased weights (constructive path planning): endpoints on one cost contour, which the
+    bias stretches toward the cheap side, so each dendrite grows toward it."""
+    shape = _shape(shape, 2)
+    dists = [_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength) for t in toward]
+    panels, dens = _panels_of_weights(shape, dists, _count("endpoints", endpoints), seed, band=True)
+    return Result(_tile(panels, len(dists)), dens[0], parts={"dendrites": dict(zip(toward, dens))})
+
+
+def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
+    """Two dendrites grown at once compete for space and never touch (2007 paper, Fig. 14; thesis Fig. 5.3)."""
+    shape = _shape(shape, 2)
+    lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
+    gens = np.array([[shape[0] // 2, shape[1] // 3], [shape[0] // 2, 2 * shape[1] // 3]])
+    p = _fractal_params(min(shape) // 3, _mean_weight(lat), 1.5, 3.0, 3, _count("count", count, 2))
+    den = grow(lat, gens, p, seed=seed)
+    colours = [np.array([0.75, 0.3, 0.1]), np.array([0.1, 0.35, 0.7])]
+    img = np.ones((*shape, 3), np.float32)
+    for k, c in enumerate(colours):
+        rows = np.flatnonzero(den.label == k)
+        if len(rows):
+            v = _r.brightness(den, 1.4, rows=rows, metric="euclidean")
+            img -= v[..., None] * (1.0 - c)
+    return Result(np.clip(img, 0, 1), den, parts={"lattice": lat})
+
+
+def _text_mask(text: str, height: int) -> np.ndarray:
+    from PIL import Image, ImageDraw, ImageFont
+
+    try:
+        font = ImageFont.load_default(size=max(8, int(height * 0.8)))
+    except TypeError:  # Pillow without FreeType: the small bitmap font, scaled up below
+        font = ImageFont.load_default()
+    left, top, right, bottom = ImageDraw.Draw(Image.new("L", (1, 1))).textbbox((0, 0), text, font=font)
+    img = Image.new("L", (right - left + 8, bottom - top + 8), 0)
+    ImageDraw.Draw(img).text((4 - left, 4 - top), text, fill=255, font=font)
+    scale = height / img.height
+    img = img.resize((max(1, round(img.width * scale)), height), Image.BILINEAR)
+    return np.asarray(img) > 127
+
+
+def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000: float = 6.0, seed: int = 0) -> Result:
+    """Dendritic letters: paths fill letter-shaped regions (2007 paper, Fig. 13; thesis Figs. 5.5-5.6).
+
+    Args:
+        text: the word, drawn with Pillow's default font (ignored when ``mask`` is given).
+        height: lattice height in nodes (the thesis used 300^2 per letter).
+        mask: optional ``(H, W)`` bool array of the shape to fill instead of text.
+        paths_per_1000: endpoints per 1000 usable nodes (600 paths in a 300^2 letter is about 6-7).
+        seed: seed of the weights and the endpoints.
+    """
+    from scipy import ndimage
+
+    region = _text_mask(str(text), _count("height", height, 16)) if mask is None else _checks.bool_array(
+        "mask", mask, np.shape(mask))
+    if region.ndim != 2 or not region.any():
+        raise ValueError("Expected a non-empty 2D letter region ('text' or 'mask')")
+    lat = Lattice(region.shape, 8, weights=_w.Uniform(r=10, seed=seed), mask=region)
+    parts, n = ndimage.label(region)
+    gens = []
+    for k in range(1, n + 1):
+        pts = np.argwhere(parts == k)
+        # each letter part grows from its node nearest to the part's centre
+        gens.append(pts[np.argmin(((pts - pts.mean(axis=0)) ** 2).sum(axis=1))])
+    cf = shortest_paths(lat, np.array(gens))
+    m = max(1, int(region.sum() * _checks.positive("paths_per_1000", paths_per_1000) / 1000.0))
+    den = trace(cf, _ep.random(lat, min(m, int(region.sum())), seed=seed))
+    return Result(_drawing(den, 1.0), den, parts={"mask": region, "lattice": lat})
+
+
+# --------------------------------------------------------------------------- lightning and widths
+
+
+@dataclass(frozen=True)
+class LightningParams:
+    """The papers' lightning: two 2D graphs with power weights, tapering, glow (constructive path planning, Fig. 9)."""
+
+    alpha: float = 3.0
+    """Exponent of the power weights ``R^alpha`` (3: erratic strokes)."""
+    forks: int = 9
+    """Endpoints of side branches in the first graph (besides the main stroke's), >= 0."""
+    minor_forks: int = 14
+    """Endpoints of the second graph, which holds only side branches, >= 0."""
+    main_width: _r.Taper = _r.Taper(2.6, 1.8, along="path")
+    """Width of the main stroke: thick and nearly constant."""
+    fork_width: _r.Taper = _r.Taper(1.9, 0.45, along="branch")
+    """Width of the first graph's side branches: they taper visibly."""
+    minor_width: _r.Taper = _r.Taper(1.3, 0.35, along="path")
+    """Width of the second graph's branches."""
+    minor_gain: float = 0.8
+    """Brightness of the second graph relative to the first, in [0, 1]."""
+    glow_radius: float = 14.0
+    """Blur radius of the halo (pixels), > 0."""
+    glow_gain: float = 1.4
+    """Strength of the halo, >= 0."""
+
+    def __post_init__(self):
+        _checks.positive("alpha", self.alpha)
+        _count("forks", self.forks, 0)
+        _count("minor_forks", self.minor_forks, 0)
+        for name in ("main_width", "fork_width", "minor_width"):
+            w = getattr(self, name)
+            if not isinstance(w, _r.Taper):
+                _checks.positive(name, w)
+        gain = _checks.nonnegative("minor_gain", self.minor_gain, allow_none=False)
+        if gain > 1:
+            raise ValueError(f"Expected 'minor_gain' in [0, 1], but got {self.minor_gain!r}")
+        _checks.positive("glow_radius", self.glow_radius)
+        _checks.nonnegative("glow_gain", self.glow_gain, allow_none=False)
+
+
+def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed) -> np.ndarray:
+    """Endpoints near the main stroke, denser lower in the image (2007 paper, section 4)."""
+    from scipy import ndimage
+
+    h, w = lat.shape
+    free = np.ones(lat.shape, bool)
+    free[tuple(stroke.nodes.T)] = False
+    near = ndimage.distance_transform_edt(free) < 0.22 * w
+    near[: h // 5] = False
+    return _ep.biased(lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near,
+                      min_spacing=0.04 * min(h, w))
+
+
+def _sky(shape) -> np.ndarray:
+    y = np.linspace(0.0, 1.0, shape[0], dtype=np.float32)[:, None, None]
+    top, bottom = np.array([0.05, 0.05, 0.12], np.float32), np.array([0.01, 0.01, 0.03], np.float32)
+    return np.broadcast_to(top * (1 - y) + bottom * y, (*shape, 3)).copy()
+
+
+def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), seed: int = 0) -> Result:
+    """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; 2007 paper, Fig. 14).
+
+    The first graph holds the main stroke, from a generator at the top to an
+    endpoint at the bottom, plus forks near it; the second graph, with other
+    weights, holds only side branches, grown from the main stroke's nodes. Their brightness images are combined,
+    given a halo and lit over a night sky. ``parts`` holds both dendrites,
+    the core brightness ``"value"`` and the halo ``"glow"``.
+    """
+    shape = _shape(shape, 2)
+    if not isinstance(params, LightningParams):
+        raise TypeError(f"Expected LightningParams for 'params', but got {type(params).__name__}")
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    gen = np.array([[2, int(w * rng.uniform(0.4, 0.6))]])
+    lat1 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
+    cf1 = shortest_paths(lat1, gen)
+    main = trace(cf1, [[h - 3, int(w * rng.uniform(0.3, 0.7))]])
+    first = trace(cf1, _forks_near(lat1, main, params.forks, rng), extend=main) if params.forks else main
+    v1 = _r.brightness(first, params.main_width, side=params.fork_width)
+    layers, gains, second, lat2 = [v1], [1.0], None, None
+    if params.minor_forks:
+        lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
+        # the second graph's branches leave the main stroke (its nodes are the generators) below the cloud
+        stem = main.nodes[main.nodes[:, 0] > 0.12 * h]
+        second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng))
+        layers.append(_r.brightness(second, params.minor_width))
+        gains.append(params.minor_gain)
+    value = _r.composite(layers, mode="max", gains=gains)
+    halo = _r.glow(value, radius=params.glow_radius) * params.glow_gain
+    img = _r.colorize(value, colormap="lightning", glow=halo, background=_sky(shape))
+    return Result(img, first, parts={"second": second, "value": value, "glow": halo, "lattices": (lat1, lat2)})
+
+
+def _one_path(shape, r: float, seed: int) -> tuple[Dendrite, Lattice]:
+    lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
+    den = trace(shortest_paths(lat, [[4, shape[1] // 2]]), [[shape[0] - 5, shape[1] // 2]])
+    return den, lat
+
+
+def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
+    """One path at several widths: T = 5.0 (with a halo) and 1.6, and the thesis' factors 0.6 and 0.2
+    with ``exp(-a (c Ts)^2)``, a = 1/10000, clamped above 0.7 (constructive path planning Fig. 3, thesis Fig. 4.9)."""
+    shape = _shape(shape, 2)
+    den, _ = _one_path(shape, 10.0, seed)
+    thesis_den, thesis_lat = _one_path(shape, 100.0, seed)
+    values = [_r.brightness(den, 5.0), _r.brightness(den, 1.6)]
+    values += [_r.brightness(thesis_den, _r.thesis_width(k), metric="path", lattice=thesis_lat, clamp=0.7)
+               for k in (0.6, 0.2)]
+    panels = [_r.colorize(v, colormap="lightning") for v in values]
+    return Result(_tile(panels, 4), den, parts={"values": values, "thesis_dendrite": thesis_den})
+
+
+def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
+               seed: int = 0) -> Result:
+    """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4)."""
+    shape = _shape(shape, 2)
+    lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))
+    cf = shortest_paths(lat, [[3, shape[1] // 2]])
+    ep = _ep.biased(lat, _count("endpoints", endpoints), seed=seed, power=2.0, within=_ep.Box(
+        (shape[0] // 2, 2), (shape[0] - 3, shape[1] - 3)))
+    den = trace(cf, ep)
+    widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
+    values = [_r.brightness(den, wd_) for wd_ in widths]
+    panels = [_r.colorize(v, colormap="lightning") for v in values]
+    return Result(_tile(panels, 3), den, parts={"values": values})
+
+
+# --------------------------------------------------------------------------- 3D models
+
+
+def _tree_mesh(den: Dendrite, radius, side, geometry: str):
+    if geometry == "spheres":
+        return _geo.spheres(den, radius, side=side)
+    if geometry == "tubes":
+        return _geo.tubes(den, radius, side=side)
+    if geometry == "isosurface":
+        return _geo.isosurface(den, radius, side=side, smooth=5)
+    raise ValueError(f"Expected 'geometry' in ('spheres', 'tubes', 'isosurface'), but got {geometry!r}")
+
+
+def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes", seed: int = 0) -> Result:
+    """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
+    (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small)."""
+    shape = _shape(shape, 3)
+    d, h, w = shape
+    lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
+    crown = _ep.Disc((0.72 * d, h / 2, w / 2), 0.42 * min(h, w)).mask(shape)
+    crown[: int(0.45 * d)] = False
+    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
+                _ep.random(lat, _count("endpoints", endpoints), within=crown, seed=seed, min_spacing=0.08 * d))
+    scale = d / 80.0
+    radius = _r.Taper(2.4 * scale, 0.6 * scale, beta=0.3, along="path")
+    side = _r.Taper(1.5 * scale, 0.35 * scale, beta=0.2, along="branch")
+    mesh = _tree_mesh(den, radius, side, geometry)
+    return Result(_geo.preview(mesh, color=_WOOD, elevation=10), den, mesh, parts={"lattice": lat})
+
+
+def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "top"), strength: float = 3.0,
+                    endpoints: int = 24, seed: int = 0) -> Result:
+    """3D objects from spatially varying weights (constructive path planning Fig. 5): the same endpoints, biased
+    toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``."""
+    shape = _shape(shape, 3)
+    d, h, w = shape
+    ep = _ep.random(shape, _count("endpoints", endpoints), within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)),
+                    seed=seed, min_spacing=0.08 * d)
+    pics, meshes, dens = [], {}, {}
+    for t in toward:
+        lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength))
+        den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ep)
+        mesh = _geo.tubes(den, _r.Taper(1.6 * d / 60, 0.4 * d / 60, along="path"), sides=6)
+        dens[t], meshes[t] = den, mesh
+        pics.append(_geo.preview(mesh, size=(320, 320), color=_WOOD, elevation=10))
+    return Result(_tile(pics, len(pics)), dens[toward[0]], meshes[toward[0]], parts={"dendrites": dens,
+                                                                                     "meshes": meshes})
+
+
+def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
+    """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
+    (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
+    shape = _shape(shape, 3)
+    d, h, w = shape
+    lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
+    dome = _ep.Disc((0.1 * d, h / 2, w / 2), 0.85 * d).mask(shape) & ~_ep.Disc((0.1 * d, h / 2, w / 2), 0.55 * d).mask(shape)
+    dome[: int(0.3 * d)] = False
+    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
+                _ep.random(lat, _count("endpoints", endpoints), within=dome, seed=seed, min_spacing=0.12 * d))
+    coarse = den
+    if refine_n:
+        den, _ = refine(den, lat, n=refine_n, seed=seed)
+    scale = d / 50.0
+    mesh = _geo.tubes(den, _r.Taper(1.6 * scale, 0.7 * scale, along="path"), sides=8)
+    return Result(_geo.preview(mesh, color=_CORAL, elevation=15), den, mesh, parts={"coarse": coarse, "lattice": lat})
+
+
+def _rock_field(shape, neighbours: int, seed: int):
+    """Label segmentation with one generator in the middle and others around it (2007 paper, section 3.4)."""
+    rng = np.random.default_rng(seed)
+    lat = Lattice(shape, 6, weights=_w.Uniform(r=10, seed=seed))
+    c = (np.asarray(shape) - 1) / 2.0
+    dirs = rng.normal(size=(neighbours, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    ring = np.clip(np.round(c + dirs * 0.42 * np.asarray(shape)), 0, np.asarray(shape) - 1).astype(np.int64)
+    gens = np.concatenate([np.round(c).astype(np.int64)[None], ring])
+    return lat, shortest_paths(lat, gens)
+
+
+def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: int = 0) -> Result:
+    """A "rock": the region of the lattice nearest (in path cost) to a central generator, meshed
+    (2007 paper, Fig. 10 and Table 2: 128^3)."""
+    shape = _shape(shape, 3)
+    lat, cf = _rock_field(shape, _count("neighbours", neighbours, 4), seed)
+    mesh = _geo.region_mesh(cf.label, 0, smooth=smooth)
+    return Result(_geo.preview(mesh, color=_ROCK), None, mesh, parts={"costfield": cf, "lattice": lat})
+
+
+def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 8, seed: int = 0) -> Result:
+    """Lichen grown over a rock: generator and endpoints on the rock's surface, its interior forbidden
+    (2007 paper, Fig. 16 and Table 2: 128^3). The mesh holds the rock and the lichen."""
+    import trimesh
+
+    shape = _shape(shape, 3)
+    lat, cf = _rock_field(shape, _count("neighbours", neighbours, 4), seed)
+    inside = cf.label == 0
+    surf = _geo.surface_nodes(inside)
+    on_surface = np.zeros(shape, bool)
+    on_surface[tuple(surf.T)] = True
+    allowed = ~inside | on_surface
+    lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed + 1), mask=allowed)
+    top = surf[np.argmax(surf[:, 0] - 0.3 * np.abs(surf[:, 1:] - np.asarray(shape[1:]) / 2).sum(axis=1))]
+    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, _count("count", count))
+    den = grow(lichen_lat, [top], p, seed=seed, within=on_surface)
+    rock_mesh = _geo.region_mesh(cf.label, 0, smooth=6)
+    scale = min(shape) / 128.0
+    lichen_mesh = _geo.tubes(den, _r.Taper(1.1 * scale + 0.3, 0.5 * scale + 0.2, along="path"), sides=6)
+    img = _geo.preview([rock_mesh, lichen_mesh], color=[_ROCK, _LICHEN])
+    mesh = trimesh.util.concatenate([rock_mesh, lichen_mesh])
+    return Result(img, den, mesh, parts={"rock": rock_mesh, "lichen": lichen_mesh, "costfield": cf,
+                                         "lattice": lichen_lat})
+
+
+def moss(shape=(40, 96, 96), *, endpoints: int = 400, seed: int = 0) -> Result:
+    """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15)."""
+    shape = _shape(shape, 3)
+    d, h, w = shape
+    lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
+    yy, xx = np.mgrid[:h, :w]
+    plane = np.stack([np.zeros(h * w, np.int64), yy.ravel(), xx.ravel()], axis=1)
+    cf = shortest_paths(lat, plane)
+    band = _ep.Box((0.35 * d, 1, 1), (0.9 * d, h - 2, w - 2))
+    den = trace(cf, _ep.random(lat, _count("endpoints", endpoints), within=band, seed=seed, min_spacing=2.0))
+    mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)
+    return Result(_geo.preview(mesh, color=_MOSS, elevation=35), den, mesh, parts={"lattice": lat})
