@@ -161,3 +161,23 @@ def test_bad_trace_arguments():
         wd.trace(np.zeros((8, 8)), [[1, 1]])
     with pytest.raises(TypeError, match="extend"):
         wd.trace(cf, [[1, 1]], extend="x")
+
+
+def test_paths_never_cross_once_met_they_share_the_rest():
+    # a forest: two paths that share a node share every node after it, and on a
+    # 4-connected lattice edges are unit segments that can only meet at shared nodes.
+    # (On 8/26-connected lattices two diagonal edges of different paths can still cross
+    # inside one lattice cell; the forest property below holds there too.)
+    for conn in (4, 8):
+        lat = wd.Lattice((50, 50), conn, weights=wd.weights.Uniform(seed=6))
+        cf = wd.shortest_paths(lat, [[25, 25], [5, 40]])
+        den = wd.trace(cf, wd.endpoints.random(lat, 40, seed=1))
+        paths = [list(p) for p in den.paths()]
+        for i in range(len(paths)):
+            for j in range(i):
+                shared = set(paths[i]) & set(paths[j])
+                if shared:
+                    first = next(n for n in paths[i] if n in shared)
+                    assert paths[i][paths[i].index(first):] == paths[j][paths[j].index(first):]
+                else:
+                    assert den.label[paths[i][-1]] != den.label[paths[j][-1]] or paths[i][-1] != paths[j][-1]
