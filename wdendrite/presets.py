@@ -291,7 +291,8 @@ class LightningParams:
     minor_forks: int = 14
     """Endpoints of the second graph, which holds only side branches, >= 0."""
     main_width: _r.Taper = _r.Taper(2.6, 1.8, along="path")
-    """Width of the main stroke: thick and nearly constant."""
+    """Width of the main stroke: thick and nearly constant. Widths and the glow radius are pixels of a
+    600^2 picture and scale with the picture's smaller side (by at least 0.5)."""
     fork_width: _r.Taper = _r.Taper(1.9, 0.45, along="branch")
     """Width of the first graph's side branches: they taper visibly."""
     minor_width: _r.Taper = _r.Taper(1.3, 0.35, along="path")
@@ -337,12 +338,18 @@ def _sky(shape) -> np.ndarray:
     return np.broadcast_to(top * (1 - y) + bottom * y, (*shape, 3)).copy()
 
 
+def _scaled(width, s: float):
+    if isinstance(width, _r.Taper):
+        return _r.Taper(width.start * s, width.end * s, width.beta, width.along)
+    return float(width) * s
+
+
 def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), seed: int = 0) -> Result:
     """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; 2007 paper, Fig. 14).
 
     The first graph holds the main stroke, from a generator at the top to an
     endpoint at the bottom, plus forks near it; the second graph, with other
-    weights, holds only side branches, grown from the main stroke's nodes. Their brightness images are combined,
+    weights, holds only side branches, grown from the upper main stroke. Their brightness images are combined,
     given a halo and lit over a night sky. ``parts`` holds both dendrites,
     the core brightness ``"value"`` and the halo ``"glow"``.
     """
@@ -356,17 +363,20 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     cf1 = shortest_paths(lat1, gen)
     main = trace(cf1, [[h - 3, int(w * rng.uniform(0.3, 0.7))]])
     first = trace(cf1, _forks_near(lat1, main, params.forks, rng), extend=main) if params.forks else main
-    v1 = _r.brightness(first, params.main_width, side=params.fork_width)
+    # the papers' widths are for 600^2 pictures; keep the look at other sizes
+    s = max(min(h, w) / 600.0, 0.5)
+    v1 = _r.brightness(first, _scaled(params.main_width, s), side=_scaled(params.fork_width, s))
     layers, gains, second, lat2 = [v1], [1.0], None, None
     if params.minor_forks:
         lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
-        # the second graph's branches leave the main stroke (its nodes are the generators) below the cloud
-        stem = main.nodes[main.nodes[:, 0] > 0.12 * h]
+        # the second graph's branches leave the upper main stroke (its nodes are the generators) and
+        # travel down to endpoints lower in the picture, crossing the first graph's branches
+        stem = main.nodes[(main.nodes[:, 0] > 0.06 * h) & (main.nodes[:, 0] < 0.4 * h)]
         second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng))
-        layers.append(_r.brightness(second, params.minor_width))
+        layers.append(_r.brightness(second, _scaled(params.minor_width, s)))
         gains.append(params.minor_gain)
     value = _r.composite(layers, mode="max", gains=gains)
-    halo = _r.glow(value, radius=params.glow_radius) * params.glow_gain
+    halo = _r.glow(value, radius=params.glow_radius * s) * params.glow_gain
     img = _r.colorize(value, colormap="lightning", glow=halo, background=_sky(shape))
     return Result(img, first, parts={"second": second, "value": value, "glow": halo, "lattices": (lat1, lat2)})
 
