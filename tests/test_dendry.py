@@ -333,3 +333,13 @@ def test_bad_dendry_input_raises_before_any_kernel(kw, match):
 def test_bad_points_raise(pts, match):
     with pytest.raises((ValueError, TypeError), match=match):
         dendry_points(pts, domain=DOMAIN, params=DendryParams(), control=CTL)
+
+
+def test_default_control_is_the_authors_interactive_perlin(device):
+    from wdendrite.dendry import default_control
+
+    p = DendryParams(levels=2)
+    a = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, device=device)
+    b = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, control=default_control(), device=device)
+    assert np.array_equal(a, b)
+    assert default_control().domain == ((-0.2, -0.5), (1.4, 0.7))

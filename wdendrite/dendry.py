@@ -27,6 +27,7 @@ Pixel ``(row, col)`` of an ``(H, W)`` image over ``((x0, y0), (x1, y1))`` sits a
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -35,10 +36,10 @@ import numpy as np
 import warp as wp
 
 from ._checks import fits_in_memory, lattice_shape
-from .control import Control, rectangle
+from .control import Control, perlin, rectangle
 from .kernels import dendry as _kd
 
-__all__ = ["DendryParams", "dendry", "dendry_points"]
+__all__ = ["DendryParams", "default_control", "dendry", "dendry_points"]
 
 Output = Literal["distance", "elevation", "level"]
 Mode = Literal["cached", "pixel"]
@@ -188,14 +189,25 @@ def _check_output_mode(output, mode):
         raise ValueError(f"Expected 'mode' in {_MODES}, but got {mode!r}")
 
 
+_DEFAULT_CONTROL_DOMAIN = ((-0.2, -0.5), (1.4, 0.7))
+
+
+@functools.lru_cache(maxsize=1)
+def default_control() -> Control:
+    """Perlin noise on x in [-0.2, 1.4], y in [-0.5, 0.7]: the authors' interactive default control."""
+    return perlin(domain=_DEFAULT_CONTROL_DOMAIN)
+
+
 def _check_common(params, control, domain, control_domain):
+    """Validate the arguments shared by :func:`dendry` and :func:`dendry_points` (no kernel runs)."""
     if not isinstance(params, DendryParams):
         raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
-    if not isinstance(control, Control):
+    if control is not None and not isinstance(control, Control):
         raise TypeError(f"Expected a wdendrite.control.Control for 'control', but got {type(control).__name__}")
     domain = rectangle("domain", domain)
-    control_domain = control.domain if control_domain is None else rectangle("control_domain", control_domain)
-    return domain, control_domain
+    if control_domain is None:
+        control_domain = control.domain if control is not None else _DEFAULT_CONTROL_DOMAIN
+    return domain, rectangle("control_domain", control_domain)
 
 
 def _window(window, shape) -> tuple[int, int, int, int]:
@@ -304,7 +316,7 @@ def dendry(
     *,
     domain,
     params: DendryParams,
-    control: Control,
+    control: Control | None = None,
     output: Output = "distance",
     window=None,
     mode: Mode = "cached",
@@ -317,7 +329,8 @@ def dendry(
         shape: (H, W) of the whole image.
         domain: ((x0, y0), (x1, y1)) rectangle the image covers, in domain units.
         params: the :class:`DendryParams`.
-        control: a control function from :mod:`wdendrite.control`.
+        control: a control function from :mod:`wdendrite.control`; None uses
+            :func:`default_control` (the authors' interactive default).
         output: ``"distance"`` (domain units, inf where no branch exists), ``"elevation"``
             (control units) or ``"level"`` (1..n of the nearest branch, 0 where none).
         window: (row0, col0, h, w) to compute only that region; None for the whole image.
@@ -340,6 +353,7 @@ def dendry(
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
     r0, c0, h, w = _window(window, shape)
+    control = default_control() if control is None else control
     device = wp.get_device(device)
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
@@ -373,7 +387,7 @@ def dendry_points(
     *,
     domain,
     params: DendryParams,
-    control: Control,
+    control: Control | None = None,
     output: Output = "distance",
     control_domain=None,
     device=None,
@@ -399,6 +413,7 @@ def dendry_points(
         raise ValueError(f"'points' must be finite, but row {int(np.argmax(bad))} is {pts[np.argmax(bad)].tolist()}")
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, "pixel")
+    control = default_control() if control is None else control
     device = wp.get_device(device)
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)

@@ -17,6 +17,7 @@ Example::
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -144,7 +145,7 @@ def _dinf_receivers(z: np.ndarray):
     return np.stack([rec1, rec2]), np.stack([1.0 - frac2, frac2])
 
 
-def flow_accumulation(elevation, *, method: str = "d8", filled: bool = False) -> np.ndarray:
+def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled: bool = False) -> np.ndarray:
     """Drainage area: how many cells (itself included) drain through each cell.
 
     ``"d8"``: every cell passes its area to the neighbour of steepest descent (diagonals at
