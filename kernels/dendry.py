@@ -11,12 +11,13 @@ Storage. A *block* is a rectangle of cells of one level, ``vec4i(i0, j0, ni, nj)
 where its cells start in the flat arrays:
 
 - L = 0: level-1 key points (``pts1``: x, y, z, valid), two cells wider than L = 1;
-- L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: 5 polyline
-  vertices x, y, z per cell, upstream first);
+- L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: per cell, up
+  to 5 polyline vertices x, y, z, upstream first, then a circle holding them);
 - L = 7: terrain primitives (``prims``: x, y, h).
 
 In the cached mode one slot (0) covers a whole window and each stage is one
-launch over its cells; in the per-pixel mode each thread owns a slot, plans
+launch over its cells; in the per-pixel mode each thread uses a slot of its own
+(shared in turn on the CPU, which runs a launch's threads one by one), plans
 blocks just around its pixel and fills them itself with the same functions.
 The module is longer than most because both modes must share every function
 that decides a value: that sharing is what makes them agree bit for bit.
