@@ -106,13 +106,14 @@ def push_near(
 
 
 @wp.kernel
-def init_state_kernel(mask: wp.array(dtype=wp.uint8), packed_out: wp.array(dtype=wp.uint64)):
-    """Unreached usable nodes, blocked (word 0) masked and border nodes."""
-    i = wp.tid()
-    if mask[i] != wp.uint8(0):
-        packed_out[i] = UNREACHED
-    else:
-        packed_out[i] = wp.uint64(0)
+def init_state_kernel(mask: wp.array(dtype=wp.uint8), chunk: int, packed_out: wp.array(dtype=wp.uint64)):
+    """Unreached usable nodes, blocked (word 0) masked and border nodes; ``chunk`` nodes per thread."""
+    start = wp.tid() * chunk
+    for i in range(start, wp.min(start + chunk, mask.shape[0])):
+        if mask[i] != wp.uint8(0):
+            packed_out[i] = UNREACHED
+        else:
+            packed_out[i] = wp.uint64(0)
 
 
 @wp.kernel
@@ -308,16 +309,21 @@ def unpack_kernel(
     shape: wp.vec3i,
     pad: wp.vec3i,
     limit: float,
+    chunk: int,
     dist_out: wp.array(dtype=float),
     label_out: wp.array(dtype=wp.int32),
 ):
-    """Split the padded packed states into costs (inf when unreached or above ``limit``) and labels (-1)."""
-    i = wp.tid()
-    p = padded_index(i, shape, pad)
-    word = packed[p]
-    if word == UNREACHED or mask[p] == wp.uint8(0) or packed_cost(word) > limit:
-        dist_out[i] = wp.inf
-        label_out[i] = -1
-    else:
-        dist_out[i] = packed_cost(word)
-        label_out[i] = packed_label(word)
+    """Split the padded packed states into costs (inf when unreached or above ``limit``) and labels (-1).
+
+    Each thread handles ``chunk`` consecutive nodes.
+    """
+    start = wp.tid() * chunk
+    for i in range(start, wp.min(start + chunk, dist_out.shape[0])):
+        p = padded_index(i, shape, pad)
+        word = packed[p]
+        if word == UNREACHED or mask[p] == wp.uint8(0) or packed_cost(word) > limit:
+            dist_out[i] = wp.inf
+            label_out[i] = -1
+        else:
+            dist_out[i] = packed_cost(word)
+            label_out[i] = packed_label(word)

@@ -76,6 +76,16 @@ class CostField:
         return out
 
 
+def _chunk(device) -> int:
+    """Nodes per thread for whole-lattice passes: many on the CPU, where each thread
+    of a launch is a function call, one on GPUs, where neighbouring threads coalesce."""
+    return 4096 if device.is_cpu else 1
+
+
+def _threads(count: int, chunk: int) -> int:
+    return max(1, -(-count // chunk))
+
+
 class _Frontiers:
     """Near lists (slots 0, 1) and far piles (slots 2, 3) with their lengths."""
 
@@ -231,12 +241,13 @@ def shortest_paths(
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
     with wp.ScopedDevice(device):
+        chunk = _chunk(device)
         arrays = lattice.device_arrays(device)
         size = arrays.mask.shape[0]
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
             packed = wp.empty(size, dtype=wp.uint64)
-            wp.launch(_k.init_state_kernel, dim=size, inputs=[arrays.mask], outputs=[packed])
+            wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, chunk], outputs=[packed])
             new_rows = np.arange(len(gens))
         else:
             packed = wp.clone(warm_start.packed.to(device))
@@ -263,8 +274,8 @@ def shortest_paths(
         label = wp.empty(lattice.shape, dtype=wp.int32)
         wp.launch(
             _k.unpack_kernel,
-            dim=n,
-            inputs=[packed, arrays.mask, arrays.shape3, arrays.pad3, limit_f],
+            dim=_threads(n, chunk),
+            inputs=[packed, arrays.mask, arrays.shape3, arrays.pad3, limit_f, chunk],
             outputs=[dist.flatten(), label.flatten()],
         )
     return CostField(lattice, gens, limit_f, packed, dist, label, rounds, relaxed)
