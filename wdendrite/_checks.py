@@ -97,6 +97,19 @@ def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray 
     return arr
 
 
+def finite(name: str, value) -> float:
+    """Return ``value`` as a finite float (bools are refused: they are not numbers here)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"Expected a finite number for '{name}', but got {value!r}")
+    return x
+
+
 def nonnegative(name: str, value, *, allow_none: bool = True, allow_inf: bool = False) -> float | None:
     """Return ``value`` as a float >= 0 (None passes through when allowed)."""
     if value is None and allow_none:

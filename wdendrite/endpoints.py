@@ -43,16 +43,7 @@ class Region:
         raise NotImplementedError
 
 
-def _finite(name: str, value) -> float:
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"Expected a finite number for '{name}', but got {value!r}")
-    return x
+_finite = _checks.finite
 
 
 def _point(name: str, value, ndim: int) -> np.ndarray:

@@ -61,14 +61,7 @@ def _seed32(seed) -> int:
 
 def _number(name: str, value, *, low: float | None = None, low_open: bool = False) -> float:
     """``value`` as a finite float, checked against a lower bound (closed or open)."""
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"Expected a finite number for '{name}', but got {value!r}")
+    x = _checks.finite(name, value)
     if low is not None and (x <= low if low_open else x < low):
         raise ValueError(f"Expected '{name}' {'>' if low_open else '>='} {low:g}, but got {value!r}")
     return x
