@@ -15,6 +15,7 @@ Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 
 from __future__ import annotations
 
 import argparse
+import logging
 import time
 
 import warp as wp
@@ -53,6 +54,7 @@ def main() -> None:
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
     wp.config.quiet = True
+    wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
     device = wp.get_device(args.device)
     # warm-up: compile every kernel once

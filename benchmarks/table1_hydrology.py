@@ -21,6 +21,7 @@ Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--contro
 from __future__ import annotations
 
 import argparse
+import logging
 import time
 
 import numpy as np
@@ -58,6 +59,7 @@ def main() -> None:
     ap.add_argument("--drained", action="store_true", help="fill the control's interior minima first (not the paper's setup)")
     args = ap.parse_args()
     wp.config.quiet = True
+    wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
     rows = {"Dendry (ours)": [], "fBm (ours)": [], "Ridged (ours)": []}
     print(f"# Table 1 reproduction, {args.size}^2, seeds 0-{args.seeds - 1}, control seed {args.control_seed}, "
