@@ -100,10 +100,14 @@ def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo
 
 
 @SETTINGS
-@given(problems(), st.floats(0.0, 40.0))
-def test_generation_round_schedule_matches_scipy(problem, limit):
+@given(problems(), st.floats(0.0, 40.0), st.integers(1, 9))
+def test_generation_round_schedule_matches_scipy(problem, limit, threads):
+    # the GPU schedule: threads stride over each frontier generation
     lat, gens = problem
-    _check_against_scipy(lat, gens, wd.shortest_paths(lat, gens, limit=limit, _fifo=False), limit=limit)
+    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _threads=threads)
+    _check_against_scipy(lat, gens, cf, limit=limit)
+    ref = wd.shortest_paths(lat, gens, limit=limit)
+    assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()
 
 
 @SETTINGS

@@ -98,6 +98,7 @@ class _Frontiers:
         self.stamp = wp.zeros(n, dtype=wp.int32, device=device)
         self.in_far = wp.zeros(n, dtype=wp.int32, device=device)
         self._cpu = device.is_cpu
+        self.max_threads: int | None = None
         # on the CPU the NumPy views share memory with the device arrays
         self._counts_view = self.counts.numpy() if self._cpu else None
         self._min_view = self.far_min.numpy() if self._cpu else None
@@ -105,6 +106,8 @@ class _Frontiers:
     def threads(self, work: int) -> int:
         """Threads for a launch over ``work`` list entries: one on the CPU, where a
         single thread striding over the list avoids per-thread launch costs."""
+        if self.max_threads is not None:
+            return max(1, min(work, self.max_threads))
         return 1 if self._cpu else min(work, 1 << 16)
 
     def read(self) -> np.ndarray:
@@ -185,6 +188,7 @@ def shortest_paths(
     warm_start: CostField | None = None,
     delta: float | None = None,
     _fifo: bool | None = None,
+    _threads: int | None = None,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -206,6 +210,8 @@ def shortest_paths(
             repeated work. Default: 16 times the 10th percentile of the edge weights.
         _fifo: testing hook choosing the schedule (default: a work queue per
             bucket on single-threaded CPU devices, generation rounds on GPUs).
+        _threads: testing hook: threads per generation-round launch (GPU
+            striding exercised on the CPU).
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -269,6 +275,7 @@ def shortest_paths(
                 outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
+        fr.max_threads = _threads
         rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo)
         dist = wp.empty(lattice.shape, dtype=float)
         label = wp.empty(lattice.shape, dtype=wp.int32)
