@@ -104,7 +104,7 @@ def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo
 def test_generation_round_schedule_matches_scipy(problem, limit, threads):
     # the GPU schedule: threads stride over each frontier generation
     lat, gens = problem
-    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _threads=threads)
+    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _max_threads=threads)
     _check_against_scipy(lat, gens, cf, limit=limit)
     ref = wd.shortest_paths(lat, gens, limit=limit)
     assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()

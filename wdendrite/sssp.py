@@ -188,7 +188,7 @@ def shortest_paths(
     warm_start: CostField | None = None,
     delta: float | None = None,
     _fifo: bool | None = None,
-    _threads: int | None = None,
+    _max_threads: int | None = None,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -210,7 +210,7 @@ def shortest_paths(
             repeated work. Default: 16 times the 10th percentile of the edge weights.
         _fifo: testing hook choosing the schedule (default: a work queue per
             bucket on single-threaded CPU devices, generation rounds on GPUs).
-        _threads: testing hook: threads per generation-round launch (GPU
+        _max_threads: testing hook: threads per generation-round launch (GPU
             striding exercised on the CPU).
 
     Returns:
@@ -275,7 +275,7 @@ def shortest_paths(
                 outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
-        fr.max_threads = _threads
+        fr.max_threads = _max_threads
         rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo)
         dist = wp.empty(lattice.shape, dtype=float)
         label = wp.empty(lattice.shape, dtype=wp.int32)
