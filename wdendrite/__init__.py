@@ -5,8 +5,9 @@ generators, backtracking into dendrites. Dendry (Gaillard et al.): a
 per-pixel branching function and terrain.
 """
 
-from . import endpoints, weights
+from . import control, endpoints, hydrology, weights
 from .dendrite import Dendrite, trace
+from .dendry import DendryParams, dendry, dendry_points
 from .growth import FractalParams, grow
 from .lattice import Lattice
 from .refine import refine
@@ -14,4 +15,21 @@ from .sssp import CostField, shortest_paths
 
 __version__ = "0.1.0"
 
-__all__ = ["CostField", "Dendrite", "FractalParams", "Lattice", "endpoints", "grow", "refine", "shortest_paths", "trace", "weights", "__version__"]
+__all__ = [
+    "CostField",
+    "Dendrite",
+    "DendryParams",
+    "FractalParams",
+    "Lattice",
+    "control",
+    "dendry",
+    "dendry_points",
+    "endpoints",
+    "grow",
+    "hydrology",
+    "refine",
+    "shortest_paths",
+    "trace",
+    "weights",
+    "__version__",
+]
