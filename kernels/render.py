@@ -16,14 +16,34 @@ from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
 wp.set_module_options({"enable_backward": False})
 
 
+METRIC_EUCLIDEAN = wp.constant(0)
+METRIC_LATTICE = wp.constant(1)
+
+
+@wp.func
+def lattice_distance(a: float, b: float, c: float) -> float:
+    """Shortest path length on the unit 8- (2D) or 26-connected (3D) lattice between nodes
+    ``(a, b, c)`` apart (absolute offsets): straight, then face-diagonal, then space-diagonal steps."""
+    hi = wp.max(a, wp.max(b, c))
+    lo = wp.min(a, wp.min(b, c))
+    mid = a + b + c - hi - lo
+    return (hi - mid) + 1.41421356 * (mid - lo) + 1.73205081 * lo
+
+
 @wp.kernel
 def splat_distance_kernel(
     nodes_in: wp.array(dtype=wp.vec3i),
     shape: wp.vec3i,
     radius: float,
+    metric: int,
     packed_out: wp.array(dtype=wp.uint64),
 ):
-    """Each node writes ``pack(distance, row)`` into every cell within ``radius`` of it (atomic minimum)."""
+    """Each node writes ``pack(distance, row)`` into every cell within ``radius`` of it (atomic minimum).
+
+    ``metric``: METRIC_EUCLIDEAN, or METRIC_LATTICE for the path length on a unit-weight
+    8/26-connected lattice without obstacles (never shorter than the Euclidean one, so the
+    same disc holds every cell in reach).
+    """
     row = wp.tid()
     c = nodes_in[row]
     r = int(wp.floor(radius))
@@ -44,8 +64,13 @@ def splat_distance_kernel(
                 base = (z * shape[1] + y) * shape[2]
                 for x in range(x0, x1 + 1):
                     dx = float(x - c[2])
-                    d = wp.sqrt(dz * dz + dy * dy + dx * dx)
-                    wp.atomic_min(packed_out, base + x, pack_cost(d, row))
+                    d = float(0.0)
+                    if metric == METRIC_EUCLIDEAN:
+                        d = wp.sqrt(dz * dz + dy * dy + dx * dx)
+                    else:
+                        d = lattice_distance(wp.abs(dz), wp.abs(dy), wp.abs(dx))
+                    if d <= radius:
+                        wp.atomic_min(packed_out, base + x, pack_cost(d, row))
 
 
 @wp.kernel
@@ -65,6 +90,18 @@ def unpack_nearest_kernel(
         label_out[i] = packed_label(word)
 
 
+@wp.func
+def brightness_of(d: float, t: float, reach: float, clamp: float) -> float:
+    """``exp(-(d / t)^2)`` within ``reach * t``, else 0; values above ``clamp`` become 1."""
+    v = float(0.0)
+    if d <= reach * t:
+        q = d / t
+        v = wp.exp(-q * q)
+        if v > clamp:
+            v = 1.0
+    return v
+
+
 @wp.kernel
 def brightness_kernel(
     dist_in: wp.array(dtype=float),
@@ -82,14 +119,50 @@ def brightness_kernel(
     row = label_in[i]
     v = float(0.0)
     if row >= 0:
-        t = widths_in[row]
-        d = dist_in[i]
-        if d <= reach * t:
-            q = d / t
-            v = wp.exp(-q * q)
-            if v > clamp:
-                v = 1.0
+        v = brightness_of(dist_in[i], widths_in[row], reach, clamp)
     value_out[i] = v
+
+
+@wp.kernel
+def brightness_packed_kernel(
+    packed_in: wp.array(dtype=wp.uint64),
+    widths_in: wp.array(dtype=float),
+    reach: float,
+    clamp: float,
+    value_out: wp.array(dtype=float),
+):
+    """Brightness straight from packed ``(distance, source)`` words (one pass, no unpacking)."""
+    i = wp.tid()
+    word = packed_in[i]
+    v = float(0.0)
+    if word != UNREACHED:
+        v = brightness_of(packed_cost(word), widths_in[packed_label(word)], reach, clamp)
+    value_out[i] = v
+
+
+BLEND_MAX = wp.constant(0)
+BLEND_ADD = wp.constant(1)
+BLEND_SCREEN = wp.constant(2)
+
+
+@wp.kernel
+def blend_kernel(
+    base_in: wp.array(dtype=float),
+    layer_in: wp.array(dtype=float),
+    gain: float,
+    mode: int,
+    value_out: wp.array(dtype=float),
+):
+    """Combine a layer (times ``gain``, clipped to [0, 1]) into a base image: max, clipped sum or screen."""
+    i = wp.tid()
+    a = base_in[i]
+    b = wp.clamp(layer_in[i] * gain, 0.0, 1.0)
+    if mode == BLEND_MAX:
+        value_out[i] = wp.max(a, b)
+    elif mode == BLEND_ADD:
+        value_out[i] = wp.min(a + b, 1.0)
+    else:
+        value_out[i] = 1.0 - (1.0 - a) * (1.0 - b)
 
 
 @wp.kernel

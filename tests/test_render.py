@@ -79,6 +79,18 @@ def test_width_of_the_nearest_node_is_used(device):
     np.testing.assert_allclose(np.linalg.norm(nodes - pix, axis=1), dist[ok], rtol=1e-6)
 
 
+def test_closed_form_path_cost_equals_a_unit_lattice_search(device):
+    widths = np.linspace(1.0, 3.0, len(DEN)).astype(np.float32)
+    closed = brightness(DEN, widths, metric="path", device=device)
+    searched = brightness(DEN, widths, metric="path", lattice=wd.Lattice(DEN.shape, 8), device=device)
+    np.testing.assert_allclose(closed, searched, atol=1e-5)
+    lat3 = wd.Lattice((9, 10, 11), 26)
+    den3 = wd.trace(wd.shortest_paths(lat3, [[0, 0, 0]]), [[8, 9, 10], [8, 0, 5]])
+    d_closed, _ = distance_field(den3, limit=6.0, metric="path", device=device)
+    d_search, _ = distance_field(den3, limit=6.0, metric="path", lattice=lat3, device=device)
+    np.testing.assert_allclose(d_closed, d_search, rtol=1e-5)
+
+
 def test_weighted_lattice_path_costs_match_scipy():
     t = 12.0
     v = brightness(DEN, t, metric="path", lattice=LAT, reach=2.0)

@@ -197,6 +197,7 @@ def field_mesh(
     spacing: float = 1.0,
     origin: Sequence[float] = (0.0, 0.0, 0.0),
     smooth: int = 0,
+    band: float | None = None,
     device=None,
 ):
     """The isosurface ``field == level`` by marching cubes.
@@ -213,6 +214,11 @@ def field_mesh(
         origin: world position ``(z, y, x)`` of node (0, 0, 0).
         smooth: Taubin smoothing iterations (0: none); keeps the volume
             nearly unchanged while removing the lattice's stair steps.
+        band: skip the cubes whose first node lies ``band`` or more from the level
+            (``|field - level| >= band``), > 0. Give it only when every cube the
+            surface crosses has its first node within ``band`` (a distance field
+            with steps <= 1 per node needs ``band`` > sqrt(3)); the mesh is then the
+            same, found faster (CPU only). Default: every cube.
         device: Warp device for a NumPy field (default: the field's device, else the CPU).
 
     Returns:
@@ -237,13 +243,15 @@ def field_mesh(
         host = field.numpy() if isinstance(field, wp.array) else field
         if not (np.nanmin(host) < level < np.nanmax(host)):
             raise ValueError(f"'level' {level} is outside the field's range [{np.nanmin(host)}, {np.nanmax(host)}]")
-        v, f, _, _ = marching_cubes(host, level)
+        mask = None if band is None else np.abs(host - level) < _checks.positive("band", band)
+        v, f, _, _ = marching_cubes(host, level, mask=mask)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
-    mesh = _trimesh(v * spacing + org[::-1], f)
     # the orientation rules of the two marching cubes differ; low values are inside, so a closed
     # surface must enclose a positive volume
-    if mesh.volume < 0:
-        mesh.invert()
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    if np.einsum("ij,ij->", a, np.cross(b - a, c - a)) < 0:
+        f = f[:, ::-1]
+    mesh = _trimesh(v * spacing + org[::-1], f)
     if smooth:
         import trimesh
 
@@ -291,9 +299,12 @@ def isosurface(
     wp.launch(_kg.nearest_value_kernel, dim=dist.shape[0],
               inputs=[dist, label, wp.array(r, dtype=float, device=dist.device), limit], outputs=[out],
               device=dist.device)
-    field = _padded(out.numpy().reshape(den.shape), limit)
+    # a border just below the limit: outside the surface, but inside the cubes marching cubes visits
+    field = _padded(out.numpy().reshape(den.shape), limit - 0.01)
     org = np.asarray(den.origin, np.float64) - den.spacing
-    return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, device=dist.device)
+    # cubes the surface crosses start within sqrt(3) of a node inside, i.e. below the limit
+    band = limit - 1e-3 if dist.device.is_cpu else None
+    return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device=dist.device)
 
 
 def _region_mask(name: str, labels, region) -> np.ndarray:
@@ -328,7 +339,7 @@ def surface_nodes(inside) -> np.ndarray:
     return np.argwhere(mask & ~interior).astype(np.int64)
 
 
-def region_mesh(labels, region, *, band: float = 3.0, smooth: int = 0, spacing: float = 1.0, device=None):
+def region_mesh(labels, region, *, band: float = 2.0, smooth: int = 0, spacing: float = 1.0, device=None):
     """The boundary surface of the nodes whose label is in ``region`` (the papers' rocks, section 3.4).
 
     A signed distance to the region's boundary (negative inside) is built
@@ -340,7 +351,8 @@ def region_mesh(labels, region, *, band: float = 3.0, smooth: int = 0, spacing: 
         labels: ``(D, H, W)`` int labels, e.g. ``CostField.label`` of a search
             from several generators.
         region: one label or a sequence of labels forming the solid.
-        band: width of the signed distance kept on each side, > 1 (lattice units).
+        band: width of the signed distance kept on each side, > 1 (lattice units); 2 gives
+            every corner of the cubes the surface crosses its true value.
         smooth: Taubin smoothing iterations (rocks look better with 5-10).
         spacing: world distance between nodes.
         device: Warp device (default: Warp's default device).
@@ -353,8 +365,11 @@ def region_mesh(labels, region, *, band: float = 3.0, smooth: int = 0, spacing: 
     if band <= 1.0:
         raise ValueError(f"Expected 'band' > 1 so the surface lies inside it, but got {band!r}")
     field = signed_region_field(inside, band=band, device=device)
-    return field_mesh(_padded(field, band + 0.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
-                      device=device)
+    # boundary nodes hold +-1/2 and their neighbours +-3/2: the crossed cubes start there
+    cpu = wp.get_device(device).is_cpu
+    # the border outside the lattice acts as outside nodes next to the boundary (+3/2)
+    return field_mesh(_padded(field, 1.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
+                      band=2.0 if cpu else None, device=device)
 
 
 def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -> np.ndarray:
@@ -378,7 +393,8 @@ def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -
         m = int(count.numpy()[0])
         packed = wp.full(n, value=wp.uint64(0xFFFFFFFFFFFFFFFF), dtype=wp.uint64)
         if m:
-            wp.launch(_kr.splat_distance_kernel, dim=m, inputs=[seeds, wp.vec3i(*shape), float(band)], outputs=[packed])
+            wp.launch(_kr.splat_distance_kernel, dim=m,
+                      inputs=[seeds, wp.vec3i(*shape), float(band), _kr.METRIC_EUCLIDEAN], outputs=[packed])
         dist = wp.empty(n, dtype=float)
         label = wp.empty(n, dtype=wp.int32)
         wp.launch(_kr.unpack_nearest_kernel, dim=n, inputs=[packed], outputs=[dist, label])

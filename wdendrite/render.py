@@ -9,12 +9,15 @@ between the main stroke and side branches, or taper along each path
 
     T_i = Ts * (1 - (d_i / d_max)^beta) + Tf * (d_i / d_max)^beta
 
-The distance is either a path cost (``metric="path"``: a shortest-path
-search with the dendrite's nodes as generators, stopped ``reach * T`` away;
-on a unit-weight lattice this is the octile distance, on the dendrite's own
-random lattice it gives the papers' ragged halo) or the Euclidean distance
-to the nearest node (``metric="euclidean"``: every node writes into a disc of
-radius ``reach * T``).
+The distance is either a path cost (``metric="path"``) or the Euclidean
+distance to the nearest node (``metric="euclidean"``). Path costs over a
+given lattice come from a shortest-path search with the dendrite's nodes as
+generators, stopped ``reach * T`` away; on the dendrite's own random lattice
+this gives the papers' ragged halo. Without a lattice the path cost is the
+one of a unit-weight 8-connected (26 in 3D) lattice, whose closed form
+(straight plus diagonal steps, the octile distance) every node writes into a
+disc of radius ``reach * T``, as for the Euclidean metric: the same values
+as the search, without one.
 
 Typical use::
 
@@ -222,7 +225,8 @@ def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = 
         ValueError: a non-positive width, a bad Taper, an empty dendrite.
     """
     den = _check_dendrite(dendrite)
-    br = branch_order(den)
+    needs_branches = side is not None or isinstance(width, Taper)
+    br = branch_order(den) if needs_branches else None
     out = _width_values(_name, width, den, br)
     if side is None:
         return out.astype(np.float32)
@@ -243,53 +247,49 @@ def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = 
     return out.astype(np.float32)
 
 
-def _nearest(dendrite: Dendrite, reach_cost: float, metric: str, lattice: Lattice | None, rows, device):
-    """Distance to the nearest chosen node and its row (into ``dendrite``) as flat device arrays."""
-    nodes = dendrite.nodes if rows is None else dendrite.nodes[rows]
-    index = np.arange(len(dendrite)) if rows is None else np.asarray(rows, np.int64)
-    shape = tuple(dendrite.shape)
-    if metric == "path":
-        if lattice is None:
-            lattice = _unit_lattice(shape)
-        elif not isinstance(lattice, Lattice):
-            raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
-        elif lattice.shape != shape:
-            raise ValueError(f"'lattice' has shape {lattice.shape}, but the dendrite has shape {shape}")
-        cf = shortest_paths(lattice, nodes, limit=reach_cost, device=device)
-        dist, label = cf.dist_array.flatten(), cf.label_array.flatten()
-        if rows is not None:
-            label = wp.array(np.where(cf.label.ravel() >= 0, index[np.maximum(cf.label.ravel(), 0)], -1).astype(np.int32),
-                             device=cf.device)
-        return dist, label
+def _splat(nodes: np.ndarray, shape: tuple, reach: float, device, metric: str = "euclidean") -> wp.array:
+    """Packed ``(distance, source row)`` words of every cell within ``reach`` of a node (flat).
+
+    ``metric="path"`` is the path length on a unit-weight lattice (8- or 26-connected, no
+    mask), which has a closed form, so no search is needed.
+    """
     device = wp.get_device(device)
     n = int(np.prod(shape))
-    shape3 = (1,) * (3 - len(shape)) + shape
+    nodes3 = np.zeros((len(nodes), 3), np.int32)
+    nodes3[:, 3 - len(shape):] = nodes
+    shape3 = (1,) * (3 - len(shape)) + tuple(shape)
     with wp.ScopedDevice(device):
         packed = wp.full(n, value=wp.uint64(0xFFFFFFFFFFFFFFFF), dtype=wp.uint64)
-        nodes3 = np.zeros((len(nodes), 3), np.int32)
-        nodes3[:, 3 - len(shape):] = nodes
         wp.launch(_k.splat_distance_kernel, dim=len(nodes),
-                  inputs=[wp.array(nodes3, dtype=wp.vec3i), wp.vec3i(*shape3), float(reach_cost)], outputs=[packed])
+                  inputs=[wp.array(nodes3, dtype=wp.vec3i), wp.vec3i(*shape3), float(reach),
+                          _k.METRIC_EUCLIDEAN if metric == "euclidean" else _k.METRIC_LATTICE],
+                  outputs=[packed])
+    return packed
+
+
+def _path_costs(nodes: np.ndarray, shape: tuple, reach: float, lattice: Lattice, device):
+    """Least path costs (flat) from ``nodes`` over ``lattice`` up to ``reach``, and the nearest source's index."""
+    if not isinstance(lattice, Lattice):
+        raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
+    if lattice.shape != shape:
+        raise ValueError(f"'lattice' has shape {lattice.shape}, but the dendrite has shape {shape}")
+    cf = shortest_paths(lattice, nodes, limit=reach, device=device)
+    return cf.dist_array.flatten(), cf.label_array.flatten()
+
+
+def _nearest(dendrite: Dendrite, reach_cost: float, metric: str, lattice: Lattice | None, rows, device):
+    """Distance to the nearest source node and the source's index (into ``rows``, or the dendrite) as flat arrays."""
+    nodes = dendrite.nodes if rows is None else dendrite.nodes[rows]
+    shape = tuple(dendrite.shape)
+    if metric == "path" and lattice is not None:
+        return _path_costs(nodes, shape, reach_cost, lattice, device)
+    packed = _splat(nodes, shape, reach_cost, device, metric)
+    n = packed.shape[0]
+    with wp.ScopedDevice(packed.device):
         dist = wp.empty(n, dtype=float)
         label = wp.empty(n, dtype=wp.int32)
         wp.launch(_k.unpack_nearest_kernel, dim=n, inputs=[packed], outputs=[dist, label])
-        if rows is not None:
-            lab = label.numpy()
-            label = wp.array(np.where(lab >= 0, index[np.maximum(lab, 0)], -1).astype(np.int32))
     return dist, label
-
-
-_UNIT_LATTICES: dict[tuple, Lattice] = {}
-
-
-def _unit_lattice(shape: tuple) -> Lattice:
-    # building a large lattice costs more than the search; keep the last few unit lattices
-    lat = _UNIT_LATTICES.get(shape)
-    if lat is None:
-        if len(_UNIT_LATTICES) >= 4:
-            _UNIT_LATTICES.pop(next(iter(_UNIT_LATTICES)))
-        lat = _UNIT_LATTICES[shape] = Lattice(shape, 8 if len(shape) == 2 else 26)
-    return lat
 
 
 def _check_rows(rows, n: int):
@@ -326,7 +326,7 @@ def distance_field(
         metric: ``"euclidean"`` (straight-line distance to the nearest node) or
             ``"path"`` (least path cost over ``lattice``).
         lattice: the lattice for ``metric="path"`` (default: unit weights, 8- or
-            26-connected, i.e. octile distances).
+            26-connected, without a search: the octile distance in closed form).
         rows: only these dendrite rows (int array or ``(N,)`` bool mask) act as sources.
         device: Warp device (default: Warp's default device).
 
@@ -337,8 +337,12 @@ def distance_field(
     den = _check_dendrite(dendrite)
     limit = _checks.positive("limit", limit)
     _choice("metric", metric, _METRICS)
-    dist, label = _nearest(den, limit, metric, lattice, _check_rows(rows, len(den)), device)
-    return dist.numpy().reshape(den.shape), label.numpy().reshape(den.shape)
+    sel = _check_rows(rows, len(den))
+    dist, label = _nearest(den, limit, metric, lattice, sel, device)
+    lab = label.numpy().reshape(den.shape)
+    if sel is not None:
+        lab = np.where(lab >= 0, sel[np.maximum(lab, 0)], -1).astype(np.int32)
+    return dist.numpy().reshape(den.shape), lab
 
 
 def brightness(
@@ -362,9 +366,10 @@ def brightness(
         side: optional width of side branches (see :func:`node_widths`).
         metric: ``"path"`` (path cost from the dendrite over ``lattice``, as in the
             papers) or ``"euclidean"`` (straight-line distance to the nearest node).
-        lattice: lattice of the path costs (default: unit weights, 8-connected).
-            Pass the dendrite's own weighted lattice for ragged halos; widths are
-            then in its cost units.
+        lattice: lattice of the path costs, searched with
+            :func:`~wdendrite.shortest_paths` (default: unit weights, 8-connected,
+            in closed form). Pass the dendrite's own weighted lattice for ragged
+            halos; widths are then in its cost units.
         reach: the search stops at ``reach * max(T)`` and a pixel is dark beyond
             ``reach * T`` of its node (3: V < 1.3e-4 there), > 0.
         clamp: values above it become 1 (the thesis uses 0.7), in (0, 1]; None: no clamp.
@@ -392,13 +397,22 @@ def brightness(
     _choice("metric", metric, _METRICS)
     widths = node_widths(den, width, side=side)
     sel = _check_rows(rows, len(den))
-    t_max = float(widths.max() if sel is None else widths[sel].max())
-    dist, label = _nearest(den, reach * t_max, metric, lattice, sel, device)
-    device = dist.device
-    out = wp.empty(dist.shape[0], dtype=float, device=device)
-    wp.launch(_k.brightness_kernel, dim=dist.shape[0],
-              inputs=[dist, label, wp.array(widths, dtype=float, device=device), reach, clamp_f],
-              outputs=[out], device=device)
+    nodes, w = (den.nodes, widths) if sel is None else (den.nodes[sel], widths[sel])
+    reach_cost = reach * float(w.max())
+    if metric == "path" and lattice is not None:
+        dist, label = _path_costs(nodes, tuple(den.shape), reach_cost, lattice, device)
+        device = dist.device
+        out = wp.empty(dist.shape[0], dtype=float, device=device)
+        wp.launch(_k.brightness_kernel, dim=dist.shape[0],
+                  inputs=[dist, label, wp.array(w, dtype=float, device=device), reach, clamp_f],
+                  outputs=[out], device=device)
+    else:
+        packed = _splat(nodes, tuple(den.shape), reach_cost, device, metric)
+        device = packed.device
+        out = wp.empty(packed.shape[0], dtype=float, device=device)
+        wp.launch(_k.brightness_packed_kernel, dim=packed.shape[0],
+                  inputs=[packed, wp.array(w, dtype=float, device=device), reach, clamp_f],
+                  outputs=[out], device=device)
     return out.numpy().reshape(den.shape)
 
 
@@ -438,13 +452,13 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
                                                   for i, x in enumerate(gains)]
     if len(g) != len(imgs):
         raise ValueError(f"Expected {len(imgs)} 'gains', one per layer, but got {len(g)}")
-    scaled = [np.clip(v * gi, 0.0, 1.0) for v, gi in zip(imgs, g)]
-    if mode == "max":
-        out = np.maximum.reduce(scaled)
-    elif mode == "add":
-        out = np.clip(np.add.reduce(scaled), 0.0, 1.0)
-    else:
-        out = 1.0 - np.multiply.reduce([1.0 - v for v in scaled])
+    with wp.ScopedDevice("cpu"):
+        # the first layer enters as a blend over black, so every layer is scaled and clipped alike
+        acc = wp.zeros(imgs[0].size, dtype=float)
+        for v, gi in zip(imgs, g):
+            wp.launch(_k.blend_kernel, dim=acc.shape[0],
+                      inputs=[acc, wp.array(v.ravel(), dtype=float), float(gi), _BLENDS.index(mode)], outputs=[acc])
+        out = acc.numpy().reshape(imgs[0].shape)
     return out.astype(np.float32)
 
 
