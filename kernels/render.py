@@ -168,18 +168,18 @@ def blend_kernel(
 @wp.kernel
 def box_blur_rows_kernel(
     src_in: wp.array2d(dtype=float),
+    width: int,
     radius: int,
     dst_out: wp.array2d(dtype=float),
 ):
-    """Mean over ``2 radius + 1`` pixels of each row (running sum; zero outside the image)."""
+    """Mean over ``2 radius + 1`` pixels of each row's first ``width`` entries (running sum; zero outside)."""
     y = wp.tid()
-    w = src_in.shape[1]
     scale = 1.0 / float(2 * radius + 1)
     acc = float(0.0)
-    for x in range(0, wp.min(radius, w)):
+    for x in range(0, wp.min(radius, width)):
         acc += src_in[y, x]
-    for x in range(w):
-        if x + radius < w:
+    for x in range(width):
+        if x + radius < width:
             acc += src_in[y, x + radius]
         if x - radius - 1 >= 0:
             acc -= src_in[y, x - radius - 1]

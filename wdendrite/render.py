@@ -482,13 +482,18 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
     half = max(1, int(round(0.5 * (math.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
     device = wp.get_device(device)
     h, w = img.shape
+    # rows a few floats longer than the image: column sweeps over power-of-two strides
+    # keep evicting each other from the CPU caches
+    stride = w + 8
+    buf = np.zeros((h, stride), np.float32)
+    buf[:, :w] = img
     with wp.ScopedDevice(device):
-        a = wp.array(img, dtype=float)
-        b = wp.empty_like(a)
+        a = wp.array(buf, dtype=float)
+        b = wp.zeros_like(a)
         for _ in range(passes):
-            wp.launch(_k.box_blur_rows_kernel, dim=h, inputs=[a, half], outputs=[b])
+            wp.launch(_k.box_blur_rows_kernel, dim=h, inputs=[a, w, half], outputs=[b])
             wp.launch(_k.box_blur_cols_kernel, dim=w, inputs=[b, half], outputs=[a])
-        return a.numpy()
+        return np.ascontiguousarray(a.numpy()[:, :w])
 
 
 COLORMAPS: dict[str, tuple[tuple[float, float, float], ...]] = {
