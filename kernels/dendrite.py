@@ -24,7 +24,8 @@ TRACE_STUCK = wp.constant(2)
 def predecessor(
     node: int,
     flat_offsets: wp.array(dtype=wp.int32),
-    weights: wp.array(dtype=float),
+    aux: wp.array(dtype=wp.int32),
+    stride: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
@@ -41,7 +42,7 @@ def predecessor(
             if mask[other] != wp.uint8(0):
                 src = packed[other]
                 if src != UNREACHED:
-                    if pack_cost(packed_cost(src) + edge_cost(weights, hashed, lower, k), packed_label(src)) == word:
+                    if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
                         return other
     return -1
 
@@ -50,7 +51,8 @@ def predecessor(
 def trace_kernel(
     starts: wp.array(dtype=wp.int32),
     flat_offsets: wp.array(dtype=wp.int32),
-    weights: wp.array(dtype=float),
+    aux: wp.array(dtype=wp.int32),
+    stride: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
@@ -81,7 +83,7 @@ def trace_kernel(
             pred_out[node] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
-        prev = predecessor(node, flat_offsets, weights, hashed, mask, packed)
+        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, packed)
         pred_out[node] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK

@@ -12,9 +12,17 @@ x, y and, for 3D, z), so a neighbour is always ``node + flat_offsets[k]``. The
 border and masked-out nodes hold the packed word 0, which no candidate can
 undercut, so they are never entered and need no test.
 
+Each padded node owns a record of ``stride`` int32 words in the lattice's
+``aux`` array, so relaxing an edge touches few cache lines: the float32 bits
+of its ``nw`` stored edge weights (direction ``k`` at word ``k``; ``nw`` is 0
+when weights are recomputed from their hash), then its near-list stamp
+(word ``nw``) and its far-pile stamp (word ``nw + 1``).
+
 Frontiers are flat ``int32`` node lists with their lengths kept in a small
 ``counts`` array; a node enters a "near" list at most once per generation
-(``stamp``) and the "far" pile at most once (``in_far``).
+(its stamp equals the generation while it waits) and the "far" pile at most
+once per search (its far stamp equals the search's ``far_id``). Generations
+and search ids only grow, so stamps never need clearing between searches.
 """
 
 import warp as wp
@@ -47,10 +55,10 @@ class HashedWeights:
 
 
 @wp.func
-def edge_cost(weights: wp.array(dtype=float), hashed: HashedWeights, lower: int, k: int) -> float:
+def edge_cost(aux: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
     """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
     if hashed.use == 0:
-        return weights[k * (weights.shape[0] / hashed.offsets.shape[0]) + lower]
+        return wp.cast(aux[lower * stride + k], wp.float32)
     padded = hashed.shape3 + hashed.pad3 + hashed.pad3
     coords = node_coords(lower, padded) - hashed.pad3
     return edge_weight_at(hashed.params, hashed.shape3, coords, k, hashed.offsets[k], hashed.lengths[k])
@@ -79,14 +87,17 @@ def packed_label(word: wp.uint64) -> int:
 def push_far(
     node: int,
     cost: float,
-    in_far: wp.array(dtype=wp.int32),
+    far_id: int,
+    aux: wp.array(dtype=wp.int32),
+    stride: int,
+    nw: int,
     far_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_slot: int,
     far_min: wp.array(dtype=float),
 ):
     """Add ``node`` to the far pile once, and keep the pile's least cost."""
-    if wp.atomic_exch(in_far, node, 1) == 0:
+    if wp.atomic_exch(aux, node * stride + nw + 1, far_id) != far_id:
         far_out[wp.atomic_add(counts, far_slot, 1)] = node
     wp.atomic_min(far_min, 0, cost)
 
@@ -95,13 +106,15 @@ def push_far(
 def push_near(
     node: int,
     generation: int,
-    stamp: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
+    stride: int,
+    nw: int,
     near_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     near_slot: int,
 ):
     """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
-    if wp.atomic_exch(stamp, node, generation) != generation:
+    if wp.atomic_exch(aux, node * stride + nw, generation) != generation:
         near_out[wp.atomic_add(counts, near_slot, 1) % near_out.shape[0]] = node
 
 
@@ -120,9 +133,12 @@ def init_state_kernel(mask: wp.array(dtype=wp.uint8), chunk: int, packed_out: wp
 def seed_kernel(
     nodes_in: wp.array(dtype=wp.int32),
     labels_in: wp.array(dtype=wp.int32),
+    stride: int,
+    nw: int,
+    far_id: int,
     far_slot: int,
     packed: wp.array(dtype=wp.uint64),
-    in_far: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
@@ -132,38 +148,39 @@ def seed_kernel(
     node = nodes_in[i]
     word = pack_cost(0.0, labels_in[i])
     if word < wp.atomic_min(packed, node, word):
-        push_far(node, 0.0, in_far, far_out, counts, far_slot, far_min)
+        push_far(node, 0.0, far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
 @wp.kernel
 def mark_lowered_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
     mask: wp.array(dtype=wp.uint8),
-    old_weights: wp.array(dtype=float),
-    new_weights: wp.array(dtype=float),
+    old_aux: wp.array(dtype=wp.int32),
+    stride: int,
+    nw: int,
+    far_id: int,
     far_slot: int,
     packed: wp.array(dtype=wp.uint64),
-    in_far: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
 ):
-    """Queue both ends of every edge whose weight went down (warm start)."""
+    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``aux`` (warm start)."""
     node = wp.tid()
     if mask[node] == wp.uint8(0):
         return
-    count = mask.shape[0]
     for k in range(flat_offsets.shape[0]):
-        e = k * count + node
+        e = node * stride + k
         other = node + flat_offsets[k]
-        if new_weights[e] < old_weights[e] and mask[other] != wp.uint8(0):
+        if wp.cast(aux[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
             for end in range(2):
                 n = node
                 if end == 1:
                     n = other
                 word = packed[n]
                 if word != UNREACHED:
-                    push_far(n, packed_cost(word), in_far, far_out, counts, far_slot, far_min)
+                    push_far(n, packed_cost(word), far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
 @wp.func
@@ -174,11 +191,13 @@ def relax_edge(
     threshold: float,
     limit: float,
     generation: int,
+    far_id: int,
+    stride: int,
+    nw: int,
     near_slot: int,
     far_slot: int,
     packed: wp.array(dtype=wp.uint64),
-    stamp: wp.array(dtype=wp.int32),
-    in_far: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -190,16 +209,18 @@ def relax_edge(
         if candidate < packed[other]:
             if candidate < wp.atomic_min(packed, other, candidate):
                 if new_cost < threshold:
-                    push_near(other, generation, stamp, near_out, counts, near_slot)
+                    push_near(other, generation, aux, stride, nw, near_out, counts, near_slot)
                 else:
-                    push_far(other, new_cost, in_far, far_out, counts, far_slot, far_min)
+                    push_far(other, new_cost, far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
 @wp.kernel
 def relax_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
-    weights: wp.array(dtype=float),
     hashed: HashedWeights,
+    stride: int,
+    nw: int,
+    far_id: int,
     near_in: wp.array(dtype=wp.int32),
     in_slot: int,
     threads: int,
@@ -210,8 +231,7 @@ def relax_kernel(
     near_slot: int,
     far_slot: int,
     packed: wp.array(dtype=wp.uint64),
-    stamp: wp.array(dtype=wp.int32),
-    in_far: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -226,17 +246,16 @@ def relax_kernel(
     may be queued again once it has been taken out. A neighbour whose
     packed state drops is queued in the next near list when its cost is below
     ``threshold`` and in the far pile otherwise; costs above ``limit`` are
-    never written. ``weights[k * P + p]`` is the edge ``p <-> p + flat_offsets[k]``
-    of the padded lattice of P nodes, unless ``hashed.use`` asks for weights
-    recomputed from their hash.
+    never written. Record word ``p * stride + k`` of ``aux`` holds the weight
+    of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use`` asks for
+    weights recomputed from their hash.
     """
-    count = packed.shape[0]
     capacity = near_in.shape[0]
     i = wp.tid()
     while i < counts[in_slot]:
         node = near_in[i % capacity]
         if fifo != 0:
-            stamp[node] = 0
+            aux[node * stride + nw] = 0  # out of the work queue: it may be queued again
         word = packed[node]
         cost = packed_cost(word)
         label = packed_label(word)
@@ -246,15 +265,15 @@ def relax_kernel(
             w_fwd = float(0.0)
             w_bwd = float(0.0)
             if hashed.use == 0:
-                w_fwd = weights[k * count + node]
-                w_bwd = weights[k * count + node - step]
+                w_fwd = wp.cast(aux[node * stride + k], wp.float32)
+                w_bwd = wp.cast(aux[(node - step) * stride + k], wp.float32)
             else:
-                w_fwd = edge_cost(weights, hashed, node, k)
-                w_bwd = edge_cost(weights, hashed, node - step, k)
-            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation,
-                       near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
-            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation,
-                       near_slot, far_slot, packed, stamp, in_far, counts, far_min, near_out, far_out)
+                w_fwd = edge_cost(aux, stride, hashed, node, k)
+                w_bwd = edge_cost(aux, stride, hashed, node - step, k)
+            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
+                       near_slot, far_slot, packed, aux, counts, far_min, near_out, far_out)
+            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
+                       near_slot, far_slot, packed, aux, counts, far_min, near_out, far_out)
         i += threads
 
 
@@ -266,11 +285,12 @@ def split_far_kernel(
     previous_threshold: float,
     threshold: float,
     generation: int,
+    stride: int,
+    nw: int,
     near_slot: int,
     far_slot: int,
     packed: wp.array(dtype=wp.uint64),
-    stamp: wp.array(dtype=wp.int32),
-    in_far: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -287,13 +307,57 @@ def split_far_kernel(
         node = far_in[i]
         cost = packed_cost(packed[node])
         if cost < threshold:
-            in_far[node] = 0
+            aux[node * stride + nw + 1] = 0
             if cost >= previous_threshold:
-                push_near(node, generation, stamp, near_out, counts, near_slot)
+                push_near(node, generation, aux, stride, nw, near_out, counts, near_slot)
         else:
             far_out[wp.atomic_add(counts, far_slot, 1)] = node
             wp.atomic_min(far_min, 0, cost)
         i += threads
+
+
+@wp.kernel
+def build_records_kernel(
+    weights: wp.array(dtype=float),
+    shape: wp.vec3i,
+    pad: wp.vec3i,
+    stride: int,
+    nw: int,
+    aux_out: wp.array(dtype=wp.int32),
+):
+    """Write every padded node's record: its stored weights (0 on the border) and zero stamps.
+
+    ``weights`` is the lattice's ``(K, *shape)`` array, flattened; one thread
+    writes one padded row ``(z, y)``, so the records are written in order.
+    """
+    row = wp.tid()
+    padded = shape + pad + pad
+    z = row / padded[1]
+    y = row - z * padded[1]
+    count = shape[0] * shape[1] * shape[2]
+    inner_row = z >= pad[0] and z < pad[0] + shape[0] and y >= 1 and y <= shape[1]
+    base = row * padded[2] * stride
+    for x in range(padded[2]):
+        inner = inner_row and x >= 1 and x <= shape[2]
+        i = 0
+        if inner:
+            i = ((z - pad[0]) * shape[1] + (y - 1)) * shape[2] + (x - 1)
+        for k in range(nw):
+            word = 0
+            if inner:
+                word = wp.cast(weights[k * count + i], wp.int32)
+            aux_out[base + x * stride + k] = word
+        aux_out[base + x * stride + nw] = 0
+        aux_out[base + x * stride + nw + 1] = 0
+
+
+@wp.kernel
+def clear_stamps_kernel(stride: int, nw: int, chunk: int, aux: wp.array(dtype=wp.int32)):
+    """Zero every record's two stamps (before the stamp ids would wrap); ``chunk`` records per thread."""
+    start = wp.tid() * chunk
+    for p in range(start, wp.min(start + chunk, aux.shape[0] / stride)):
+        aux[p * stride + nw] = 0
+        aux[p * stride + nw + 1] = 0
 
 
 @wp.kernel

@@ -204,7 +204,8 @@ def trace(
         wp.launch(
             _kd.trace_kernel,
             dim=len(starts),
-            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.weights, arrays.hashed, arrays.mask,
+            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.aux, arrays.stride, arrays.hashed,
+                    arrays.mask,
                     costfield.packed, is_root, size],
             outputs=[visited, pred, new_nodes, new_count, status],
         )

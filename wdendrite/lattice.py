@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,13 +62,40 @@ class LatticeArrays:
     """Half-offsets as ``wp.vec3i`` ``(dz, dy, dx)``, shape (K,)."""
     flat_offsets: wp.array
     """int32 flat index step of each half-offset in the padded lattice, shape (K,)."""
-    weights: wp.array
-    """float32 padded weights, shape (K * P,): entry ``k * P + p`` is the edge ``p <-> p + flat_offsets[k]``."""
+    aux: wp.array
+    """int32 node records, shape (P * stride,): record ``p`` holds the float32 bits of
+    the ``nw`` stored weights (word ``k``: the edge ``p <-> p + flat_offsets[k]``), then
+    the search stamps (see :mod:`wdendrite.kernels.sssp`)."""
+    stride: int
+    """Words per record: ``nw + 2``."""
+    nw: int
+    """Stored weights per record: K, or 0 when weights are recomputed in kernels."""
     mask: wp.array
     """uint8 usable-node flags of the padded lattice, shape (P,) (0 on the border)."""
     hashed: object
     """:class:`~wdendrite.kernels.sssp.HashedWeights`: ``use == 1`` when weights are
-    recomputed in kernels (``weights`` is then a 1-element placeholder)."""
+    recomputed in kernels."""
+    stamps: "_Stamps"
+    """Issues the ever-growing generation and search ids the record stamps use."""
+
+
+class _Stamps:
+    """Ids for the stamps in a lattice's records, never repeated, and a lock so that
+    one search at a time uses the records."""
+
+    LIMIT = 2**31 - 2**24
+
+    def __init__(self):
+        self.last = 0
+        self.lock = threading.Lock()
+
+    def next(self) -> int:
+        self.last += 1
+        return self.last
+
+    def room(self, needed: int) -> bool:
+        """True when ``needed`` more ids fit before the int32 stamps would wrap."""
+        return self.last + needed < self.LIMIT
 
 
 class Lattice:
@@ -201,15 +229,20 @@ class Lattice:
             hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
             hashed.offsets = wp.array(off3, dtype=wp.vec3i, device=device)
             hashed.lengths = wp.array(self.lengths, dtype=float, device=device)
+            nw = len(self.offsets) if self.stores_weights else 0
             if self.stores_weights:
                 hashed.use = 0
                 hashed.params = _kw.WeightParams()
-                weights = np.zeros((len(self.offsets), *padded), np.float32)
-                weights[(slice(None),) + inner] = self.weights.reshape((len(self.offsets), *shape3))
+                # on the CPU the kernel reads the weight array in place
+                source = wp.array(self._weights.reshape(-1), dtype=float, device=device, copy=not device.is_cpu)
             else:
                 hashed.use = 1
                 hashed.params = self.distribution.kernel_params(self.shape, device)
-                weights = np.zeros(1, np.float32)
+                source = wp.zeros(1, dtype=float, device=device)
+            # node-major records: a node's weights and stamps share its cache line
+            aux = wp.empty(int(np.prod(padded)) * (nw + 2), dtype=wp.int32, device=device)
+            wp.launch(_ks.build_records_kernel, dim=padded[0] * padded[1],
+                      inputs=[source, wp.vec3i(*shape3), wp.vec3i(*pad3), nw + 2, nw], outputs=[aux], device=device)
             mask = np.zeros(padded, np.uint8)
             mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
             self._device_arrays[key] = LatticeArrays(
@@ -218,10 +251,12 @@ class Lattice:
                 padded_shape=padded,
                 offsets=wp.array(off3, dtype=wp.vec3i, device=device),
                 flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
-                # on the CPU the device array can use the padded NumPy buffer itself
-                weights=wp.array(weights.ravel(), dtype=float, device=device, copy=not device.is_cpu),
+                aux=aux,
+                stride=nw + 2,
+                nw=nw,
                 mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
                 hashed=hashed,
+                stamps=_Stamps(),
             )
         return self._device_arrays[key]
 

@@ -95,8 +95,6 @@ class _Frontiers:
         self.lists = [wp.empty(cap, dtype=wp.int32, device=device) for _ in range(4)]
         self.counts = wp.zeros(4, dtype=wp.int32, device=device)
         self.far_min = wp.full(1, math.inf, dtype=float, device=device)
-        self.stamp = wp.zeros(n, dtype=wp.int32, device=device)
-        self.in_far = wp.zeros(n, dtype=wp.int32, device=device)
         self._cpu = device.is_cpu
         self.max_threads: int | None = None
         # on the CPU the NumPy views share memory with the device arrays
@@ -246,10 +244,15 @@ def shortest_paths(
     need = n * lattice.nbytes_per_node()
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
-    with wp.ScopedDevice(device):
+    arrays = lattice.device_arrays(device)
+    with wp.ScopedDevice(device), arrays.stamps.lock:
         chunk = _chunk(device)
-        arrays = lattice.device_arrays(device)
         size = arrays.mask.shape[0]
+        if not arrays.stamps.room(4 * size + 1000):
+            wp.launch(_k.clear_stamps_kernel, dim=_threads(size, chunk), inputs=[arrays.stride, arrays.nw, chunk],
+                      outputs=[arrays.aux])
+            arrays.stamps.last = 0
+        far_id = arrays.stamps.next()
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
             packed = wp.empty(size, dtype=wp.uint64)
@@ -259,24 +262,25 @@ def shortest_paths(
             packed = wp.clone(warm_start.packed.to(device))
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
-            if lattice.stores_weights and old_arrays.weights is not arrays.weights:
+            if lattice.stores_weights and old_arrays.aux is not arrays.aux:
                 wp.launch(
                     _k.mark_lowered_kernel,
                     dim=size,
-                    inputs=[arrays.flat_offsets, arrays.mask, old_arrays.weights, arrays.weights, 2],
-                    outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
+                    inputs=[arrays.flat_offsets, arrays.mask, old_arrays.aux, arrays.stride, arrays.nw, far_id, 2],
+                    outputs=[packed, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
                 )
         if len(new_rows):
             flat = lattice.padded_indices(gens[new_rows])
             wp.launch(
                 _k.seed_kernel,
                 dim=len(flat),
-                inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32), 2],
-                outputs=[packed, fr.in_far, fr.counts, fr.far_min, fr.lists[2]],
+                inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32),
+                        arrays.stride, arrays.nw, far_id, 2],
+                outputs=[packed, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
         fr.max_threads = _max_threads
-        rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo)
+        rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo, far_id)
         dist = wp.empty(lattice.shape, dtype=float)
         label = wp.empty(lattice.shape, dtype=wp.int32)
         wp.launch(
@@ -295,23 +299,23 @@ class _Launches:
     twenty for a fresh ``wp.launch``, which matters over thousands of rounds.
     """
 
-    def __init__(self, arrays, packed: wp.array, fr: _Frontiers, limit: float, fifo: bool):
+    def __init__(self, arrays, packed: wp.array, fr: _Frontiers, limit: float, fifo: bool, far_id: int):
         self._arrays, self._packed, self._fr, self._limit = arrays, packed, fr, limit
-        self.fifo = fifo
+        self.fifo, self._far_id = fifo, far_id
         self._relax: dict[tuple[int, int], wp.Launch] = {}
         self._split: dict[tuple[int, int], wp.Launch] = {}
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
         cmd = self._relax.get((near, far))
-        fr = self._fr
+        fr, a = self._fr, self._arrays
         nxt = near if self.fifo else 1 - near
         if cmd is None:
             cmd = self._relax[(near, far)] = wp.launch(
                 _k.relax_kernel,
                 dim=threads,
-                inputs=[self._arrays.flat_offsets, self._arrays.weights, self._arrays.hashed, fr.lists[near], near, threads,
+                inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[near], near, threads,
                         int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
-                outputs=[self._packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
+                outputs=[self._packed, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
                 record_cmd=True,
             )
         self._replay(cmd, threads, threshold, generation)
@@ -323,8 +327,9 @@ class _Launches:
             cmd = self._split[(near, far)] = wp.launch(
                 _k.split_far_kernel,
                 dim=threads,
-                inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation, near, 2 + other],
-                outputs=[self._packed, fr.stamp, fr.in_far, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
+                inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation,
+                        self._arrays.stride, self._arrays.nw, near, 2 + other],
+                outputs=[self._packed, self._arrays.aux, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
                 record_cmd=True,
             )
         cmd.set_param_by_name("previous_threshold", previous)
@@ -339,28 +344,31 @@ class _Launches:
         cmd.launch()
 
 
-def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, fifo: bool) -> tuple[int, int]:
+def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, fifo: bool,
+         far_id: int) -> tuple[int, int]:
     """Drive near-far rounds until both the near list and the far pile are empty.
 
     With ``fifo`` (single-threaded devices), one launch empties the near list
     as a work queue, so a round is a whole bucket; otherwise a round relaxes
     one generation of the near list into the other.
 
-    ``stamp[node] == generation`` marks a node queued in the list being filled.
-    The work queue keeps one generation throughout (taking a node out clears
-    its stamp), so a node is queued at most once and the ring never holds more
-    than the usable nodes; generation rounds number each list they fill.
+    A node's near stamp equals ``generation`` while it waits in the list being
+    filled. The work queue keeps one generation throughout (taking a node out
+    clears its stamp), so a node is queued at most once and the ring never
+    holds more than the usable nodes; generation rounds number each list they
+    fill. Generations come from the lattice's ever-growing stamp ids.
     """
-    launches = _Launches(arrays, packed, fr, limit, fifo)
+    launches = _Launches(arrays, packed, fr, limit, fifo, far_id)
+    queue_generation = arrays.stamps.next() if fifo else 0
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
     threshold = -math.inf
-    generation = 0
+
     rounds = relaxed = 0
     while True:
         counts = fr.read()
         n_near = int(counts[near])
         if n_near:
-            generation = 1 if fifo else generation + 1
+            generation = queue_generation if fifo else arrays.stamps.next()
             if fifo:
                 launches.relax(near, far, 1, threshold, generation)
                 relaxed += int(fr.read()[near])
@@ -379,7 +387,7 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
         previous = threshold
         threshold = max(threshold + delta, fr.far_minimum() + delta)
         fr.reset_far_min()
-        generation = 1 if fifo else generation + 1
+        generation = queue_generation if fifo else arrays.stamps.next()
         fr.set_count(3 - far, 0)
         launches.split(near, far, fr.threads(n_far), previous, threshold, generation)
         fr.set_count(2 + far, 0)
