@@ -174,3 +174,18 @@ def test_marching_only_near_the_surface_gives_the_same_mesh():
 def _signed_volume(v, f):
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     return np.einsum("ij,ij->", a, np.cross(b, c)) / 6.0
+
+
+def test_preview_of_several_meshes_uses_their_colours():
+    a = spheres(DEN, 1.0)
+    b = tubes(DEN, 0.3)
+    b.apply_translation([30.0, 0.0, 0.0])
+    img = preview([a, b], color=[(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], size=(60, 120), elevation=0, azimuth=-90)
+    hit = np.any(img < 0.999, axis=2)
+    red = hit & (img[..., 0] > 0) & (img[..., 2] == 0)
+    blue = hit & (img[..., 2] > 0) & (img[..., 0] == 0)
+    assert red.any() and blue.any() and (red | blue).sum() == hit.sum()
+    # looking along +y with z up: the red mesh is left of the blue one
+    assert np.argwhere(red)[:, 1].mean() < np.argwhere(blue)[:, 1].mean()
+    with pytest.raises(ValueError, match="color"):
+        preview([a, b], color=[(1.0, 0.0, 0.0)] * 3)

@@ -143,3 +143,26 @@ def test_svg_polylines_cover_every_edge_once(tmp_path):
     assert len(polys) == len(np.unique(branch_order(DEN2).start)) == len(svg_polylines(DEN2))
     with pytest.raises(ValueError, match="2D"):
         save_svg(tmp_path / "e.svg", DEN3)
+
+
+def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
+    from tests.test_render import empty_dendrite
+    from wdendrite.geometry import spheres
+
+    writers = [
+        lambda p, **kw: save_mesh(p / "m.ply", spheres(DEN3, 0.5), **kw),
+        lambda p, **kw: save_dendrite(p / "d.npz", DEN2, **kw),
+        lambda p, **kw: save_svg(p / "d.svg", DEN2, **kw),
+    ]
+    for write in writers:
+        first = write(tmp_path)
+        before = first.read_bytes()
+        with pytest.raises(FileExistsError, match="overwrite"):
+            write(tmp_path)
+        assert first.read_bytes() == before
+        write(tmp_path, overwrite=True)
+    with pytest.raises(ValueError, match="empty"):
+        save_dendrite(tmp_path / "e.json", empty_dendrite())
+    with pytest.raises(ValueError, match="empty"):
+        save_svg(tmp_path / "e.svg", empty_dendrite())
+    assert not _leftovers(tmp_path)
