@@ -199,11 +199,12 @@ def field_mesh(
     smooth: int = 0,
     band: float | None = None,
     device=None,
+    _backend: str = "auto",
 ):
     """The isosurface ``field == level`` by marching cubes.
 
     Runs scikit-image's marching cubes on the CPU, and Warp's own
-    (``wp.geometry.IsoSurfaceMarchingCubes``) when the field is on a CUDA
+    (``warp.geometry.IsoSurfaceMarchingCubes``) when the field is on a CUDA
     device, so a GPU field stays on the GPU until the mesh is built.
 
     Args:
@@ -232,10 +233,13 @@ def field_mesh(
     smooth = _int_arg("smooth", smooth, 0)
     level = float(level)
     dev = field.device if isinstance(field, wp.array) else wp.get_device(device if device is not None else "cpu")
-    if dev.is_cuda:
+    # _backend is a testing hook: "warp" runs Warp's marching cubes on any device
+    if (dev.is_cuda and _backend == "auto") or _backend == "warp":
+        from warp.geometry import IsoSurfaceMarchingCubes
+
         arr = field if isinstance(field, wp.array) else wp.array(field, dtype=float, device=dev)
-        verts, idx = wp.geometry.IsoSurfaceMarchingCubes.extract(arr, level)
-        v = verts.numpy().astype(np.float64)
+        verts, idx = IsoSurfaceMarchingCubes.extract(arr, level)
+        v = verts.numpy().astype(np.float64)[:, ::-1]  # array axes (z, y, x) -> (x, y, z)
         f = idx.numpy().reshape(-1, 3).astype(np.int64)
     else:
         from skimage.measure import marching_cubes
