@@ -166,3 +166,27 @@ def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         save_svg(tmp_path / "e.svg", empty_dendrite())
     assert not _leftovers(tmp_path)
+
+
+def test_16_bit_colour_png_is_valid_and_exact(tmp_path):
+    import struct
+    import zlib
+
+    rgb = np.random.default_rng(3).random((7, 9, 3))
+    p = save_png(tmp_path / "c16.png", rgb, bits=16)
+    data = p.read_bytes()
+    # Pillow reads it (as 8-bit), which checks the chunks and CRCs
+    with Image.open(p) as im:
+        im.load()
+        assert im.size == (9, 7)
+        np.testing.assert_allclose(np.asarray(im.convert("RGB")) / 255.0, rgb, atol=1.5 / 255)
+    # the IDAT holds every sample at 16 bits
+    w, h, depth, ctype = struct.unpack(">IIBB", data[16:26])
+    assert (w, h, depth, ctype) == (9, 7, 16, 2)
+    start = data.index(b"IDAT") + 4
+    length = struct.unpack(">I", data[start - 8:start - 4])[0]
+    raw = np.frombuffer(zlib.decompress(data[start:start + length]), np.uint8).reshape(7, 1 + 9 * 3 * 2)
+    assert np.all(raw[:, 0] == 0)
+    samples = raw[:, 1:].copy().view(">u2").reshape(7, 9, 3)
+    np.testing.assert_array_equal(samples, (rgb * 65535 + 0.5).astype(np.uint16))
+    assert not _leftovers(tmp_path)

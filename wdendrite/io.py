@@ -42,8 +42,34 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     return path
 
 
+def _png16_rgb(path, rgb: np.ndarray) -> None:
+    """Write an (H, W, 3|4) uint16 image as a 16-bit PNG (Pillow cannot write 16-bit colour)."""
+    import struct
+    import zlib
+
+    h, w, c = rgb.shape
+    rows = np.ascontiguousarray(rgb.astype(">u2")).view(np.uint8).reshape(h, w * c * 2)
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), rows], axis=1)  # filter type 0 on every row
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", w, h, 16, 2 if c == 3 else 6, 0, 0, 0)
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+                + chunk(b"IEND", b""))
+
+
 def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False) -> Path:
-    """Save a 2D grey (H, W) or colour (H, W, 3|4) image with values in [0, 1] as an 8- or 16-bit PNG."""
+    """Save a grey (H, W) or colour (H, W, 3|4) image with values in [0, 1] as an 8- or 16-bit PNG.
+
+    Grey images and 8-bit colour go through Pillow; 16-bit colour is encoded here
+    (Pillow has no 16-bit RGB mode). The write is atomic.
+
+    Raises:
+        ValueError: a bad shape or ``bits`` not 8 or 16, a missing folder.
+        FileExistsError: ``path`` exists and ``overwrite`` is False.
+    """
     from PIL import Image
 
     img = np.asarray(image, dtype=np.float64)
@@ -51,9 +77,10 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
         raise ValueError(f"Expected 'image' of shape (H, W), (H, W, 3) or (H, W, 4), but got {img.shape}")
     if bits not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
-    if bits == 16 and img.ndim == 3:
-        raise ValueError("16-bit PNGs are written for grey images only (shape (H, W))")
     img = np.nan_to_num(np.clip(img, 0.0, 1.0))
+    if bits == 16 and img.ndim == 3:
+        data = (img * 65535 + 0.5).astype(np.uint16)
+        return atomic_write(path, lambda tmp: _png16_rgb(tmp, data), overwrite=overwrite)
     if bits == 8:
         pil = Image.fromarray((img * 255 + 0.5).astype(np.uint8))
     else:
