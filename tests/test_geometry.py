@@ -22,9 +22,17 @@ DEN = wd.trace(wd.shortest_paths(LAT, [[1, 10, 10]]), [[18, 3, 3], [18, 16, 15],
 
 
 def _empty3():
-    from tests.test_render import empty_dendrite
-
     return empty_dendrite((4, 4, 4))
+
+def empty_dendrite(shape):
+    """A dendrite with no nodes (what a failed or filtered trace could leave)."""
+    from wdendrite.dendrite import Dendrite
+
+    nd = len(shape)
+    return Dendrite(shape=shape, nodes=np.zeros((0, nd), np.int64), parent=np.zeros(0, np.int64),
+                    cost=np.zeros(0, np.float32), label=np.zeros(0, np.int32), generation=np.zeros(0, np.int32),
+                    endpoints=np.zeros(0, np.int64), _padded=np.zeros(0, np.int64))
+
 
 
 def test_spheres_are_closed_with_the_asked_radii():

@@ -146,7 +146,6 @@ def test_svg_polylines_cover_every_edge_once(tmp_path):
 
 
 def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
-    from tests.test_render import empty_dendrite
     from wdendrite.geometry import spheres
 
     writers = [
@@ -162,9 +161,9 @@ def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
         assert first.read_bytes() == before
         write(tmp_path, overwrite=True)
     with pytest.raises(ValueError, match="empty"):
-        save_dendrite(tmp_path / "e.json", empty_dendrite())
+        save_dendrite(tmp_path / "e.json", empty_dendrite((8, 8)))
     with pytest.raises(ValueError, match="empty"):
-        save_svg(tmp_path / "e.svg", empty_dendrite())
+        save_svg(tmp_path / "e.svg", empty_dendrite((8, 8)))
     assert not _leftovers(tmp_path)
 
 
@@ -190,3 +189,13 @@ def test_16_bit_colour_png_is_valid_and_exact(tmp_path):
     samples = raw[:, 1:].copy().view(">u2").reshape(7, 9, 3)
     np.testing.assert_array_equal(samples, (rgb * 65535 + 0.5).astype(np.uint16))
     assert not _leftovers(tmp_path)
+
+
+def empty_dendrite(shape):
+    """A dendrite with no nodes (what a failed or filtered trace could leave)."""
+    from wdendrite.dendrite import Dendrite
+
+    nd = len(shape)
+    return Dendrite(shape=shape, nodes=np.zeros((0, nd), np.int64), parent=np.zeros(0, np.int64),
+                    cost=np.zeros(0, np.float32), label=np.zeros(0, np.int32), generation=np.zeros(0, np.int32),
+                    endpoints=np.zeros(0, np.int64), _padded=np.zeros(0, np.int64))
