@@ -1,96 +1,571 @@
-"""The ``wdendrite`` command."""
+"""The ``wdendrite`` command: one subcommand per preset, plus ``batch``.
+
+Every preset function (``wdendrite.presets`` and the command's own models
+below) is introspected: its keyword parameters become options, with their
+defaults, types (from annotations or defaults) and help (from the docstring);
+a frozen-dataclass parameter (``LightningParams``, ``DendryParams``) is
+flattened into one option per field. New presets therefore appear in the
+command without any wiring here.
+
+Exit codes: 0 success, 2 bad usage or input (a message, no traceback),
+1 an unexpected failure.
+"""
 
 from __future__ import annotations
 
-import logging
 import argparse
+import dataclasses
+import inspect
+import logging
+import typing
+import math
+import os
+import re
 import sys
+import tempfile
 import time
+from dataclasses import dataclass
+from dataclasses import field as dataclass_field
+from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
+from ._spec import UsageError, all_presets, nearest, parse_config, resolve
 
-def _costs(args) -> None:
+__all__ = ["UsageError", "build_parser", "main", "pick_device", "run_preset", "write_outputs"]
+
+PICTURE, FIELD, MESH, DENDRITE, SVG = (".png",), (".npy",), (".obj", ".ply", ".stl", ".glb"), (".npz", ".json"), (".svg",)
+SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG
+
+
+# --------------------------------------------------------------------------- devices and outputs
+
+
+def pick_device(name: str | None) -> str:
+    """The Warp device for ``name`` (``cpu``, ``cuda``, ``cuda:N``; None: CUDA if present, else the CPU)."""
     import warp as wp
 
-    from . import Lattice, shortest_paths, weights
-    from .io import save_png
-
     wp.config.log_level = logging.WARNING  # no start-up banner
-    n = args.size
-    lat = Lattice((n, n), connectivity=8, weights=weights.Uniform(r=10.0, seed=args.seed))
-    rng = np.random.default_rng(args.seed)
-    gens = rng.integers(0, n, size=(args.generators, 2))
-    t0 = time.perf_counter()
-    cf = shortest_paths(lat, gens, device=args.device)
-    dt = time.perf_counter() - t0
+    wp.init()
+    if name is None:
+        return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
+    if not re.fullmatch(r"cpu|cuda(:\d+)?", str(name)):
+        raise UsageError(f"--device must be cpu, cuda or cuda:N, but got {name!r}")
+    found = [str(d) for d in wp.get_devices()]
+    want = "cuda:0" if name == "cuda" else name
+    if want not in found:
+        raise UsageError(f"--device {name!r} is not available on this machine; available: {', '.join(found)}")
+    return want
+
+
+def check_outputs(paths, *, force: bool) -> list[Path]:
+    """Validate output paths before any work: known suffix, existing writable folder, no clobbering."""
+    out = []
+    for p in paths:
+        p = Path(p)
+        if p.suffix.lower() not in SUFFIXES:
+            raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
+                             f"use one of {', '.join(SUFFIXES)}")
+        folder = p.parent if str(p.parent) else Path(".")
+        if not folder.is_dir():
+            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
+        try:  # os.access says yes to root even on read-only file systems: really try
+            fd, tmp = tempfile.mkstemp(prefix=".wdendrite-probe.", dir=folder)
+            os.close(fd)
+            os.unlink(tmp)
+        except OSError as exc:
+            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable ({exc.strerror})") from None
+        if p.exists() and not force:
+            raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
+        out.append(p)
+    return out
+
+
+def _unit_range(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a, np.float64)
+    ok = np.isfinite(a)
+    if not ok.any():
+        return np.zeros(a.shape)
+    lo, hi = a[ok].min(), a[ok].max()
+    return np.where(ok, (a - lo) / (hi - lo) if hi > lo else 0.0, 0.0)
+
+
+def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "") -> list[str]:
+    """Write what a preset returned to each path, the format taken from the suffix (atomically).
+
+    ``.png``: the picture (8-bit RGB), or with ``heightmap`` the 2D field as a 16-bit grey PNG
+    scaled from its minimum to its maximum; ``.npy``: the field (float32); ``.obj/.ply/.stl/.glb``:
+    the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
+    """
+    from . import io
+
+    paths = [Path(p) for p in paths]
+    for p in paths:  # every output must be possible before the first is written
+        suf = p.suffix.lower()
+        if suf in MESH:
+            _need(result, "mesh", preset, "a mesh")
+        elif suf in DENDRITE + SVG:
+            _need(result, "dendrite", preset, "a dendrite")
+    written = []
+    for p in paths:
+        suf = p.suffix.lower()
+        if suf == ".png" and heightmap:
+            io.save_png(p, _unit_range(_field(result, preset)), bits=16, overwrite=force)
+        elif suf == ".png":
+            io.save_png(p, _picture(result), overwrite=force)
+        elif suf == ".npy":
+            field = np.asarray(_field(result, preset), np.float32)
+            io.atomic_write(p, lambda tmp: np.save(tmp, field), overwrite=force)
+        elif suf in MESH:
+            io.save_mesh(p, _need(result, "mesh", preset, "a mesh"), overwrite=force)
+        elif suf in DENDRITE:
+            io.save_dendrite(p, _need(result, "dendrite", preset, "a dendrite"), overwrite=force)
+        else:
+            io.save_svg(p, _need(result, "dendrite", preset, "a dendrite"), overwrite=force)
+        written.append(str(p))
+    return written
+
+
+def _need(result, attr: str, preset: str, what: str):
+    value = getattr(result, attr, None)
+    if value is None:
+        raise UsageError(f"preset {preset!r} makes no {what[2:] if what.startswith('a ') else what}; "
+                         f"write a .png or .npy instead")
+    return value
+
+
+def _picture(result) -> np.ndarray:
+    if isinstance(result, np.ndarray):
+        return _unit_range(result)
+    return result.image
+
+
+def _field(result, preset: str) -> np.ndarray:
+    if isinstance(result, np.ndarray):
+        return result
+    parts = getattr(result, "parts", {}) or {}
+    for key in ("elevation", "field", "value", "values"):
+        v = parts.get(key)
+        if isinstance(v, np.ndarray) and v.ndim == 2:
+            return v
+    img = np.asarray(result.image)
+    return img if img.ndim == 2 else img @ np.array([0.299, 0.587, 0.114], np.float32)
+
+
+# --------------------------------------------------------------------------- the command's own models
+
+
+@dataclass(frozen=True)
+class Made:
+    """What one of the command's own models made (the shape of :class:`wdendrite.presets.Result`)."""
+
+    image: np.ndarray
+    """``(H, W, 3)`` or ``(H, W)`` float picture in [0, 1]."""
+    dendrite: object = None
+    """The dendrite, if any."""
+    mesh: object = None
+    """A mesh, if any."""
+    parts: dict = dataclass_field(default_factory=dict)
+    """Further data; ``"field"`` or ``"elevation"`` is what ``.npy`` and ``--heightmap`` write."""
+
+
+def fractal(size: int = 256, *, cheap: float = 0.0, seed: int = 0, progress: bool = False) -> Made:
+    """A fractal dendrite grown from the centre of a size x size lattice (thesis Fig 3.12).
+
+    Args:
+        size: lattice side in nodes (>= 8).
+        cheap: D, weight factor of the dendrite's edges in later iterations; 0 = its nodes become generators.
+        seed: seed of the weights and the endpoints.
+    """
+    from . import FractalParams, Lattice, grow, weights
+
+    if size < 8:
+        raise UsageError(f"--size must be at least 8, got {size}")
+    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
+    # a sparse, readable fractal: the first branches reach most of the way out
+    params = FractalParams(count=6, d=1.2 * size, alpha=1.8, beta=2.5, epsilon=0.12 * size, cheap=cheap)
+    den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
+    # brightness grows with the number of endpoints a node carries (thicker trunks)
+    img = np.zeros(lat.shape)
+    img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
+    return Made(img, den, parts={"field": img})
+
+
+def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
+    """Shortest-path costs of a random 8-connected lattice from random generators, in bands tinted by region.
+
+    Args:
+        size: lattice side in nodes (>= 8).
+        generators: number of random generators (>= 1).
+        seed: seed of the weights and the generators.
+    """
+    from . import Lattice, shortest_paths, weights
+
+    if size < 8:
+        raise UsageError(f"--size must be at least 8, got {size}")
+    if generators < 1:
+        raise UsageError(f"--generators must be at least 1, got {generators}")
+    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
+    gens = np.random.default_rng(seed).integers(0, size, size=(generators, 2))
+    cf = shortest_paths(lat, gens)
     d = cf.dist
     # banded costs show the wavefronts; the label field tints each generator's region
     bands = 0.5 + 0.5 * np.cos(d / (d[np.isfinite(d)].max() / 12.0) * 2 * np.pi)
     tint = (cf.label * 0.61803) % 1.0
     rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
-    save_png(args.out, rgb, overwrite=args.force)
-    print(f"{n}x{n} lattice, {args.generators} generators: shortest paths in {dt:.3f} s "
-          f"({cf.rounds} rounds) -> {args.out}")
+    return Made(rgb, parts={"field": d})
 
 
-def _fractal(args) -> None:
+Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]
+
+
+def dendry_setup(size: int, params, *, extent: float, control: str, frequency: float, drained: bool,
+                 seed: int) -> dict:
+    """Keyword arguments of :func:`wdendrite.dendry` (``shape``, ``domain``, ``params``, ``control``) for a model.
+
+    The image covers ``[0, extent]^2`` domain units; the control spans the paper's
+    Table 1 rectangle (noise) or its own domain (ramps, Lichtenberg bowl).
+    """
+    from . import control as ctl
+
+    if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+        raise UsageError(f"--size must be a positive integer, got {size!r}")
+    if not extent > 0 or not math.isfinite(extent):
+        raise UsageError(f"--extent must be a positive number of domain units, got {extent!r}")
+    if control in ("perlin", "ridged"):
+        c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
+    elif control == "radial":
+        c = ctl.radial((0.5, 0.5), radius=0.75)
+    elif control == "plane":
+        c = ctl.plane((0.0, 1.0))
+    elif control == "lichtenberg":
+        c = ctl.lichtenberg()
+    else:
+        raise UsageError(f"--control must be one of {', '.join(typing.get_args(Control))}, got {control!r}")
+    if drained:
+        c = ctl.drained(c)
+    params = _table1() if params is None else params
+    return {"shape": (size, size), "domain": ((0.0, 0.0), (extent, extent)),
+            "params": dataclasses.replace(params, seed=seed), "control": c}
+
+
+
+def _table1():
+    from .dendry import DendryParams
+
+    return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
+
+
+def dendry(size: int = 512, *, params=None, output: Literal["distance", "elevation", "level"] = "distance",
+           extent: float = 4.0, control: Control = "perlin", frequency: float = 1.0, drained: bool = False,
+           seed: int = 0) -> Made:
+    """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
+
+    Args:
+        size: image side in pixels.
+        output: distance (domain units), elevation (control units) or level (1..n of the nearest branch).
+        extent: side of the square the image covers, in domain units.
+        control: control function steering the branches (noise, radial ramp, plane, Lichtenberg bowl).
+        frequency: noise features per control unit (perlin, ridged).
+        drained: fill the control's interior minima so water reaches the border.
+        seed: seed of the tree and of the noise control.
+    """
+    setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
+                         seed=seed)
+    from .dendry import dendry as _dendry
+
+    z = _dendry(**setup, output=output)
+    if output == "distance":  # dark branches about 1.5 pixels wide on paper
+        img = 1.0 - np.exp(-((np.where(np.isfinite(z), z, np.inf) / (0.75 * extent / size)) ** 2))
+    else:
+        img = _unit_range(z)
+    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
+
+
+def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Control = "perlin",
+            frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
+    """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
+
+    Args:
+        size: image side in pixels.
+        extent: side of the square the image covers, in domain units.
+        control: control function steering the main valleys.
+        frequency: noise features per control unit (perlin, ridged).
+        drained: fill the control's interior minima so water reaches the border.
+        rivers: draw the D8 drainage network (cells draining more than 0.2 % of the image).
+        seed: seed of the tree, the terrain noise and the noise control.
+    """
+    from . import hydrology
+    from .dendry import dendry as _dendry
+
+    setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
+                         seed=seed)
+    z = _dendry(**setup, output="elevation")
+    img = _relief(z, extent / size)
+    parts = {"elevation": z}
+    if rivers:
+        area = hydrology.flow_accumulation(z, filled=True)
+        wet = np.clip(np.log(area / (0.002 * z.size)) / np.log(50.0), 0.0, 1.0)[..., None]
+        img = img * (1 - 0.8 * wet) + 0.8 * wet * np.array([0.15, 0.35, 0.8], np.float32)
+        parts["drainage"] = area
+    return Made(img.astype(np.float32), parts=parts)
+
+
+def _relief(z: np.ndarray, spacing: float) -> np.ndarray:
+    """Hillshade (light from the north-west) over a green-brown-white elevation tint."""
+    gy, gx = np.gradient(z.astype(np.float64), spacing)
+    n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    shade = np.clip(n @ (np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])), 0, 1)
+    t = _unit_range(z)[..., None]
+    low, mid, high = np.array([0.3, 0.45, 0.25]), np.array([0.55, 0.45, 0.3]), np.array([0.95, 0.95, 0.95])
+    tint = np.where(t < 0.6, low + (mid - low) * t / 0.6, mid + (high - mid) * (t - 0.6) / 0.4)
+    return tint * (0.35 + 0.65 * shade[..., None])
+
+
+def _with_table1(func):
+    """Give ``params`` the paper's Table 1 default once the Dendry module can be imported."""
+    import functools
+
+    try:
+        default = _table1()
+    except ImportError:  # Dendry under construction: the model stays out of the command
+        return None
+    sig = inspect.signature(func)
+    prm = sig.parameters["params"].replace(default=default, annotation=type(default))
+
+    @functools.wraps(func)
+    def model(*args, params=default, **kwargs):
+        return func(*args, params=params, **kwargs)
+
+    model.__signature__ = sig.replace(parameters=[prm if p.name == "params" else p for p in sig.parameters.values()])
+    return model
+
+
+MODELS = {"fractal": fractal, "costs": costs}
+"""The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""
+for _name, _func in (("dendry", dendry), ("terrain", terrain)):
+    _m = _with_table1(_func)
+    if _m is not None:
+        MODELS[_name] = _m
+
+
+# --------------------------------------------------------------------------- running one preset
+
+
+class _Ticker:
+    """A tqdm bar whose clock keeps moving while one long call runs."""
+
+    def __init__(self, total: int, desc: str, quiet: bool):
+        from tqdm.auto import tqdm
+
+        self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr)
+        self._stop = None
+
+    def __enter__(self):
+        import threading
+
+        if not self.bar.disable:
+            self._stop = threading.Event()
+
+            def tick():
+                while not self._stop.wait(0.5):
+                    self.bar.refresh()
+
+            threading.Thread(target=tick, daemon=True).start()
+        return self.bar
+
+    def __exit__(self, *exc):
+        if self._stop is not None:
+            self._stop.set()
+        self.bar.close()
+
+
+def run_preset(name: str, values: dict, outputs, *, device: str | None = None, force: bool = False,
+               quiet: bool = True, heightmap: bool = False) -> dict:
+    """Run preset ``name`` with parameter ``values`` (already typed) and write ``outputs``.
+
+    Everything is validated before the preset runs: parameter names and values, the
+    output suffixes and folders, the device. Returns a record of what was done:
+    ``preset``, ``params`` (every parameter, defaults included), ``device``,
+    ``outputs``, ``seconds`` (compute) and ``write_seconds``.
+    """
     import warp as wp
 
-    from . import FractalParams, Lattice, grow, weights
-    from .io import save_png
+    preset = all_presets().get(name)
+    if preset is None:
+        raise UsageError(f"unknown preset {name!r}{nearest(name, all_presets())}")
+    paths = check_outputs(outputs, force=force)
+    for p in paths:
+        if p.suffix.lower() in MESH and not preset.meshes:
+            raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write .png, .npy, .npz, .json or .svg")
+    dev = pick_device(device)
+    kwargs, full = resolve(preset, values)
+    with _Ticker(1 + len(paths), name, quiet) as bar:
+        t0 = time.perf_counter()
+        with wp.ScopedDevice(dev):
+            result = preset.func(**kwargs)
+        seconds = time.perf_counter() - t0
+        bar.update(1)
+        t1 = time.perf_counter()
+        written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
+        bar.update(len(paths))
+    return {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
+            "write_seconds": round(time.perf_counter() - t1, 4)}
 
-    wp.config.log_level = logging.WARNING  # no start-up banner
-    n = args.size
-    lat = Lattice((n, n), connectivity=8, weights=weights.Uniform(r=10.0, seed=args.seed))
-    # a sparse, readable fractal: the first branches reach most of the way out
-    params = FractalParams(count=6, d=1.2 * n, alpha=1.8, beta=2.5, epsilon=0.12 * n, cheap=args.cheap)
-    t0 = time.perf_counter()
-    den = grow(lat, [[n // 2, n // 2]], params, seed=args.seed, device=args.device, progress=not args.quiet)
-    dt = time.perf_counter() - t0
-    # brightness grows with the number of endpoints a node carries (thicker trunks)
-    img = np.zeros(lat.shape)
-    img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
-    save_png(args.out, img, overwrite=args.force)
-    print(f"fractal dendrite on {n}x{n}: {len(den.endpoints)} endpoints, {len(den)} nodes "
-          f"in {dt:.3f} s -> {args.out}")
+
+# --------------------------------------------------------------------------- the parser
 
 
-def _common(p, out: str) -> None:
-    p.add_argument("--size", type=int, default=256, help="lattice side in nodes (default: 256)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    p.add_argument("--device", default=None, help="Warp device: cpu, cuda, cuda:N (default: Warp's default)")
-    p.add_argument("-o", "--out", default=out, help=f"output PNG (default: {out})")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+class _Parser(argparse.ArgumentParser):
+    """argparse that suggests the nearest name for an unknown subcommand or choice."""
+
+    def error(self, message):
+        m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if m:
+            choices = re.findall(r"'([^']*)'", m.group(2))
+            message += nearest(m.group(1), choices)
+        self.print_usage(sys.stderr)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _add_common(p, preset) -> None:
+    g = p.add_argument_group("common options")
+    if preset.size_param:
+        sp = preset.params[preset.size_param]
+        g.add_argument("--size", type=int, default=argparse.SUPPRESS, metavar="N",
+                       help=f"largest side in nodes/pixels; sets '{preset.size_param}' "
+                            f"(default: {preset.default_size}) [nodes]" if sp else "")
+    if "seed" in preset.params:
+        g.add_argument("--seed", type=int, default=argparse.SUPPRESS, metavar="INT",
+                       help=f"random seed (default: {preset.params['seed'].default})")
+    g.add_argument("--device", default=argparse.SUPPRESS, metavar="DEV",
+                   help="Warp device: cpu, cuda, cuda:N (default: CUDA if present, else cpu)")
+    g.add_argument("-o", "--out", action="append", default=argparse.SUPPRESS, metavar="FILE",
+                   help=f"output file, repeatable; format from the suffix: {', '.join(SUFFIXES)} "
+                        f"(default: {preset.name}.png)")
+    g.add_argument("--heightmap", action="store_true", default=argparse.SUPPRESS,
+                   help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture")
+    g.add_argument("--config", metavar="FILE.toml", default=argparse.SUPPRESS,
+                   help="TOML file whose keys are this preset's parameters (options given here override it)")
+    g.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite existing outputs")
+    g.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress bar")
+
+
+def _add_params(p, preset) -> None:
+    groups = {}
+    for prm in preset.params.values():
+        if prm.name in ("seed", "size"):  # common options
+            continue
+        title = f"{prm.group} fields" if prm.group else "parameters"
+        g = groups.setdefault(title, p.add_argument_group(title))
+        flag = "--" + prm.name.replace("_", "-")
+        if prm.kind == "bool":
+            g.add_argument(flag, dest=prm.name, action=argparse.BooleanOptionalAction, default=argparse.SUPPRESS,
+                           help=prm.help_text())
+        else:
+            g.add_argument(flag, dest=prm.name, default=argparse.SUPPRESS, metavar=prm.metavar(),
+                           help=prm.help_text())
+    if preset.fixed:
+        p.epilog = ("Not settable from the command line (Python only): " + ", ".join(preset.fixed) + ".")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="wdendrite", description="Dendritic shapes grown with NVIDIA Warp kernels.")
-    sub = p.add_subparsers(dest="command", required=True)
-    f = sub.add_parser("fractal", help="a fractal dendrite grown from the centre (thesis Fig 3.12), as a PNG")
-    _common(f, "fractal.png")
-    f.add_argument("--cheap", type=float, default=0.0,
-                   help="D, weight factor of the dendrite's edges; 0 = new generators (default: 0)")
-    f.set_defaults(run=_fractal)
-    c = sub.add_parser("costs", help="shortest-path cost field of a random lattice, as a PNG")
-    _common(c, "costs.png")
-    c.add_argument("--generators", type=int, default=5, help="number of random generators (default: 5)")
-    c.set_defaults(run=_costs)
+    """The full parser: one subparser per preset, plus ``batch``."""
+    p = _Parser(prog="wdendrite", formatter_class=argparse.RawDescriptionHelpFormatter,
+                description="Dendritic shapes grown with NVIDIA Warp kernels.\n\n"
+                            "Run 'wdendrite PRESET --help' for a preset's parameters, defaults and units.\n"
+                            "Example: wdendrite fractal --size 256 -o fractal.png --force")
+    sub = p.add_subparsers(dest="command", metavar="PRESET", required=True, parser_class=_Parser)
+    for name, preset in all_presets().items():
+        s = sub.add_parser(name, help=preset.summary, description=preset.doc,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        _add_params(s, preset)
+        _add_common(s, preset)
+        s.set_defaults(_preset=name)
+    b = sub.add_parser("batch", help="run a TOML job file: presets with parameter sweeps, resumable, "
+                                     "optionally on Dask")
+    b.add_argument("jobs", metavar="JOBS.toml", help="the job file (see 'Batch jobs' in the README)")
+    b.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
+                   help="run on Dask: 'local' starts a LocalCluster, else a scheduler address "
+                        "such as tcp://host:8786 (default: one process, no Dask)")
+    b.add_argument("--workers", type=int, default=None, metavar="N", help="LocalCluster workers (default: 1)")
+    b.add_argument("--device", default=None, metavar="DEV", help="Warp device for every job (default: the file's, "
+                                                                 "else CUDA if present, else cpu)")
+    b.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
+                   help="how long to wait for a scheduler at an address (default: 10) [s]")
+    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--dry-run", action="store_true", help="list the tasks and whether they are done, run nothing")
+    b.set_defaults(_preset=None)
     return p
 
 
+def _unknown(argv, parser, extras) -> UsageError:
+    name = next((a for a in argv if not a.startswith("-")), None)
+    sub = parser._subparsers._group_actions[0].choices.get(name) if name else None
+    options = [s for a in (sub._actions if sub else []) for s in a.option_strings]
+    bad = [e for e in extras if e.startswith("-")] or extras
+    flag = bad[0].split("=")[0]
+    return UsageError(f"unrecognized option {flag!r} for '{name}'{nearest(flag, options)}")
+
+
+def _values_from(args, preset) -> dict:
+    given = {k: v for k, v in vars(args).items() if k in preset.params and k != "size"}
+    values = {}
+    if "config" in args:
+        values.update(parse_config(args.config, preset))
+    for k, v in given.items():
+        values[k] = preset.params[k].convert(v, source=f"--{k.replace('_', '-')}")
+    if "size" in args:
+        if args.size is not None and preset.size_param in given:
+            raise UsageError(f"give --size or --{preset.size_param.replace('_', '-')}, not both")
+        values[preset.size_param] = preset.sized(args.size)
+    return values
+
+
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    if args.size < 8:
-        print(f"wdendrite: error: --size must be at least 8, got {args.size}", file=sys.stderr)
-        return 2
+    """Entry point of the ``wdendrite`` console script; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        args.run(args)
-    except (ValueError, TypeError, FileExistsError, MemoryError) as exc:
+        parser = build_parser()
+        args, extras = parser.parse_known_args(argv)
+        if extras:
+            raise _unknown(argv, parser, extras)
+        if args._preset is None:
+            from .batch import run_file
+
+            return run_file(args.jobs, scheduler=args.scheduler, device=args.device, workers=args.workers,
+                            quiet=args.quiet, dry_run=args.dry_run, timeout=args.timeout)
+        preset = all_presets()[args._preset]
+        values = _values_from(args, preset)
+        outs = getattr(args, "out", None) or [f"{preset.name}.png"]
+        rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
+                         force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
+                         heightmap=getattr(args, "heightmap", False))
+        print(f"{preset.name}: {_brief(rec['params'], preset)} in {rec['seconds']:.3f} s on {rec['device']} "
+              f"-> {', '.join(rec['outputs'])}")
+        return 0
+    except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         print(f"wdendrite: error: {exc}", file=sys.stderr)
         return 2
-    return 0
+    except MemoryError as exc:
+        print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("wdendrite: interrupted", file=sys.stderr)
+        return 130
+    except Exception:  # a bug, not the user's input: show where
+        import traceback
+
+        traceback.print_exc()
+        print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
+        return 1
+
+
+def _brief(params: dict, preset) -> str:
+    keys = [k for k in (preset.size_param, "seed") if k]
+    return ", ".join(f"{k}={params[k]}" for k in keys if k in params)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,244 @@
+"""Write the notebooks in notebooks/ from the cells below (without outputs; CI executes them).
+
+    python scripts/make_notebooks.py
+
+Every notebook reads ``WDENDRITE_SMALL=1`` to shrink its sizes, so the test suite
+runs it top to bottom in seconds (tests/test_notebooks.py).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import nbformat
+
+HERE = Path(__file__).resolve().parent.parent / "notebooks"
+
+SETUP = '''\
+import logging, os
+import numpy as np
+import warp as wp
+from IPython.display import display
+from PIL import Image
+
+wp.config.log_level = logging.WARNING          # no start-up banner
+import wdendrite as wd
+from wdendrite import presets, io
+
+SMALL = os.environ.get("WDENDRITE_SMALL") == "1"   # CI runs every notebook at small sizes
+
+
+def show(img, scale=1):
+    """An RGB or grey float image in [0, 1] as a picture the notebook displays inline."""
+    a = (np.clip(np.asarray(img, np.float32), 0, 1) * 255 + 0.5).astype(np.uint8)
+    pic = Image.fromarray(a)
+    return pic.resize((pic.width * scale, pic.height * scale), Image.NEAREST) if scale != 1 else pic'''
+
+NOTEBOOKS = {
+    "01_quickstart": [
+        ("md", "# wdendrite quickstart\n\nA random-weighted lattice, least-cost paths from a generator, "
+               "backtracking from endpoints into a dendrite, and a picture of it. Every step is a Warp kernel; "
+               "the same code runs on the CPU and on CUDA (`wp.ScopedDevice('cuda:0')`)."),
+        ("code", SETUP),
+        ("code", '''\
+n = 96 if SMALL else 400
+lat = wd.Lattice((n, n), connectivity=8, weights=wd.weights.Uniform(r=10, seed=1))
+cf = wd.shortest_paths(lat, [[n // 2, n // 2]])
+print(cf.dist.shape, float(cf.dist.max()))
+show(cf.dist / cf.dist.max())'''),
+        ("md", "Endpoints drawn at random (at least `min_spacing` apart) are traced back to the generator all at once:"),
+        ("code", '''\
+ends = wd.endpoints.random(lat, 20, seed=2, min_spacing=n / 12)
+den = wd.trace(cf, ends)
+print(len(den), "nodes,", len(den.endpoints), "endpoints")
+from wdendrite import render
+show(1 - render.brightness(den, render.Taper(2.5, 0.8, along="path"), metric="euclidean"))'''),
+        ("md", "Fractal growth repeats this with endpoints in shrinking cost bands around the dendrite (thesis Fig 3.12):"),
+        ("code", '''\
+mean = float(lat.weights[0].mean())
+params = wd.FractalParams(count=6, d=0.45 * n * mean, alpha=1.8, beta=2.5, epsilon=0.06 * n * mean)
+tree = wd.grow(lat, [[n // 2, n // 2]], params, seed=3)
+show(1 - render.brightness(tree, 1.0, metric="euclidean"), scale=2 if SMALL else 1)'''),
+        ("md", "Every model of the papers is one call in `wdendrite.presets`, returning the data and a picture:"),
+        ("code", '''\
+res = presets.lightning((n, n), seed=4)
+io.save_png("quickstart_lightning.png", res.image, overwrite=True)
+show(res.image)'''),
+    ],
+    "02_path_planning": [
+        ("md", "# Path-planning dendrites: the papers' figures\n\nXu & Mould (2007), *Magnetic curves*-era "
+               "constructive path planning, and Xu's thesis (2008). Sizes are the papers' unless `SMALL`."),
+        ("code", SETUP),
+        ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), 2007 paper Fig. 8:"),
+        ("code", '''\
+res = presets.fractal_grid(48 if SMALL else 170)
+show(res.image)'''),
+        ("md", "**Weight distributions** `W = 1 + v^n`: Manhattan-like for n = 0 to erratic for n = 8 (thesis 4.2):"),
+        ("code", '''\
+res = presets.weight_distributions((64, 64) if SMALL else (200, 200))
+show(res.image)'''),
+        ("md", "**Tropisms**: weights biased toward one side stretch the cost contours and the dendrite with them:"),
+        ("code", '''\
+res = presets.tropisms((64, 64) if SMALL else (200, 200))
+show(res.image)'''),
+        ("md", "**Competition**: two dendrites grown at once never touch (2007 paper, Fig. 14):"),
+        ("code", '''\
+res = presets.competition((96, 96) if SMALL else (300, 300))
+show(res.image)'''),
+        ("md", "**DLA imitation** (2007 paper, Fig. 11) and **dendritic letters** (Fig. 13):"),
+        ("code", '''\
+display(show(presets.dla_imitation((96, 96) if SMALL else (500, 500)).image))
+show(presets.letters("wd", height=48 if SMALL else 300).image)'''),
+    ],
+    "03_lightning": [
+        ("md", "# Lightning\n\nTwo graphs with power weights: the main stroke and its forks, and a second graph "
+               "of side branches; widths taper along paths (eq. 2), a halo glows around them."),
+        ("code", SETUP),
+        ("code", '''\
+n = 128 if SMALL else 600
+res = presets.lightning((n, n), seed=7)
+show(res.image)'''),
+        ("md", "Every field of `LightningParams` is documented; the same settings are options of `wdendrite lightning`:"),
+        ("code", '''\
+calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0, glow_gain=0.6)
+wild = presets.LightningParams(alpha=4.0, forks=16, minor_forks=24, glow_radius=20)
+display(show(presets.lightning((n, n), params=calm, seed=7).image))
+show(presets.lightning((n, n), params=wild, seed=7).image)'''),
+        ("md", "Widths: constant next to tapering along paths and along branches (constructive path planning Fig. 4):"),
+        ("code", '''\
+show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
+    ],
+    "04_3d": [
+        ("md", "# 3D: trees, coral, lichen, rock and moss\n\nThe same path planning on 26-connected 3D lattices; "
+               "tubes or isosurfaces give meshes (`trimesh`), previews are ray cast with Warp."),
+        ("code", SETUP),
+        ("code", '''\
+tree = presets.elm_tree((24, 24, 24) if SMALL else (80, 80, 80), endpoints=8 if SMALL else 17)
+print(tree.mesh)
+show(tree.image)'''),
+        ("code", '''\
+coral = presets.staghorn_coral((20, 20, 20) if SMALL else (50, 50, 50), endpoints=8 if SMALL else 24,
+                               refine_n=3)
+show(coral.image)'''),
+        ("code", '''\
+rock = presets.rock((24, 24, 24) if SMALL else (128, 128, 128), smooth=2 if SMALL else 6)
+display(show(rock.image))
+lichen = presets.lichen_on_rock((32, 32, 32) if SMALL else (128, 128, 128), count=3 if SMALL else 8)
+show(lichen.image)'''),
+        ("code", '''\
+moss = presets.moss((12, 32, 32) if SMALL else (40, 96, 96), endpoints=30 if SMALL else 400)
+io.save_mesh("moss.glb", moss.mesh, overwrite=True)    # OBJ, PLY, STL or GLB from the suffix
+show(moss.image)'''),
+    ],
+    "05_dendry_terrain": [
+        ("md", "# Dendry terrain and hydrology\n\nGaillard et al. (2019): a per-pixel function giving the distance "
+               "to an implicit branching tree, and a terrain built on it. Every pixel is independent, so a window "
+               "of a huge image is computed alone, bit for bit."),
+        ("code", SETUP),
+        ("code", '''\
+from wdendrite import control, hydrology
+n = 128 if SMALL else 512
+ctl = control.drained(control.perlin(seed=1, domain=((-0.2, -0.4), (1.4, 0.7))))
+p = wd.DendryParams(levels=2 if SMALL else 3, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=1)
+kw = dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl)
+dist = wd.dendry((n, n), output="distance", **kw)
+show(np.exp(-dist / np.median(dist)))'''),
+        ("code", '''\
+z = wd.dendry((n, n), output="elevation", **kw)
+win = wd.dendry((n, n), output="elevation", window=(n // 4, n // 3, 20, 30), **kw)
+assert np.array_equal(win, z[n // 4: n // 4 + 20, n // 3: n // 3 + 30])   # a window is the same region
+show((z - z.min()) / (z.max() - z.min()))'''),
+        ("md", "Hydrology: depressions (priority-flood) and drainage area (D8), against an fBm baseline:"),
+        ("code", '''\
+for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=1))]:
+    d = hydrology.depressions(terrain)
+    print(f"{name:7s} depressions: {d.count:4d}, {d.percent:5.1f} % of the surface")
+area = hydrology.flow_accumulation(z, filled=True)
+show(hydrology.drainage_image(area))'''),
+        ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 -o terrain.png`."),
+        ("code", '''\
+from wdendrite import cli
+show(cli.terrain(n, seed=1).image)'''),
+    ],
+    "06_batch": [
+        ("md", "# Batch jobs on a GPU workstation\n\nA TOML job file lists presets with sweeps; `wdendrite batch "
+               "jobs.toml` writes every output atomically with a manifest and skips what is complete when run "
+               "again. `--scheduler local` spreads the tasks over a Dask `LocalCluster` (one worker per GPU: "
+               "`--workers 2 --device cuda`), `--scheduler tcp://host:8786` over an existing cluster."),
+        ("code", SETUP),
+        ("code", '''\
+import json, tempfile
+from pathlib import Path
+from wdendrite import batch
+
+folder = Path(tempfile.mkdtemp())
+size = 48 if SMALL else 512
+(folder / "jobs.toml").write_text(f"""
+out = "runs"
+device = "cpu"
+
+[[job]]
+preset = "lightning"
+seeds = [1, 2]
+size = {size}
+formats = ["png", "npz"]
+
+[[job]]
+preset = "fractal"
+size = {size}
+grid = {{ cheap = [0.0, 0.5] }}
+
+[[job]]
+preset = "terrain"          # tiled: never whole in memory
+size = {4 * size}
+tile = {size}
+formats = ["npy"]
+""")
+batch.run_file(folder / "jobs.toml", quiet=True)
+sorted(p.name for p in (folder / "runs").iterdir())'''),
+        ("code", '''\
+man = json.loads((folder / "runs" / f"lightning_shape{size}x{size}_seed1.manifest.json").read_text())
+{k: man[k] for k in ("preset", "seed", "device", "version", "seconds")}'''),
+        ("md", "Running the file again does nothing: every task is complete."),
+        ("code", '''\
+batch.run_file(folder / "jobs.toml", quiet=True)'''),
+        ("md", "A large Dendry terrain is a lazy Dask array, one block per tile (computed by the cluster's workers):"),
+        ("code", '''\
+from distributed import Client, LocalCluster
+from wdendrite import cli
+setup = cli.dendry_setup(4 * size, wd.DendryParams(levels=2, delta=0.1, noise=0.05), extent=16.0,
+                         control="perlin", frequency=1.0, drained=False, seed=0)
+with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \\
+        Client(cluster) as client:
+    arr = batch.dendry_array(setup, tile=size, device="cpu")
+    print(arr)
+    corner = arr[:size, :2 * size].compute()
+show((corner - corner.min()) / (corner.max() - corner.min()))'''),
+        ("code", '''\
+tiled = np.load(folder / "runs" / f"terrain_size{4 * size}_seed0.npy", mmap_mode="r")
+print(tiled.shape, tiled.dtype)
+show(cli._relief(np.asarray(tiled[::4, ::4]), 16.0 / size))'''),
+    ],
+}
+
+
+def build() -> list[Path]:
+    """Write every notebook; returns their paths."""
+    HERE.mkdir(exist_ok=True)
+    paths = []
+    for name, cells in NOTEBOOKS.items():
+        nb = nbformat.v4.new_notebook()
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+        nb.cells = [nbformat.v4.new_markdown_cell(src) if kind == "md" else nbformat.v4.new_code_cell(src)
+                    for kind, src in cells]
+        for i, cell in enumerate(nb.cells):
+            cell["id"] = f"{name[:2]}-{i:02d}"  # stable ids: regenerating gives the same files
+        path = HERE / f"{name}.ipynb"
+        nbformat.write(nb, path)
+        paths.append(path)
+    return paths
+
+
+if __name__ == "__main__":
+    for p in build():
+        print(p)

@@ -1,0 +1,186 @@
+"""Batch jobs: sweeps, manifests, resuming, tiled fields on a real Dask LocalCluster, bad job files."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from wdendrite import batch, cli
+from wdendrite._spec import UsageError, all_presets
+
+JOBS = """\
+out = "runs"
+device = "cpu"
+
+[[job]]
+preset = "fractal"
+seeds = [0, 1]
+sizes = [32, 40]
+grid = { cheap = [0.0, 0.5] }
+
+[[job]]
+preset = "lightning"
+size = 48
+formats = ["png", "npz"]
+params = { forks = 2, minor_forks = 2 }
+
+[[job]]
+preset = "dendry"
+size = 50
+tile = 16
+formats = ["npy"]
+params = { levels = 2, output = "elevation" }
+"""
+
+
+def wd(*args, cwd):
+    p = subprocess.run([sys.executable, "-m", "wdendrite.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                       text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def _whole_dendry(size, **values):
+    preset = all_presets()["dendry"]
+    params = preset.groups["params"][0]
+    import dataclasses
+
+    params = dataclasses.replace(params, **{k: v for k, v in values.items() if k in ("levels",)})
+    setup = cli.dendry_setup(size, params, extent=4.0, control="perlin", frequency=1.0, drained=False, seed=0)
+    from wdendrite.dendry import dendry
+
+    return setup, dendry(**setup, output="elevation", device="cpu")
+
+
+def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
+    (tmp_path / "jobs.toml").write_text(JOBS)
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    runs = tmp_path / "runs"
+    manifests = sorted(runs.glob("*.manifest.json"))
+    assert len(manifests) == 8 + 1 + 1
+    rec = json.loads((runs / "fractal_size40_seed1_cheap0.5.manifest.json").read_text())
+    assert rec["params"] == {"size": 40, "cheap": 0.5, "seed": 1} and rec["seed"] == 1
+    assert rec["device"] == "cpu" and rec["version"] and rec["seconds"] >= 0
+    assert all(os.path.exists(p) for p in rec["outputs"])
+    from wdendrite.io import load_dendrite
+
+    assert load_dendrite(runs / "lightning_shape48x48_seed0.npz")[0].shape == (48, 48)
+    _, whole = _whole_dendry(50, levels=2)
+    assert np.array_equal(np.load(runs / "dendry_size50_seed0.npy"), whole)  # 16-pixel tiles join seamlessly
+    assert not [p for p in runs.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+    # a re-run skips complete tasks; a lost output or a stale manifest is redone
+    stamps = {m.name: m.stat().st_mtime_ns for m in manifests}
+    (runs / "fractal_size32_seed0_cheap0.0.png").unlink()
+    stale = runs / "fractal_size32_seed1_cheap0.0.manifest.json"
+    stale.write_text(json.dumps({**json.loads(stale.read_text()), "params": {"size": 99}}))
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert "2 run, 8 already complete" in out
+    redone = {m.name for m in runs.glob("*.manifest.json") if m.stat().st_mtime_ns != stamps[m.name]}
+    assert redone == {"fractal_size32_seed0_cheap0.0.manifest.json", stale.name}
+
+
+def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
+    shape, tile = (37, 45), 10
+
+    def value(window):
+        r0, c0, h, w = window
+        rr, cc = np.mgrid[r0:r0 + h, c0:c0 + w]
+        return (np.sin(rr * 0.3) + cc * 0.01).astype(np.float32)
+
+    calls = []
+
+    def dies_after_five(window):
+        if len(calls) == 5:
+            raise KeyboardInterrupt  # the run is killed
+        calls.append(window)
+        return value(window)
+
+    out = tmp_path / "f.npy"
+    with pytest.raises(KeyboardInterrupt):
+        batch.write_tiled(dies_after_five, shape, tile, out)
+    assert not out.exists()  # nothing half-written under the final name
+    seen = []
+    batch.write_tiled(lambda w: seen.append(w) or value(w), shape, tile, out)
+    assert len(seen) == len(batch.tile_windows(shape, tile)) - 5 and not set(seen) & set(calls)
+    assert np.array_equal(np.load(out), value((0, 0, *shape)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.npy"]
+
+
+def test_tiles_on_a_local_cluster_equal_the_whole_image(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    setup, whole = _whole_dendry(41, levels=2)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        arr = batch.dendry_array(setup, tile=12, device="cpu")
+        assert arr.numblocks == (4, 4)
+        assert np.array_equal(arr.compute(), whole)
+        ticks = []
+        batch.write_tiled(arr_fn := __import__("functools").partial(batch._dendry_tile, setup=setup,
+                                                                     output="elevation", device="cpu"),
+                          (41, 41), 12, tmp_path / "t.npy", client=client, progress=lambda d, t: ticks.append(d))
+        assert arr_fn((0, 0, 3, 3)).shape == (3, 3)
+    assert np.array_equal(np.load(tmp_path / "t.npy"), whole) and ticks[-1] == 16
+
+
+def test_zarr_output(tmp_path):
+    zarr = pytest.importorskip("zarr")
+
+    def value(window):
+        r0, c0, h, w = window
+        return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 100).astype(np.float32)
+
+    batch.write_tiled(value, (20, 30), 8, tmp_path / "v.zarr")
+    assert np.array_equal(zarr.open_array(str(tmp_path / "v.zarr"), mode="r")[:], value((0, 0, 20, 30)))
+
+
+def test_batch_on_a_local_cluster_of_processes(tmp_path):
+    pytest.importorskip("distributed")
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nseeds = [1, 2]\nsize = 24\n'
+                                        '[[job]]\npreset = "terrain"\nsize = 30\ntile = 16\nformats = "npy"\n')
+    code, out, err = wd("batch", "jobs.toml", "--scheduler", "local", "--workers", 1, "--device", "cpu", "--quiet",
+                        cwd=tmp_path)
+    assert code == 0, err
+    assert "3 run" in out
+    names = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert names == ["costs_size24_seed1.manifest.json", "costs_size24_seed1.png", "costs_size24_seed2.manifest.json",
+                     "costs_size24_seed2.png", "terrain_size30_seed0.manifest.json", "terrain_size30_seed0.npy"]
+
+
+@pytest.mark.parametrize("text, words", [
+    ('out = "o"\n[[job]]\npreset = "lightning"\nseeds = [1, 2\n', ["does not parse", "line 4", "seeds = [1, 2"]),
+    ('out = "o"\n[[job]]\npreset = "lightnin"\n', ["job 1", "did you mean 'lightning'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nseedz = [1]\n', ["job 1 (fractal)", "'seedz'", "did you mean 'seed'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\ngrid = { chaep = [0.1] }\n', ["'chaep'", "did you mean 'cheap'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nparams = { cheap = "lots" }\n', ["cheap", "'lots'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nformats = ["tif"]\n', ["unknown format 'tif'"]),
+    ('out = "o"\n[[job]]\npreset = "lightning"\ntile = 64\n', ["'tile' is for"]),
+    ('[[job]]\npreset = "fractal"\n', ["needs an output folder"]),
+    ('out = "/proc/wdendrite-runs"\n[[job]]\npreset = "fractal"\nsize = 16\n', ["not writable"]),
+])
+def test_bad_job_files_exit_2_and_write_nothing(tmp_path, text, words):
+    (tmp_path / "jobs.toml").write_text(text)
+    code, out, err = wd("batch", "jobs.toml", cwd=tmp_path)
+    assert code == 2, (out, err)
+    assert "Traceback" not in err
+    for w in words:
+        assert w in err, (w, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
+
+
+def test_unreachable_scheduler_exits_2(tmp_path):
+    pytest.importorskip("distributed")
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\n')
+    code, out, err = wd("batch", "jobs.toml", "--scheduler", "tcp://127.0.0.1:9", "--timeout", 1, cwd=tmp_path)
+    assert code == 2 and "cannot reach the Dask scheduler" in err and "Traceback" not in err
+    assert not list((tmp_path / "o").iterdir()) if (tmp_path / "o").exists() else True
+
+
+def test_load_jobs_rejects_duplicate_task_names(tmp_path):
+    (tmp_path / "j.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\n[[job]]\npreset = "costs"\n')
+    with pytest.raises(UsageError, match="different 'name'"):
+        batch.load_jobs(tmp_path / "j.toml")

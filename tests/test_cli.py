@@ -1,0 +1,165 @@
+"""The `wdendrite` command, run as a real subprocess (exit codes, messages, files), plus its registry."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from wdendrite import cli
+from wdendrite._spec import all_presets
+
+
+def wd(*args, cwd):
+    """Run the command; returns (exit code, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "wdendrite.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                       text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+def bad(args, tmp_path, *words):
+    """The command fails with exit code 2, a message holding ``words`` and no traceback."""
+    code, out, err = wd(*args, cwd=tmp_path)
+    assert code == 2, (code, out, err)
+    assert "Traceback" not in err
+    for w in words:
+        assert w in err, (w, err)
+    return err
+
+
+def test_main_job_writes_the_fractal(tmp_path):
+    code, out, err = wd("fractal", "--size", 64, "-o", "fractal.png", "--force", cwd=tmp_path)
+    assert code == 0, err
+    img = np.asarray(Image.open(tmp_path / "fractal.png"))
+    assert img.shape == (64, 64) and img.max() > 0 and "fractal.png" in out
+    # same seed, same picture; --force replaces it
+    code, _, err = wd("fractal", "--size", 64, "-o", "again.png", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "again.png")), img)
+
+
+def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
+    code, out, _ = wd("--help", cwd=tmp_path)
+    assert code == 0
+    for name in ("lightning", "tree", "coral", "lichen", "moss", "rock", "fractal", "letters", "competition",
+                 "terrain", "dendry", "costs", "batch"):
+        assert name in out
+    code, out, _ = wd("lightning", "--help", cwd=tmp_path)
+    assert code == 0
+    assert "--glow-radius X Blur radius of the halo (pixels), > 0 (default: 14.0) [pixels]" in " ".join(out.split())
+    parser = cli.build_parser()
+    subs = parser._subparsers._group_actions[0].choices
+    for name, preset in all_presets().items():
+        text = " ".join(subs[name].format_help().split())
+        for prm in preset.params.values():
+            if prm.name in ("seed", "size"):
+                continue
+            assert "--" + prm.name.replace("_", "-") in text, (name, prm.name)
+            assert "(default:" in text
+        if preset.size_param:
+            assert "--size" in text and "[nodes]" in text
+
+
+def test_formats_from_the_suffix(tmp_path):
+    outs = ["l.png", "l.npy", "l.npz", "l.json", "l.svg"]
+    code, _, err = wd("lightning", "--size", 48, "--forks", 2, "--minor-forks", 2, *sum((["-o", o] for o in outs), []),
+                      "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert np.asarray(Image.open(tmp_path / "l.png")).shape == (48, 48, 3)
+    assert np.load(tmp_path / "l.npy").shape == (48, 48)
+    from wdendrite.io import load_dendrite
+
+    den, width = load_dendrite(tmp_path / "l.npz")
+    den2, _ = load_dendrite(tmp_path / "l.json")
+    assert den.shape == (48, 48) and np.array_equal(den.nodes, den2.nodes) and len(width) == len(den)
+    assert (tmp_path / "l.svg").read_text().startswith("<svg")
+    meshes = ["t.glb", "t.obj", "t.ply", "t.stl"]
+    code, _, err = wd("tree", "--size", 16, "--endpoints", 4, *sum((["-o", o] for o in meshes), []), "--quiet",
+                      cwd=tmp_path)
+    assert code == 0, err
+    import trimesh
+
+    for m in meshes:
+        mesh = trimesh.load(tmp_path / m, force="mesh")
+        assert len(mesh.faces) > 0, m
+
+
+def test_heightmap_and_npy_equal_the_dendry_function(tmp_path):
+    code, _, err = wd("terrain", "--size", 40, "--no-rivers", "-o", "t.png", "-o", "t.npy", "--heightmap",
+                      "--device", "cpu", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    z = np.load(tmp_path / "t.npy")
+    preset = all_presets()["terrain"]
+    setup = cli.dendry_setup(40, preset.groups["params"][0], extent=4.0, control="perlin", frequency=1.0,
+                             drained=True, seed=0)
+    from wdendrite.dendry import dendry
+
+    assert np.array_equal(z, dendry(**setup, output="elevation", device="cpu"))
+    png = Image.open(tmp_path / "t.png")
+    assert png.mode.startswith("I") and np.asarray(png).max() == 65535 and np.asarray(png).min() == 0
+
+
+def test_config_file_and_command_line_override(tmp_path):
+    (tmp_path / "c.toml").write_text("size = 40\nseed = 3\ncheap = 0.5\n")
+    code, _, err = wd("fractal", "--config", "c.toml", "-o", "a.png", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert np.asarray(Image.open(tmp_path / "a.png")).shape == (40, 40)
+    code, _, err = wd("fractal", "--config", "c.toml", "--size", 32, "-o", "b.png", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert np.asarray(Image.open(tmp_path / "b.png")).shape == (32, 32)
+    (tmp_path / "bad.toml").write_text("size = 40\nchaep = 0.5\n")
+    bad(["fractal", "--config", "bad.toml", "-o", "c.png"], tmp_path, "'chaep'", "did you mean 'cheap'")
+    (tmp_path / "broken.toml").write_text("size = 40\ncheap = = 1\n")
+    bad(["fractal", "--config", "broken.toml", "-o", "c.png"], tmp_path, "line 2", "cheap = = 1")
+    assert not (tmp_path / "c.png").exists()
+
+
+def test_unknown_preset_and_option_suggest_the_nearest(tmp_path):
+    bad(["lightnin"], tmp_path, "did you mean 'lightning'")
+    bad(["fractal", "--sed", "3"], tmp_path, "'--sed'", "did you mean '--seed'")
+
+
+def test_bad_values_are_named(tmp_path):
+    bad(["lightning", "--size", 48, "--forks", -1, "-o", "l.png"], tmp_path, "forks")
+    bad(["lightning", "--size", 48, "--forks", "many", "-o", "l.png"], tmp_path, "--forks", "integer", "'many'")
+    bad(["dendry", "--size", 32, "--levels", 9, "-o", "d.png"], tmp_path, "levels")
+    bad(["dendry", "--size", 32, "--control", "perlinn", "-o", "d.png"], tmp_path, "did you mean 'perlin'")
+    bad(["fractal", "--size", 4, "-o", "f.png"], tmp_path, "--size")
+    bad(["fractal", "--size", 32, "--device", "gpu", "-o", "f.png"], tmp_path, "--device", "'gpu'")
+    bad(["fractal", "--size", 32, "--device", "cuda:7", "-o", "f.png"], tmp_path, "not available")
+    bad(["lightning", "--size", 48, "-o", "l.glb"], tmp_path, "no mesh")
+    bad(["fractal", "--size", 32, "-o", "f.tiff"], tmp_path, "unknown suffix", ".png")
+    assert not list(tmp_path.iterdir())
+
+
+def test_outputs_are_never_clobbered_or_half_written(tmp_path):
+    (tmp_path / "f.png").write_bytes(b"keep")
+    bad(["fractal", "--size", 32, "-o", "f.png"], tmp_path, "exists", "--force")
+    assert (tmp_path / "f.png").read_bytes() == b"keep"
+    (tmp_path / "file").write_text("not a folder")
+    bad(["fractal", "--size", 32, "-o", "file/f.png"], tmp_path, "not a folder")
+    bad(["fractal", "--size", 32, "-o", "missing/f.png"], tmp_path, "does not exist")
+    bad(["fractal", "--size", 32, "-o", "/proc/f.png"], tmp_path, "not writable")
+    # the preset fails after the outputs were checked (rock has no dendrite): nothing is left behind
+    bad(["rock", "--size", 16, "-o", "r.png", "-o", "r.npz"], tmp_path, "no dendrite")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "file"]
+
+
+def test_unexpected_failure_exits_with_1(monkeypatch, capsys):
+    preset = all_presets()["costs"]
+
+    def broken(**kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(preset, "func", broken)
+    assert cli.main(["costs", "--size", "16", "-o", "/tmp/never-written-by-wdendrite.png", "--quiet"]) == 1
+    assert "boom" in capsys.readouterr().err
+
+
+def test_run_preset_record_lists_every_parameter(tmp_path):
+    rec = cli.run_preset("costs", {"size": 16, "generators": 2}, [tmp_path / "c.npy"], device="cpu")
+    assert rec["params"] == {"size": 16, "generators": 2, "seed": 0} and rec["device"] == "cpu"
+    assert np.load(tmp_path / "c.npy").shape == (16, 16)
+    json.dumps(rec)

@@ -1,0 +1,7 @@
+"""``python -m wdendrite``: the same as the ``wdendrite`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,428 @@
+"""What the command knows about presets: parameters found by introspection, typed values, TOML configs.
+
+A preset is any public function of :mod:`wdendrite.presets` (and the command's own
+models in :mod:`wdendrite.cli`). Its keyword parameters, their defaults,
+annotations and docstring lines give the options; a frozen-dataclass parameter
+(``params: LightningParams = LightningParams()``) is flattened into its fields,
+documented by the field docstrings. Parameters whose type the command cannot
+spell (arrays, tapers) keep their defaults and are listed as Python-only.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import difflib
+import inspect
+import re
+import textwrap
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["Param", "Preset", "UsageError", "all_presets", "nearest", "parse_config", "read_toml", "resolve"]
+
+ALIASES = {"elm_tree": "tree", "staghorn_coral": "coral", "lichen_on_rock": "lichen"}
+"""Command names of presets whose function names are long."""
+
+SIZE_NAMES = ("shape", "size", "cell", "height")
+"""Parameters that ``--size`` sets (the first one a preset has)."""
+
+UNITS = {
+    "shape": "nodes", "size": "nodes", "cell": "nodes", "height": "nodes", "endpoints": "count",
+    "count": "count", "forks": "count", "minor_forks": "count", "neighbours": "count", "iterations": "count",
+    "levels": "count", "generators": "count", "refine_n": "subdivisions", "smooth": "passes",
+    "primitive_steps": "levels", "glow_radius": "pixels", "r": "weight units", "d": "weight units",
+    "epsilon": "weight units", "extent": "domain units", "resolution": "cells per domain unit",
+    "frequency": "features per control unit", "paths_per_1000": "paths per 1000 nodes", "start": "pixels",
+    "end": "pixels", "cheap": "fraction", "eps": "fraction of a cell", "delta": "fraction of a segment",
+    "minor_gain": "fraction", "glow_gain": "fraction", "noise": "fraction", "strength": "factor",
+    "alpha": "dimensionless", "alphas": "dimensionless", "beta": "dimensionless", "betas": "dimensionless",
+    "ns": "exponents", "seed": "", "text": "", "toward": "", "geometry": "", "rule": "", "output": "",
+    "control": "", "smoothing": "", "subdivision": "", "drained": "", "colormap": "",
+}
+"""Units shown in ``--help`` by parameter name."""
+
+
+class UsageError(ValueError):
+    """Bad usage or input: the command prints the message and exits with code 2."""
+
+
+def nearest(word: str, names) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``names``, or an empty string."""
+    near = difflib.get_close_matches(str(word), [str(n) for n in names], n=1, cutoff=0.5)
+    return f"; did you mean {near[0]!r}?" if near else ""
+
+
+# --------------------------------------------------------------------------- parameters
+
+
+def _fmt(v) -> str:
+    if isinstance(v, (tuple, list)):
+        return ",".join(_fmt(x) for x in v)
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return str(v)
+
+
+@dataclass
+class Param:
+    """One option of a preset."""
+
+    name: str
+    """Python parameter (or dataclass field) name."""
+    default: object
+    """Default value."""
+    kind: str
+    """int, float, bool, str, choice, ints, floats, strs, int?, float? or float+ (one number or a list)."""
+    choices: tuple = ()
+    """Allowed strings of a ``choice``."""
+    doc: str = ""
+    """Help line from the docstring."""
+    group: str | None = None
+    """The dataclass parameter this field belongs to (None: a plain parameter)."""
+
+    @property
+    def unit(self) -> str:
+        """Unit shown in the help (empty when dimensionless or not a quantity)."""
+        if self.name in UNITS:
+            return UNITS[self.name]
+        return "count" if self.kind in ("int", "ints", "int?") else ""
+
+    def help_text(self) -> str:
+        """``doc (default: x) [unit]`` with argparse's % escaped."""
+        doc = (self.doc or self.name.replace("_", " ")).rstrip(".")
+        if self.kind == "choice":
+            doc += f"; one of {', '.join(self.choices)}"
+        unit = f" [{self.unit}]" if self.unit else ""
+        return f"{doc} (default: {_fmt(self.default) if self.default is not None else 'none'}){unit}".replace("%", "%%")
+
+    def metavar(self) -> str:
+        """Placeholder shown in ``--help``."""
+        return {"int": "INT", "float": "X", "str": "TEXT", "choice": "{" + ",".join(self.choices) + "}",
+                "ints": "N,N,...", "floats": "X,X,...", "strs": "A,B,...", "int?": "INT|none",
+                "float?": "X|none", "float+": "X[,X,...]"}.get(self.kind, "VALUE")
+
+    def convert(self, value, *, source: str | None = None):
+        """``value`` (a string from the command line or a TOML value) as this parameter's type."""
+        where = source or f"'{self.name}'"
+        try:
+            return self._convert(value)
+        except (TypeError, ValueError):
+            pass
+        extra = nearest(value, self.choices) if self.kind == "choice" else ""
+        want = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "text",
+                "choice": f"one of {', '.join(self.choices)}", "ints": "integers separated by commas",
+                "floats": "numbers separated by commas", "strs": "names separated by commas",
+                "int?": "an integer or none", "float?": "a number or none",
+                "float+": "a number or numbers separated by commas"}[self.kind]
+        raise UsageError(f"{where} expects {want}, but got {value!r}{extra}")
+
+    def _convert(self, v):
+        k = self.kind
+        if k in ("int?", "float?") and (v is None or (isinstance(v, str) and v.lower() == "none")):
+            return None
+        if k in ("int", "int?"):
+            if isinstance(v, bool) or not isinstance(v, (int, str)):
+                raise TypeError
+            return int(v)
+        if k in ("float", "float?"):
+            if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+                raise TypeError
+            return float(v)
+        if k == "bool":
+            if isinstance(v, bool):
+                return v
+            if isinstance(v, str) and v.lower() in ("true", "false", "yes", "no", "1", "0"):
+                return v.lower() in ("true", "yes", "1")
+            raise ValueError
+        if k in ("str", "choice"):
+            if not isinstance(v, str) or (k == "choice" and v not in self.choices):
+                raise ValueError
+            return v
+        items = _items(v, allow_x=k == "ints")
+        if k == "float+":
+            out = tuple(Param(self.name, None, "float")._convert(x) for x in items)
+            return out[0] if len(out) == 1 and not isinstance(v, (list, tuple)) else out
+        inner = {"ints": "int", "floats": "float", "strs": "str"}[k]
+        return tuple(Param(self.name, None, inner)._convert(x) for x in items)
+
+
+def _items(v, *, allow_x: bool) -> list:
+    if isinstance(v, (list, tuple)):
+        return list(v)
+    if isinstance(v, str):
+        parts = re.split(r"[,x]" if allow_x else ",", v.strip())
+        if any(not p.strip() for p in parts):
+            raise ValueError
+        return [p.strip() for p in parts]
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return [v]
+    raise TypeError
+
+
+def _kind(annotation, default) -> tuple[str | None, tuple]:
+    """(kind, choices) from an annotation (or, without one, from the default); kind None: unsupported."""
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is typing.Literal:
+        return ("choice", tuple(str(a) for a in args)) if all(isinstance(a, str) for a in args) else (None, ())
+    if origin in (typing.Union, types.UnionType):
+        rest = [a for a in args if a is not type(None)]
+        if len(rest) == 1 and len(args) == 2:
+            k, _ = _kind(rest[0], None)
+            return (k + "?", ()) if k in ("int", "float") else (None, ())
+        if set(rest) == {float} | {a for a in rest if typing.get_origin(a) is tuple}:
+            return "float+", ()
+        return None, ()
+    if origin is tuple:
+        inner = [a for a in args if a is not Ellipsis]
+        name = {int: "ints", float: "floats", str: "strs"}.get(inner[0] if inner and len(set(inner)) == 1 else None)
+        return name, ()
+    if annotation in (bool, int, float, str):
+        return annotation.__name__, ()
+    if annotation is inspect.Parameter.empty or annotation is None:
+        return _kind_of_value(default), ()
+    return None, ()
+
+
+def _kind_of_value(v) -> str | None:
+    if isinstance(v, bool):
+        return "bool"
+    if isinstance(v, int):
+        return "int"
+    if isinstance(v, float):
+        return "float"
+    if isinstance(v, str):
+        return "str"
+    if isinstance(v, tuple) and v:
+        if all(isinstance(x, int) and not isinstance(x, bool) for x in v):
+            return "ints"
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            return "floats"
+        if all(isinstance(x, str) for x in v):
+            return "strs"
+    return None
+
+
+def _arg_docs(func) -> dict[str, str]:
+    """``{name: first sentence}`` from the Args: section of a docstring."""
+    doc = inspect.getdoc(func) or ""
+    m = re.search(r"^Args:\n(.*?)(?:^\S|\Z)", doc, re.S | re.M)
+    out = {}
+    if m:
+        for item in re.split(r"\n(?=    \S)", "\n" + m.group(1)):
+            head, _, text = item.strip().partition(":")
+            for name in head.split(","):
+                out[name.strip()] = " ".join(text.split())
+    return out
+
+
+def _field_docs(cls) -> dict[str, str]:
+    """``{field: docstring}`` of a dataclass whose fields are followed by string literals."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    except (OSError, TypeError, SyntaxError):
+        return {}
+    body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+    out = {}
+    for a, b in zip(body, body[1:]):
+        if (isinstance(a, ast.AnnAssign) and isinstance(a.target, ast.Name) and isinstance(b, ast.Expr)
+                and isinstance(b.value, ast.Constant) and isinstance(b.value.value, str)):
+            out[a.target.id] = " ".join(b.value.value.split())
+    return out
+
+
+# --------------------------------------------------------------------------- presets
+
+
+@dataclass
+class Preset:
+    """A subcommand: a function and its options."""
+
+    name: str
+    func: object
+    summary: str
+    doc: str
+    params: dict = field(default_factory=dict)
+    """``{name: Param}``; dataclass fields are flattened in."""
+    groups: dict = field(default_factory=dict)
+    """``{dataclass parameter: (default instance, [field names])}``."""
+    fixed: list = field(default_factory=list)
+    """Parameters kept at their defaults (types the command cannot spell)."""
+    size_param: str | None = None
+    meshes: bool = False
+    """True for 3D presets (they return a mesh)."""
+
+    @property
+    def default_size(self):
+        d = self.params[self.size_param].default if self.size_param else None
+        return max(d) if isinstance(d, tuple) else d
+
+    def sized(self, n) -> object:
+        """The value of the size parameter for ``--size n`` (the largest side; other sides keep their ratio)."""
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise UsageError(f"--size expects a positive integer, but got {n!r}")
+        d = self.params[self.size_param].default
+        if isinstance(d, tuple):
+            big = max(d)
+            return tuple(max(1, round(x * n / big)) for x in d)
+        return n
+
+
+def _summary(func) -> tuple[str, str]:
+    doc = inspect.getdoc(func) or func.__name__
+    first = doc.split("\n\n")[0]
+    body = re.split(r"^Args:$", doc, flags=re.M)[0].rstrip()  # the options list the arguments
+    return " ".join(first.split()).replace("%", "%%"), body
+
+
+def make_preset(name: str, func) -> Preset:
+    """Introspect ``func`` into a :class:`Preset` named ``name``."""
+    try:
+        hints = typing.get_type_hints(func)
+    except Exception:  # an annotation that cannot be evaluated: fall back to the defaults' types
+        hints = {}
+    summary, doc = _summary(func)
+    p = Preset(name, func, summary, doc)
+    docs = _arg_docs(func)
+    sig = inspect.signature(func)
+    for prm in sig.parameters.values():
+        if prm.default is inspect.Parameter.empty or prm.name in ("device", "progress"):
+            continue
+        ann = hints.get(prm.name, inspect.Parameter.empty)
+        if dataclasses.is_dataclass(prm.default) and not isinstance(prm.default, type):
+            _flatten(p, prm.name, prm.default, sig)
+            continue
+        kind, choices = _kind(ann, prm.default)
+        if kind is None:
+            p.fixed.append(prm.name)
+            continue
+        p.params[prm.name] = Param(prm.name, prm.default, kind, choices, docs.get(prm.name, ""))
+    p.size_param = next((n for n in SIZE_NAMES if n in p.params), None)
+    shape = p.params.get("shape")
+    p.meshes = bool(shape and isinstance(shape.default, tuple) and len(shape.default) == 3)
+    return p
+
+
+def _flatten(p: Preset, argname: str, instance, sig) -> None:
+    cls = type(instance)
+    try:
+        hints = typing.get_type_hints(cls)
+    except Exception:
+        hints = {}
+    docs = _field_docs(cls)
+    names = []
+    for f in dataclasses.fields(cls):
+        if f.name in sig.parameters:  # the function's own parameter of that name wins (e.g. seed)
+            continue
+        value = getattr(instance, f.name)
+        kind, choices = _kind(hints.get(f.name, inspect.Parameter.empty), value)
+        if kind is None:
+            p.fixed.append(f"{argname}.{f.name}")
+            continue
+        p.params[f.name] = Param(f.name, value, kind, choices, docs.get(f.name, ""), group=cls.__name__)
+        names.append(f.name)
+    p.groups[argname] = (instance, names)
+
+
+_CACHE: dict = {}
+
+
+def all_presets() -> dict[str, Preset]:
+    """Every preset by command name: ``wdendrite.presets`` first, then the command's own models."""
+    if "all" in _CACHE:
+        return _CACHE["all"]
+    from . import cli
+
+    found = {}
+    try:
+        from . import presets as mod
+    except ImportError:  # presets under construction must not take the command down
+        mod = None
+    for fname in getattr(mod, "__all__", []):
+        func = getattr(mod, fname, None)
+        if inspect.isfunction(func):
+            name = ALIASES.get(fname, fname.replace("_", "-"))
+            found[name] = make_preset(name, func)
+    for name, func in cli.MODELS.items():
+        if name not in found:
+            found[name] = make_preset(name, func)
+    _CACHE["all"] = dict(sorted(found.items()))
+    return _CACHE["all"]
+
+
+def resolve(preset: Preset, values: dict) -> tuple[dict, dict]:
+    """Keyword arguments for ``preset.func`` from typed ``values``, and every parameter's value (for manifests).
+
+    Raises:
+        UsageError: a name the preset does not have.
+        ValueError: a dataclass rejects a value (its message names the field).
+    """
+    for k in values:
+        if k not in preset.params:
+            raise UsageError(f"preset {preset.name!r} has no parameter {k!r}{nearest(k, preset.params)}")
+    kwargs, full = {}, {}
+    grouped = {n for _, names in preset.groups.values() for n in names}
+    for k, prm in preset.params.items():
+        full[k] = _plain(values.get(k, prm.default))
+        if k in values and k not in grouped:
+            kwargs[k] = values[k]
+    for argname, (instance, names) in preset.groups.items():
+        given = {n: values[n] for n in names if n in values}
+        if given:
+            kwargs[argname] = dataclasses.replace(instance, **given)
+    return kwargs, full
+
+
+def _plain(v):
+    return list(_plain(x) for x in v) if isinstance(v, tuple) else v
+
+
+def read_toml(path, what: str) -> dict:
+    """A TOML file as a dict; a missing file or a syntax error is a :class:`UsageError` quoting the line."""
+    try:
+        import tomllib
+    except ImportError:  # Python < 3.11
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise UsageError(f"reading {what} needs tomli on Python < 3.11: pip install tomli") from None
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise UsageError(f"{what} {str(path)!r}: cannot read it ({exc.strerror})") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise UsageError(f"{what} {str(path)!r} does not parse: {exc}{_line_of(exc, text)}") from None
+
+
+def parse_config(path, preset: Preset) -> dict:
+    """Typed values from a TOML file whose keys are ``preset``'s parameters (``size`` allowed too)."""
+    path = Path(path)
+    raw = read_toml(path, "--config")
+    out = {}
+    for k, v in raw.items():
+        if k == "size" and preset.size_param:
+            out[preset.size_param] = preset.sized(v)
+        elif k in preset.params:
+            out[k] = preset.params[k].convert(v, source=f"config key '{k}' in {str(path)!r}")
+        else:
+            raise UsageError(f"config key {k!r} in {str(path)!r} is not a parameter of preset "
+                             f"{preset.name!r}{nearest(k, list(preset.params) + ['size'])}")
+    return out
+
+
+def _line_of(exc, text: str) -> str:
+    """The line a TOML error points at, quoted (the last line for errors at the end of the document)."""
+    lines = text.splitlines()
+    m = re.search(r"line (\d+)", str(exc))
+    if m:
+        i = int(m.group(1)) - 1
+    elif "end of document" in str(exc):
+        i = max((j for j, ln in enumerate(lines) if ln.strip()), default=-1)
+    else:
+        return ""
+    return f"\n  line {i + 1}: {lines[i]}" if 0 <= i < len(lines) else ""

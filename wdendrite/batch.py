@@ -1,0 +1,521 @@
+"""Batch jobs: presets with parameter sweeps from a TOML file, resumable, optionally on Dask.
+
+A job file::
+
+    out = "runs"                  # output folder, relative to the job file (created if missing)
+    device = "cpu"                # optional; default CUDA if present, else the CPU
+    formats = ["png"]             # default output formats of every job
+
+    [[job]]
+    preset = "lightning"
+    seeds = [0, 1, 2]             # or: seed = 0
+    sizes = [128, 256]            # or: size = 128
+    formats = ["png", "npz"]
+    params = { forks = 5 }        # fixed parameter values
+    grid = { alpha = [2.0, 3.0] } # swept parameters (every combination)
+
+    [[job]]
+    preset = "terrain"            # "dendry" or "terrain" with a tile size: the field is
+    size = 8192                   # computed tile by tile (a Dask array on a cluster) and
+    tile = 1024                   # written to an NPY memmap or a Zarr store, never whole in memory
+    formats = ["npy"]
+
+Every task (one combination) writes its outputs atomically (a temporary name,
+then a rename) and then its manifest ``<name>.manifest.json`` with the
+parameters, seed, device, package version and timing. A task is complete when
+its manifest matches its parameters and every output exists; re-running the file
+skips complete tasks and redoes the rest. Tiled fields record each finished tile,
+so a killed run resumes with the tiles it had not written.
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import json
+import os
+import re
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._spec import UsageError, all_presets, nearest, read_toml, resolve
+
+__all__ = ["Task", "dendry_array", "load_jobs", "run_file", "run_task", "tile_windows", "tiled_array",
+           "write_tiled"]
+
+_TOP_KEYS = ("out", "device", "formats", "job")
+_JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
+_TILED_PRESETS = ("dendry", "terrain")
+_TILED_FORMATS = ("npy", "zarr")
+
+
+@dataclass
+class Task:
+    """One output set of a job: a preset, its parameter values and the files it writes."""
+
+    name: str
+    """File stem, unique in the output folder."""
+    preset: str
+    values: dict
+    """Typed parameter values given by the job (the rest are the preset's defaults)."""
+    outputs: list
+    """Output paths (str)."""
+    params: dict = field(default_factory=dict)
+    """Every parameter's value (JSON-ready): what the manifest records and compares."""
+    tile: int | None = None
+    """Tile side in pixels for a tiled Dendry field (None: the preset runs whole)."""
+
+    @property
+    def manifest(self) -> Path:
+        """Path of the task's manifest."""
+        return Path(self.outputs[0]).with_name(self.name + ".manifest.json")
+
+    def complete(self) -> bool:
+        """True when the manifest records these parameters and every output exists."""
+        try:
+            rec = json.loads(self.manifest.read_text())
+        except (OSError, ValueError):
+            return False
+        return rec.get("params") == self.params and all(Path(p).exists() for p in self.outputs)
+
+
+# --------------------------------------------------------------------------- job files
+
+
+def _keys(table: dict, allowed, where: str) -> None:
+    for k in table:
+        if k not in allowed:
+            raise UsageError(f"{where}: unknown key {k!r}{nearest(k, allowed)}; allowed keys: {', '.join(allowed)}")
+
+
+def _list(job: dict, one: str, many: str, where: str, default):
+    if one in job and many in job:
+        raise UsageError(f"{where}: give {one!r} or {many!r}, not both")
+    if many in job:
+        v = job[many]
+        if not isinstance(v, list) or not v:
+            raise UsageError(f"{where}: {many!r} must be a non-empty list, but got {v!r}")
+        return v
+    return [job.get(one, default)]
+
+
+def _formats(value, where: str) -> list[str]:
+    from .cli import SUFFIXES
+
+    fmts = [value] if isinstance(value, str) else value
+    if not isinstance(fmts, list) or not fmts:
+        raise UsageError(f"{where}: 'formats' must be a format or a list of them, but got {value!r}")
+    out = []
+    for f in fmts:
+        f = str(f).lower().lstrip(".")
+        if "." + f not in SUFFIXES and f != "zarr":
+            allowed = [s[1:] for s in SUFFIXES] + ["zarr"]
+            raise UsageError(f"{where}: unknown format {f!r}{nearest(f, allowed)}; allowed: {', '.join(allowed)}")
+        out.append(f)
+    return out
+
+
+def _slug(v) -> str:
+    s = ",".join(_slug(x) for x in v) if isinstance(v, (list, tuple)) else str(v)
+    return re.sub(r"[^A-Za-z0-9.,+-]", "-", s)
+
+
+def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
+    where = f"job {k + 1}"
+    if not isinstance(job, dict):
+        raise UsageError(f"{where}: expected a [[job]] table, but got {job!r}")
+    name, presets = job.get("preset"), all_presets()
+    where = f"job {k + 1} ({name})" if name in presets else where
+    _keys(job, _JOB_KEYS, where)
+    if name not in presets:
+        raise UsageError(f"{where}: unknown preset {name!r}{nearest(name, presets)}")
+    preset = presets[name]
+    fixed, grid = job.get("params", {}), job.get("grid", {})
+    for t, what in ((fixed, "params"), (grid, "grid")):
+        if not isinstance(t, dict):
+            raise UsageError(f"{where}: {what!r} must be a table, but got {t!r}")
+        _keys(t, list(preset.params), f"{where} {what}")
+    for key, vals in grid.items():
+        if not isinstance(vals, list) or not vals:
+            raise UsageError(f"{where}: grid {key!r} must be a non-empty list of values, but got {vals!r}")
+    seeds = _list(job, "seed", "seeds", where, None)
+    sizes = _list(job, "size", "sizes", where, None)
+    if sizes != [None] and not preset.size_param:
+        raise UsageError(f"{where}: preset {name!r} has no size parameter")
+    fmts = _formats(job.get("formats", top_formats), where)
+    tile = job.get("tile")
+    if tile is not None:
+        if name not in _TILED_PRESETS:
+            raise UsageError(f"{where}: 'tile' is for {' and '.join(_TILED_PRESETS)} only")
+        if isinstance(tile, bool) or not isinstance(tile, int) or tile < 8:
+            raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
+        bad = [f for f in fmts if f not in _TILED_FORMATS]
+        if bad:
+            raise UsageError(f"{where}: a tiled job writes {' or '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
+    elif "zarr" in fmts:
+        raise UsageError(f"{where}: 'zarr' output needs a tiled job (set 'tile')")
+    tasks = []
+    combos = list(itertools.product(*grid.values()))
+    for size, seed, combo in itertools.product(sizes, seeds, combos):
+        values = {p: preset.params[p].convert(v, source=f"{where} params {p!r}") for p, v in fixed.items()}
+        values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}") for p, v in zip(grid, combo)})
+        if seed is not None:
+            values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed")
+        if size is not None:
+            values[preset.size_param] = preset.sized(size)
+        _, full = resolve(preset, values)
+        stem = job.get("name", name)
+        sz = full[preset.size_param] if preset.size_param else None
+        bits = [f"{preset.size_param}{'x'.join(map(str, sz)) if isinstance(sz, list) else sz}"] if sz else []
+        bits += [f"seed{full['seed']}"] if "seed" in full else []
+        bits += [f"{p}{_slug(v)}" for p, v in zip(grid, combo)]
+        task_name = "_".join([_slug(stem)] + bits)
+        outs = [str(folder / f"{task_name}.{f}") for f in fmts]
+        for o in outs:
+            if Path(o).suffix in (".obj", ".ply", ".stl", ".glb") and not preset.meshes:
+                raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop format {Path(o).suffix[1:]!r}")
+        tasks.append(Task(task_name, name, values, outs, full, tile))
+    return tasks
+
+
+def load_jobs(path) -> tuple[list[Task], dict]:
+    """Parse and validate a job file: ``(tasks, settings)`` with ``settings["out"]`` and ``["device"]``.
+
+    Raises:
+        UsageError: a file that does not parse (with its line), an unknown key, preset,
+            parameter or format, a bad value, duplicate task names, an unwritable folder.
+    """
+    path = Path(path)
+    raw = read_toml(path, "job file")
+    _keys(raw, _TOP_KEYS, f"job file {str(path)!r}")
+    if "out" not in raw or not isinstance(raw["out"], str):
+        raise UsageError(f"job file {str(path)!r}: needs an output folder, e.g. out = \"runs\"")
+    jobs = raw.get("job", [])
+    if not isinstance(jobs, list) or not jobs:
+        raise UsageError(f"job file {str(path)!r}: lists no [[job]] tables")
+    folder = (path.parent / raw["out"]).resolve()
+    top_formats = raw.get("formats", ["png"])
+    tasks = [t for k, job in enumerate(jobs) for t in _job_tasks(job, k, folder, top_formats)]
+    seen = {}
+    for t in tasks:
+        if t.name in seen:
+            raise UsageError(f"two tasks would write {t.name!r}; give the jobs different 'name's")
+        seen[t.name] = t
+    return tasks, {"out": folder, "device": raw.get("device")}
+
+
+def _prepare_folder(folder: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".wdendrite-probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(f"output folder {str(folder)!r} is not writable ({exc.strerror or exc})") from None
+
+
+# --------------------------------------------------------------------------- one task
+
+
+def _manifest(task: Task, rec: dict, started: float) -> dict:
+    from . import __version__
+
+    return {"name": task.name, "preset": task.preset, "params": task.params, "seed": task.params.get("seed"),
+            "device": rec["device"], "version": __version__, "outputs": task.outputs,
+            "seconds": rec["seconds"], "write_seconds": rec.get("write_seconds"),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+
+
+def _write_manifest(task: Task, rec: dict) -> None:
+    from .io import atomic_write
+
+    text = json.dumps(rec, indent=2)
+    atomic_write(task.manifest, lambda tmp: Path(tmp).write_text(text), overwrite=True)
+
+
+def run_task(task: Task, device: str | None = None) -> dict:
+    """Run one (untiled) task, write its outputs and then its manifest; return the manifest."""
+    from .cli import run_preset
+
+    started = time.time()
+    task.manifest.unlink(missing_ok=True)  # an old manifest must not vouch for new outputs
+    rec = run_preset(task.preset, task.values, task.outputs, device=device, force=True, quiet=True)
+    man = _manifest(task, rec, started)
+    _write_manifest(task, man)
+    return man
+
+
+# --------------------------------------------------------------------------- tiled fields
+
+
+def tile_windows(shape, tile: int) -> list[tuple[int, int, int, int]]:
+    """``(row0, col0, h, w)`` of the tiles covering an (H, W) image, row by row; edge tiles are smaller."""
+    h, w = shape
+    return [(r, c, min(tile, h - r), min(tile, w - c)) for r in range(0, h, tile) for c in range(0, w, tile)]
+
+
+def _block(tile_fn, block_info=None):
+    (r0, r1), (c0, c1) = block_info[None]["array-location"]
+    return np.asarray(tile_fn((r0, c0, r1 - r0, c1 - c0)), np.float32)
+
+
+def tiled_array(tile_fn, shape, tile: int):
+    """A lazy Dask array of ``shape`` whose ``tile`` x ``tile`` blocks are ``tile_fn((row0, col0, h, w))``.
+
+    ``tile_fn`` must return the (h, w) values of that window of the whole image and be
+    picklable when the array is computed on a cluster.
+    """
+    import dask.array as da
+
+    chunks = tuple(tuple(min(tile, n - s) for s in range(0, n, tile)) for n in shape)
+    return da.map_blocks(_block, tile_fn, chunks=chunks, dtype=np.float32, meta=np.empty((0, 0), np.float32))
+
+
+def _dendry_tile(window, *, setup: dict, output: str, device):
+    from .cli import pick_device
+    from .dendry import dendry
+
+    return dendry(**setup, output=output, window=window, device=pick_device(device))
+
+
+def _tiled_setup(task: Task):
+    from .cli import dendry_setup
+
+    preset = all_presets()[task.preset]
+    kwargs, _ = resolve(preset, task.values)
+    p = {n: preset.params[n].default for n in ("extent", "control", "frequency", "drained", "seed")}
+    p.update({k: v for k, v in kwargs.items() if k in p})
+    params = kwargs.get("params", preset.groups["params"][0])
+    size = kwargs.get("size", preset.params["size"].default)
+    output = "elevation" if task.preset == "terrain" else kwargs.get("output", preset.params["output"].default)
+    return dendry_setup(size, params, **p), output
+
+
+def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", device=None):
+    """A lazy Dask array of a Dendry image (``dendry_setup`` keywords or a tiled task), one block per tile."""
+    if isinstance(task_or_setup, Task):
+        setup, output = _tiled_setup(task_or_setup)
+    else:
+        setup = task_or_setup
+    fn = functools.partial(_dendry_tile, setup=setup, output=output, device=device)
+    return tiled_array(fn, setup["shape"], tile)
+
+
+class _Target:
+    """Where finished tiles go: an NPY file (opened as a memmap per write) or a Zarr array, plus one
+    marker file per finished tile so an interrupted run knows what is left."""
+
+    def __init__(self, path: Path, marks: Path):
+        self.path, self.marks = str(path), str(marks)
+
+    def mark(self, window) -> Path:
+        return Path(self.marks) / ("%d_%d" % tuple(window[:2]))
+
+    def write(self, window, values) -> None:
+        r0, c0, h, w = window
+        if self.path.endswith(".zarr"):
+            import zarr
+
+            arr = zarr.open_array(self.path, mode="r+")
+            arr[r0:r0 + h, c0:c0 + w] = values
+        else:
+            mm = np.load(self.path, mmap_mode="r+")
+            mm[r0:r0 + h, c0:c0 + w] = values
+            mm.flush()
+            del mm
+        self.mark(window).touch()
+
+
+def _store_block(block, target: _Target, block_info=None):
+    (r0, r1), (c0, c1) = block_info[0]["array-location"]
+    target.write((r0, c0, r1 - r0, c1 - c0), block)
+    return np.ones((1, 1), np.int8)
+
+
+def _open_partial(final: Path, shape, tile: int) -> tuple[Path, Path]:
+    """The partial file (created when missing) and the folder of tile markers beside it."""
+    partial = final.with_name(f".{final.name}.partial")
+    marks = final.with_name(f".{final.name}.tiles")
+    if not partial.exists() or not marks.is_dir():
+        shutil.rmtree(marks, ignore_errors=True)
+        if partial.is_dir():
+            shutil.rmtree(partial)
+        elif partial.exists():
+            partial.unlink()
+        if final.suffix == ".zarr":
+            import zarr
+
+            # one chunk per tile: workers writing different tiles never touch the same chunk
+            zarr.open_array(str(partial), mode="w", shape=tuple(shape), chunks=(tile, tile), dtype="f4")
+        else:
+            from numpy.lib.format import open_memmap
+
+            mm = open_memmap(partial, mode="w+", dtype=np.float32, shape=tuple(shape))
+            mm.flush()
+            del mm
+        marks.mkdir()
+    return partial, marks
+
+
+def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None) -> Path:
+    """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
+
+    Finished tiles are recorded; calling again after an interruption computes only the
+    missing ones. On a Dask ``client`` the tiles are the blocks of :func:`tiled_array`,
+    computed by the workers, which write them straight into the file (they must share
+    its file system). The finished file replaces ``path`` by a rename.
+
+    Args:
+        tile_fn: ``(row0, col0, h, w) -> (h, w)`` array, the window of the whole image.
+        shape: (H, W) of the whole image.
+        tile: tile side in pixels.
+        path: the output file.
+        client: a ``distributed.Client`` (None: compute here, one tile after another).
+        progress: a callable told ``(done, total)`` after every tile.
+    """
+    final = Path(path)
+    partial, marks = _open_partial(final, shape, tile)
+    target = _Target(partial, marks)
+    windows = tile_windows(shape, tile)
+    todo = [w for w in windows if not target.mark(w).exists()]
+    done = len(windows) - len(todo)
+    if client is None:
+        for w in todo:
+            target.write(w, np.asarray(tile_fn(w), np.float32))
+            done += 1
+            if progress:
+                progress(done, len(windows))
+    else:
+        from distributed import as_completed
+
+        arr = tiled_array(tile_fn, shape, tile)
+        stored = arr.map_blocks(_store_block, target, dtype=np.int8, chunks=((1,) * arr.numblocks[0],
+                                                                              (1,) * arr.numblocks[1]))
+        futures = [client.compute(stored.blocks[w[0] // tile, w[1] // tile]) for w in todo]
+        for fut in as_completed(futures):
+            fut.result()
+            done += 1
+            if progress:
+                progress(done, len(windows))
+    if final.exists():
+        shutil.rmtree(final) if final.is_dir() else final.unlink()
+    os.replace(partial, final)
+    shutil.rmtree(marks, ignore_errors=True)
+    return final
+
+
+def run_tiled(task: Task, device=None, *, client=None, progress=None) -> dict:
+    """Run a tiled Dendry task: every output written tile by tile, then the manifest."""
+    from .cli import pick_device
+
+    started = time.time()
+    task.manifest.unlink(missing_ok=True)
+    setup, output = _tiled_setup(task)
+    dev = device if client is not None else pick_device(device)
+    fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
+    t0 = time.perf_counter()
+    for out in task.outputs:
+        write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress)
+    rec = {"device": dev or "default of each worker", "seconds": round(time.perf_counter() - t0, 4)}
+    man = _manifest(task, rec, started)
+    man.update(tile=task.tile, output=output)
+    _write_manifest(task, man)
+    return man
+
+
+# --------------------------------------------------------------------------- running a file
+
+
+def _client(scheduler: str, workers: int | None, processes: bool, timeout: float):
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise UsageError("--scheduler needs Dask: pip install 'wdendrite[distributed]'") from None
+    if scheduler == "local":
+        cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=processes,
+                               dashboard_address=None)
+        return Client(cluster), cluster
+    if not re.fullmatch(r"([a-z]+://)?[\w.\-\[\]:]+:\d+", scheduler):
+        raise UsageError(f"--scheduler must be 'local' or an address like tcp://host:8786, but got {scheduler!r}")
+    try:
+        return Client(scheduler, timeout=f"{timeout}s"), None
+    except (OSError, TimeoutError) as exc:
+        raise UsageError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+
+
+def run_file(path, *, scheduler: str | None = None, device: str | None = None, workers: int | None = None,
+             quiet: bool = False, dry_run: bool = False, processes: bool = True, timeout: float = 10.0) -> int:
+    """Run every task of a job file that is not complete; return the exit code (0, 1 if a task failed).
+
+    Args:
+        path: the TOML job file.
+        scheduler: None (run here, one task after another), ``"local"`` (a Dask
+            ``LocalCluster`` of ``workers`` workers) or a Dask scheduler address.
+        device: Warp device for every task (default: the file's ``device``, else CUDA if present, else the CPU).
+        workers: LocalCluster workers (default 1).
+        quiet: no progress bar.
+        dry_run: only list the tasks and whether each is complete.
+        processes: LocalCluster workers as processes (False: threads of this process).
+        timeout: seconds to wait for a scheduler at an address.
+
+    Raises:
+        UsageError: a bad job file, an unwritable folder, an unreachable scheduler (before any task runs).
+    """
+    from tqdm.auto import tqdm
+
+    from .cli import pick_device
+
+    tasks, settings = load_jobs(path)
+    device = device or settings["device"]
+    if device is not None or scheduler is None:
+        device = pick_device(device)  # validate here, before any work
+    if dry_run:
+        for t in tasks:
+            print(f"{'done' if t.complete() else 'todo'}  {t.name}  -> {', '.join(t.outputs)}")
+        return 0
+    _prepare_folder(settings["out"])
+    todo = [t for t in tasks if not t.complete()]
+    client = cluster = None
+    if scheduler is not None and todo:
+        client, cluster = _client(scheduler, workers, processes, timeout)
+    failed = []
+    bar = tqdm(total=len(todo), desc="batch", disable=quiet, file=sys.stderr)
+    try:
+        plain = [t for t in todo if t.tile is None]
+        if client is None:
+            for t in plain:
+                _attempt(lambda: run_task(t, device), t, failed)
+                bar.update(1)
+        else:
+            from distributed import as_completed
+
+            futures = {client.submit(run_task, t, device, pure=False): t for t in plain}
+            for fut in as_completed(futures):
+                _attempt(fut.result, futures[fut], failed)
+                bar.update(1)
+        for t in (t for t in todo if t.tile is not None):
+            _attempt(lambda: run_tiled(t, device, client=client), t, failed)
+            bar.update(1)
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    print(f"batch: {len(tasks)} tasks, {len(todo) - len(failed)} run, {len(tasks) - len(todo)} already complete, "
+          f"{len(failed)} failed -> {settings['out']}")
+    return 1 if failed else 0
+
+
+def _attempt(call, task: Task, failed: list) -> None:
+    try:
+        call()
+    except Exception as exc:  # one bad task must not stop the others; it is redone next time
+        failed.append(task.name)
+        print(f"batch: task {task.name} failed: {type(exc).__name__}: {exc}", file=sys.stderr)
