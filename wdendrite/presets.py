@@ -349,9 +349,10 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
 
     The first graph holds the main stroke, from a generator at the top to an
     endpoint at the bottom, plus forks near it; the second graph, with other
-    weights, holds only side branches, grown from the upper main stroke. Their brightness images are combined,
-    given a halo and lit over a night sky. ``parts`` holds both dendrites,
-    the core brightness ``"value"`` and the halo ``"glow"``.
+    weights, holds only side branches, grown from the upper main stroke.
+    Their brightness images are combined, given a halo and lit over a night
+    sky. ``parts`` holds both dendrites, the core brightness ``"value"`` and
+    the halo ``"glow"``.
     """
     shape = _shape(shape, 2)
     if not isinstance(params, LightningParams):
