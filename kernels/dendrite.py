@@ -3,7 +3,8 @@
 A node's predecessor is the first neighbour ``u`` (half-offset order, the
 ``+offset`` neighbour before the ``-offset`` one) whose packed word, extended
 by the edge ``u -> node``, reproduces the node's packed word exactly:
-``pack(cost[u] + w, label[u]) == packed[node]``. The shortest-path kernels
+``pack(cost[u] + w, label[u]) == packed[node]`` (see :func:`predecessor` for
+weights that vanish in float32 rounding). The shortest-path kernels
 set every word as such a minimum, so a predecessor always exists, and the
 choice depends only on the cost field: paths that meet share the rest of the
 way, so the union of all walks is a forest.
@@ -30,8 +31,16 @@ def predecessor(
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
 ) -> int:
-    """The neighbour a least-cost path to ``node`` comes from (-1 if none)."""
+    """The neighbour a least-cost path to ``node`` comes from (-1 if none).
+
+    A neighbour qualifies when its word plus the edge reproduces ``node``'s
+    word. Normally its own word is smaller; when an edge weight vanishes in
+    float32 rounding next to a large cost, a neighbour with the *same* word
+    qualifies too, and to keep walks from circling such neighbours are taken
+    only after strictly smaller ones, and only toward a lower node index.
+    """
     word = packed[node]
+    level_match = int(-1)
     for k in range(flat_offsets.shape[0]):
         for side in range(2):
             other = node + flat_offsets[k]
@@ -43,8 +52,11 @@ def predecessor(
                 src = packed[other]
                 if src != UNREACHED:
                     if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
-                        return other
-    return -1
+                        if src < word:
+                            return other
+                        if level_match < 0 and other < node:
+                            level_match = other
+    return level_match
 
 
 @wp.kernel

@@ -181,3 +181,19 @@ def test_paths_never_cross_once_met_they_share_the_rest():
                     assert paths[i][paths[i].index(first):] == paths[j][paths[j].index(first):]
                 else:
                     assert den.label[paths[i][-1]] != den.label[paths[j][-1]] or paths[i][-1] != paths[j][-1]
+
+
+def test_weights_beyond_float32_resolution_never_make_cycles():
+    # 1 + v^8 spans 16 orders of magnitude: float32 costs swallow the cheap edges,
+    # so equal-cost neighbours appear; tracing must still end (forest) or say why
+    lat = wd.Lattice((120, 120), 8, weights=wd.weights.Polynomial(n=8, seed=0))
+    cf = wd.shortest_paths(lat, [[60, 60]])
+    ends = wd.endpoints.random(lat, 20, seed=0, min_spacing=10)
+    try:
+        den = wd.trace(cf, ends)
+    except ValueError as exc:
+        assert "float32" in str(exc) and "endpoints" in str(exc)
+    else:
+        assert den.depth.max() < len(den)
+        child = den.parent >= 0
+        assert np.all(den.cost[den.parent[child]] <= den.cost[child])

@@ -212,8 +212,14 @@ def trace(
         n_new = int(new_count.numpy()[0])
         fresh = np.sort(new_nodes.numpy()[:n_new]).astype(np.int64)
         fresh_pred = pred.numpy()[fresh].astype(np.int64)
-    if (status.numpy() != 0).any():
-        raise RuntimeError("backtracking found a node with no predecessor; the cost field is inconsistent")
+    stuck = np.flatnonzero(status.numpy() != 0)
+    if len(stuck):
+        row = int(stuck[0])
+        raise ValueError(
+            f"backtracking from 'endpoints' row {row} = {tuple(pts[row].tolist())} found no way down: path costs "
+            f"reach {float(np.nanmax(np.where(np.isfinite(dist), dist, np.nan))):.3g}, where float32 cannot add the "
+            "lattice's smallest weights any more; use weights spanning fewer orders of magnitude"
+        )
     all_padded = np.concatenate([old, fresh])
     coords = _padded_to_coords(fresh, lattice.shape)
     new_parent = _rows_of(all_padded, fresh_pred)
