@@ -340,7 +340,7 @@ def _store_block(block, target: _Target, block_info=None):
 
 def _open_partial(final: Path, shape, tile: int) -> tuple[Path, Path]:
     """The partial file (created when missing) and the folder of tile markers beside it."""
-    partial = final.with_name(f".{final.name}.partial")
+    partial = final.with_name(f".{final.stem}.partial{final.suffix}")  # keeps the suffix that names the format
     marks = final.with_name(f".{final.name}.tiles")
     if not partial.exists() or not marks.is_dir():
         shutil.rmtree(marks, ignore_errors=True)

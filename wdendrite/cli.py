@@ -293,7 +293,7 @@ def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Contr
         control: control function steering the main valleys.
         frequency: noise features per control unit (perlin, ridged).
         drained: fill the control's interior minima so water reaches the border.
-        rivers: draw the D8 drainage network (cells draining more than 0.2 % of the image).
+        rivers: draw the D8 drainage network (cells draining more than 0.1 % of the image).
         seed: seed of the tree, the terrain noise and the noise control.
     """
     from . import hydrology
@@ -306,8 +306,9 @@ def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Contr
     parts = {"elevation": z}
     if rivers:
         area = hydrology.flow_accumulation(z, filled=True)
-        wet = np.clip(np.log(area / (0.002 * z.size)) / np.log(50.0), 0.0, 1.0)[..., None]
-        img = img * (1 - 0.8 * wet) + 0.8 * wet * np.array([0.15, 0.35, 0.8], np.float32)
+        # rivers appear where 0.1 % of the image drains through a cell and are full at 2 %
+        wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
+        img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85], np.float32)
         parts["drainage"] = area
     return Made(img.astype(np.float32), parts=parts)
 
