@@ -197,3 +197,23 @@ def test_weights_beyond_float32_resolution_never_make_cycles():
         assert den.depth.max() < len(den)
         child = den.parent >= 0
         assert np.all(den.cost[den.parent[child]] <= den.cost[child])
+
+
+def test_from_arrays_round_trip_and_checks():
+    lat = wd.Lattice((30, 30), 8, weights=wd.weights.Uniform(seed=2))
+    den = wd.trace(wd.shortest_paths(lat, [[15, 15]]), wd.endpoints.random(lat, 8, seed=1))
+    again = wd.Dendrite.from_arrays(den.shape, den.nodes, den.parent, cost=den.cost, label=den.label,
+                                    generation=den.generation, endpoints=den.endpoints)
+    np.testing.assert_array_equal(again.depth, den.depth)
+    # extending the rebuilt dendrite works as with the original
+    cf = wd.shortest_paths(lat, [[15, 15]])
+    more = [[0, 0], [29, 29]]
+    a, b = wd.trace(cf, more, extend=den), wd.trace(cf, more, extend=again)
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    np.testing.assert_array_equal(a.parent, b.parent)
+    with pytest.raises(ValueError, match="cycle"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [1, 0])
+    with pytest.raises(ValueError, match="twice"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 0]], [-1, 0])
+    with pytest.raises(ValueError, match="inside"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 5]], [-1])

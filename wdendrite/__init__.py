@@ -5,7 +5,7 @@ generators, backtracking into dendrites. Dendry (Gaillard et al.): a
 per-pixel branching function and terrain.
 """
 
-from . import control, endpoints, hydrology, weights
+from . import control, endpoints, geometry, hydrology, io, presets, render, weights
 from .dendrite import Dendrite, trace
 from .dendry import DendryParams, dendry, dendry_points
 from .growth import FractalParams, grow
@@ -25,9 +25,13 @@ __all__ = [
     "dendry",
     "dendry_points",
     "endpoints",
+    "geometry",
     "grow",
     "hydrology",
+    "io",
+    "presets",
     "refine",
+    "render",
     "shortest_paths",
     "trace",
     "weights",

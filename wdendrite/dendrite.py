@@ -59,6 +59,49 @@ class Dendrite:
         """``(N, ndim)`` float64 world positions ``origin + nodes * spacing``."""
         return np.asarray(self.origin, np.float64) + self.nodes * float(self.spacing)
 
+    @classmethod
+    def from_arrays(
+        cls, shape, nodes, parent, *, cost=None, label=None, generation=None, endpoints=None, origin=None,
+        spacing: float = 1.0,
+    ) -> Dendrite:
+        """A dendrite from plain arrays (e.g. read from a file), validated.
+
+        Args:
+            shape: the lattice shape.
+            nodes: ``(N, ndim)`` int coordinates, distinct and inside ``shape``.
+            parent: ``(N,)`` int rows, -1 at roots; must form a forest.
+            cost, label, generation: ``(N,)`` per-node values (default 0).
+            endpoints: rows paths were traced from (default: the leaves).
+            origin, spacing: placement in the world.
+        """
+        shape = _checks.lattice_shape(shape)
+        nodes = np.asarray(nodes, dtype=np.int64).reshape(-1, len(shape))
+        n = len(nodes)
+        if n and (nodes.min() < 0 or np.any(nodes >= np.asarray(shape))):
+            raise ValueError(f"'nodes' must lie inside the lattice of shape {shape}")
+        parent = np.asarray(parent, dtype=np.int64).reshape(-1)
+        if parent.shape != (n,) or (n and (parent.min() < -1 or parent.max() >= n)):
+            raise ValueError(f"Expected 'parent' of shape ({n},) with rows in [-1, {n}), but got shape {parent.shape}")
+        padded = np.ravel_multi_index(tuple((nodes + 1).T), tuple(k + 2 for k in shape)).astype(np.int64)
+        if len(np.unique(padded)) != n:
+            raise ValueError("'nodes' lists a node twice")
+
+        def per_node(name, value, dtype):
+            arr = np.zeros(n, dtype) if value is None else np.asarray(value, dtype=dtype).reshape(-1)
+            if arr.shape != (n,):
+                raise ValueError(f"Expected '{name}' of shape ({n},), but got shape {arr.shape}")
+            return arr
+
+        if endpoints is None:
+            has_child = np.zeros(n, bool)
+            has_child[parent[parent >= 0]] = True
+            endpoints = np.flatnonzero(~has_child)
+        den = cls(shape, nodes, parent, per_node("cost", cost, np.float32), per_node("label", label, np.int32),
+                  per_node("generation", generation, np.int32), np.asarray(endpoints, dtype=np.int64).reshape(-1),
+                  padded, origin, float(spacing))
+        den.depth  # raises on a cycle
+        return den
+
     def __len__(self) -> int:
         return len(self.nodes)
 

@@ -187,17 +187,14 @@ def load_dendrite(path):
         with open(path) as f:
             raw = {k: np.asarray(v) for k, v in json.load(f).items()}
     shape = tuple(int(n) for n in raw["shape"])
-    nodes = raw["nodes"].astype(np.int64).reshape(-1, len(shape))
-    padded = np.ravel_multi_index(tuple((nodes + 1).T), tuple(n + 2 for n in shape)).astype(np.int64)
-    den = Dendrite(
-        shape=shape,
-        nodes=nodes,
-        parent=raw["parent"].astype(np.int64),
-        cost=raw["cost"].astype(np.float32),
-        label=raw["label"].astype(np.int32),
-        generation=raw["generation"].astype(np.int32),
-        endpoints=raw["endpoints"].astype(np.int64),
-        _padded=padded,
+    den = Dendrite.from_arrays(
+        shape,
+        raw["nodes"],
+        raw["parent"],
+        cost=raw["cost"],
+        label=raw["label"],
+        generation=raw["generation"],
+        endpoints=raw["endpoints"],
         origin=tuple(float(x) for x in raw["origin"]),
         spacing=float(raw["spacing"]),
     )
