@@ -158,7 +158,7 @@ show(hydrology.drainage_image(area))'''),
         ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 -o terrain.png`."),
         ("code", '''\
 from wdendrite import cli
-show(cli.terrain(n, seed=1).image)'''),
+show(cli.MODELS["terrain"](n, seed=1).image)      # what `wdendrite terrain` runs'''),
     ],
     "06_batch": [
         ("md", "# Batch jobs on a GPU workstation\n\nA TOML job file lists presets with sweeps; `wdendrite batch "
@@ -217,7 +217,7 @@ show((corner - corner.min()) / (corner.max() - corner.min()))'''),
         ("code", '''\
 tiled = np.load(folder / "runs" / f"terrain_size{4 * size}_seed0.npy", mmap_mode="r")
 print(tiled.shape, tiled.dtype)
-show(cli._relief(np.asarray(tiled[::4, ::4]), 16.0 / size))'''),
+show(cli.relief(np.asarray(tiled[::4, ::4]), 16.0 / size))'''),
     ],
 }
 

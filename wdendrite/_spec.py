@@ -333,7 +333,7 @@ def all_presets() -> dict[str, Preset]:
     """Every preset by command name: ``wdendrite.presets`` first, then the command's own models."""
     if "all" in _CACHE:
         return _CACHE["all"]
-    from . import cli
+    from ._models import MODELS
 
     found = {}
     try:
@@ -345,7 +345,7 @@ def all_presets() -> dict[str, Preset]:
         if inspect.isfunction(func):
             name = ALIASES.get(fname, fname.replace("_", "-"))
             found[name] = make_preset(name, func)
-    for name, func in cli.MODELS.items():
+    for name, func in MODELS.items():
         if name not in found:
             found[name] = make_preset(name, func)
     _CACHE["all"] = dict(sorted(found.items()))

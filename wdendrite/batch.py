@@ -500,7 +500,13 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
                 _attempt(fut.result, futures[fut], failed)
                 bar.update(1)
         for t in (t for t in todo if t.tile is not None):
-            _attempt(lambda: run_tiled(t, device, client=client), t, failed)
+            with tqdm(desc=f"{t.name} tiles", disable=quiet, file=sys.stderr, leave=False) as tiles:
+                def tick(done, total, tiles=tiles):
+                    tiles.total = total
+                    tiles.n = done
+                    tiles.refresh()
+
+                _attempt(lambda: run_tiled(t, device, client=client, progress=tick), t, failed)
             bar.update(1)
     finally:
         bar.close()

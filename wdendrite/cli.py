@@ -14,26 +14,21 @@ Exit codes: 0 success, 2 bad usage or input (a message, no traceback),
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import inspect
 import logging
-import typing
-import math
 import os
 import re
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
-from dataclasses import field as dataclass_field
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 
+from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs and notebooks use them
 from ._spec import UsageError, all_presets, nearest, parse_config, resolve
 
-__all__ = ["UsageError", "build_parser", "main", "pick_device", "run_preset", "write_outputs"]
+__all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
+           "unit_range", "write_outputs"]
 
 PICTURE, FIELD, MESH, DENDRITE, SVG = (".png",), (".npy",), (".obj", ".ply", ".stl", ".glb"), (".npz", ".json"), (".svg",)
 SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG
@@ -82,15 +77,6 @@ def check_outputs(paths, *, force: bool) -> list[Path]:
     return out
 
 
-def _unit_range(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a, np.float64)
-    ok = np.isfinite(a)
-    if not ok.any():
-        return np.zeros(a.shape)
-    lo, hi = a[ok].min(), a[ok].max()
-    return np.where(ok, (a - lo) / (hi - lo) if hi > lo else 0.0, 0.0)
-
-
 def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "") -> list[str]:
     """Write what a preset returned to each path, the format taken from the suffix (atomically).
 
@@ -104,40 +90,39 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     for p in paths:  # every output must be possible before the first is written
         suf = p.suffix.lower()
         if suf in MESH:
-            _need(result, "mesh", preset, "a mesh")
+            _need(result, "mesh", preset)
         elif suf in DENDRITE + SVG:
-            _need(result, "dendrite", preset, "a dendrite")
+            _need(result, "dendrite", preset)
     written = []
     for p in paths:
         suf = p.suffix.lower()
         if suf == ".png" and heightmap:
-            io.save_png(p, _unit_range(_field(result, preset)), bits=16, overwrite=force)
+            io.save_png(p, unit_range(_field(result, preset)), bits=16, overwrite=force)
         elif suf == ".png":
             io.save_png(p, _picture(result), overwrite=force)
         elif suf == ".npy":
             field = np.asarray(_field(result, preset), np.float32)
             io.atomic_write(p, lambda tmp: np.save(tmp, field), overwrite=force)
         elif suf in MESH:
-            io.save_mesh(p, _need(result, "mesh", preset, "a mesh"), overwrite=force)
+            io.save_mesh(p, _need(result, "mesh", preset), overwrite=force)
         elif suf in DENDRITE:
-            io.save_dendrite(p, _need(result, "dendrite", preset, "a dendrite"), overwrite=force)
+            io.save_dendrite(p, _need(result, "dendrite", preset), overwrite=force)
         else:
-            io.save_svg(p, _need(result, "dendrite", preset, "a dendrite"), overwrite=force)
+            io.save_svg(p, _need(result, "dendrite", preset), overwrite=force)
         written.append(str(p))
     return written
 
 
-def _need(result, attr: str, preset: str, what: str):
+def _need(result, attr: str, preset: str):
     value = getattr(result, attr, None)
     if value is None:
-        raise UsageError(f"preset {preset!r} makes no {what[2:] if what.startswith('a ') else what}; "
-                         f"write a .png or .npy instead")
+        raise UsageError(f"preset {preset!r} makes no {attr}; write a .png or .npy instead")
     return value
 
 
 def _picture(result) -> np.ndarray:
     if isinstance(result, np.ndarray):
-        return _unit_range(result)
+        return unit_range(result)
     return result.image
 
 
@@ -153,205 +138,6 @@ def _field(result, preset: str) -> np.ndarray:
     return img if img.ndim == 2 else img @ np.array([0.299, 0.587, 0.114], np.float32)
 
 
-# --------------------------------------------------------------------------- the command's own models
-
-
-@dataclass(frozen=True)
-class Made:
-    """What one of the command's own models made (the shape of :class:`wdendrite.presets.Result`)."""
-
-    image: np.ndarray
-    """``(H, W, 3)`` or ``(H, W)`` float picture in [0, 1]."""
-    dendrite: object = None
-    """The dendrite, if any."""
-    mesh: object = None
-    """A mesh, if any."""
-    parts: dict = dataclass_field(default_factory=dict)
-    """Further data; ``"field"`` or ``"elevation"`` is what ``.npy`` and ``--heightmap`` write."""
-
-
-def fractal(size: int = 256, *, cheap: float = 0.0, seed: int = 0, progress: bool = False) -> Made:
-    """A fractal dendrite grown from the centre of a size x size lattice (thesis Fig 3.12).
-
-    Args:
-        size: lattice side in nodes (>= 8).
-        cheap: D, weight factor of the dendrite's edges in later iterations; 0 = its nodes become generators.
-        seed: seed of the weights and the endpoints.
-    """
-    from . import FractalParams, Lattice, grow, weights
-
-    if size < 8:
-        raise UsageError(f"--size must be at least 8, got {size}")
-    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
-    # a sparse, readable fractal: the first branches reach most of the way out
-    params = FractalParams(count=6, d=1.2 * size, alpha=1.8, beta=2.5, epsilon=0.12 * size, cheap=cheap)
-    den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
-    # brightness grows with the number of endpoints a node carries (thicker trunks)
-    img = np.zeros(lat.shape)
-    img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
-    return Made(img, den, parts={"field": img})
-
-
-def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
-    """Shortest-path costs of a random 8-connected lattice from random generators, in bands tinted by region.
-
-    Args:
-        size: lattice side in nodes (>= 8).
-        generators: number of random generators (>= 1).
-        seed: seed of the weights and the generators.
-    """
-    from . import Lattice, shortest_paths, weights
-
-    if size < 8:
-        raise UsageError(f"--size must be at least 8, got {size}")
-    if generators < 1:
-        raise UsageError(f"--generators must be at least 1, got {generators}")
-    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
-    gens = np.random.default_rng(seed).integers(0, size, size=(generators, 2))
-    cf = shortest_paths(lat, gens)
-    d = cf.dist
-    # banded costs show the wavefronts; the label field tints each generator's region
-    bands = 0.5 + 0.5 * np.cos(d / (d[np.isfinite(d)].max() / 12.0) * 2 * np.pi)
-    tint = (cf.label * 0.61803) % 1.0
-    rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
-    return Made(rgb, parts={"field": d})
-
-
-Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]
-
-
-def dendry_setup(size: int, params, *, extent: float, control: str, frequency: float, drained: bool,
-                 seed: int) -> dict:
-    """Keyword arguments of :func:`wdendrite.dendry` (``shape``, ``domain``, ``params``, ``control``) for a model.
-
-    The image covers ``[0, extent]^2`` domain units; the control spans the paper's
-    Table 1 rectangle (noise) or its own domain (ramps, Lichtenberg bowl).
-    """
-    from . import control as ctl
-
-    if isinstance(size, bool) or not isinstance(size, int) or size < 1:
-        raise UsageError(f"--size must be a positive integer, got {size!r}")
-    if not extent > 0 or not math.isfinite(extent):
-        raise UsageError(f"--extent must be a positive number of domain units, got {extent!r}")
-    if control in ("perlin", "ridged"):
-        c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
-    elif control == "radial":
-        c = ctl.radial((0.5, 0.5), radius=0.75)
-    elif control == "plane":
-        c = ctl.plane((0.0, 1.0))
-    elif control == "lichtenberg":
-        c = ctl.lichtenberg()
-    else:
-        raise UsageError(f"--control must be one of {', '.join(typing.get_args(Control))}, got {control!r}")
-    if drained:
-        c = ctl.drained(c)
-    params = _table1() if params is None else params
-    return {"shape": (size, size), "domain": ((0.0, 0.0), (extent, extent)),
-            "params": dataclasses.replace(params, seed=seed), "control": c}
-
-
-
-def _table1():
-    from .dendry import DendryParams
-
-    return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
-
-
-def dendry(size: int = 512, *, params=None, output: Literal["distance", "elevation", "level"] = "distance",
-           extent: float = 4.0, control: Control = "perlin", frequency: float = 1.0, drained: bool = False,
-           seed: int = 0) -> Made:
-    """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
-
-    Args:
-        size: image side in pixels.
-        output: distance (domain units), elevation (control units) or level (1..n of the nearest branch).
-        extent: side of the square the image covers, in domain units.
-        control: control function steering the branches (noise, radial ramp, plane, Lichtenberg bowl).
-        frequency: noise features per control unit (perlin, ridged).
-        drained: fill the control's interior minima so water reaches the border.
-        seed: seed of the tree and of the noise control.
-    """
-    setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
-                         seed=seed)
-    from .dendry import dendry as _dendry
-
-    z = _dendry(**setup, output=output)
-    if output == "distance":  # dark branches about 1.5 pixels wide on paper
-        img = 1.0 - np.exp(-((np.where(np.isfinite(z), z, np.inf) / (0.75 * extent / size)) ** 2))
-    else:
-        img = _unit_range(z)
-    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
-
-
-def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Control = "perlin",
-            frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
-    """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
-
-    Args:
-        size: image side in pixels.
-        extent: side of the square the image covers, in domain units.
-        control: control function steering the main valleys.
-        frequency: noise features per control unit (perlin, ridged).
-        drained: fill the control's interior minima so water reaches the border.
-        rivers: draw the D8 drainage network (cells draining more than 0.1 % of the image).
-        seed: seed of the tree, the terrain noise and the noise control.
-    """
-    from . import hydrology
-    from .dendry import dendry as _dendry
-
-    setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
-                         seed=seed)
-    z = _dendry(**setup, output="elevation")
-    img = _relief(z, extent / size)
-    parts = {"elevation": z}
-    if rivers:
-        area = hydrology.flow_accumulation(z, filled=True)
-        # rivers appear where 0.1 % of the image drains through a cell and are full at 2 %
-        wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
-        img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85], np.float32)
-        parts["drainage"] = area
-    return Made(img.astype(np.float32), parts=parts)
-
-
-def _relief(z: np.ndarray, spacing: float) -> np.ndarray:
-    """Hillshade (light from the north-west) over a green-brown-white elevation tint."""
-    gy, gx = np.gradient(z.astype(np.float64), spacing)
-    n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    shade = np.clip(n @ (np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])), 0, 1)
-    t = _unit_range(z)[..., None]
-    low, mid, high = np.array([0.3, 0.45, 0.25]), np.array([0.55, 0.45, 0.3]), np.array([0.95, 0.95, 0.95])
-    tint = np.where(t < 0.6, low + (mid - low) * t / 0.6, mid + (high - mid) * (t - 0.6) / 0.4)
-    return tint * (0.35 + 0.65 * shade[..., None])
-
-
-def _with_table1(func):
-    """Give ``params`` the paper's Table 1 default once the Dendry module can be imported."""
-    import functools
-
-    try:
-        default = _table1()
-    except ImportError:  # Dendry under construction: the model stays out of the command
-        return None
-    sig = inspect.signature(func)
-    prm = sig.parameters["params"].replace(default=default, annotation=type(default))
-
-    @functools.wraps(func)
-    def model(*args, params=default, **kwargs):
-        return func(*args, params=params, **kwargs)
-
-    model.__signature__ = sig.replace(parameters=[prm if p.name == "params" else p for p in sig.parameters.values()])
-    return model
-
-
-MODELS = {"fractal": fractal, "costs": costs}
-"""The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""
-for _name, _func in (("dendry", dendry), ("terrain", terrain)):
-    _m = _with_table1(_func)
-    if _m is not None:
-        MODELS[_name] = _m
-
-
 # --------------------------------------------------------------------------- running one preset
 
 
@@ -361,7 +147,10 @@ class _Ticker:
     def __init__(self, total: int, desc: str, quiet: bool):
         from tqdm.auto import tqdm
 
-        self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr)
+        try:  # shown only for work that takes more than a moment
+            self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr, delay=0.5)
+        except TypeError:  # tqdm < 4.62 has no delay
+            self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr)
         self._stop = None
 
     def __enter__(self):
@@ -472,12 +261,29 @@ def _add_params(p, preset) -> None:
         p.epilog = ("Not settable from the command line (Python only): " + ", ".join(preset.fixed) + ".")
 
 
+_COMMON_HELP = """\
+options of every preset:
+  --size N              largest side [nodes or pixels] (default: the preset's, e.g. 600 for lightning)
+  --seed INT            random seed (default: 0); same seed, same output
+  --device DEV          cpu, cuda or cuda:N (default: CUDA if present, else cpu)
+  -o, --out FILE        repeatable; format from the suffix: .png picture, .npy field (float32),
+                        .obj/.ply/.stl/.glb mesh (3D presets), .npz/.json dendrite graph, .svg polylines
+                        (default: PRESET.png)
+  --heightmap           .png outputs hold the field as a 16-bit grey heightmap
+  --config FILE.toml    parameter values from a TOML file (options given here override it)
+  --force               overwrite existing outputs
+  --quiet               no progress bar
+
+exit codes: 0 success, 2 bad usage or input (nothing written), 1 unexpected failure"""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full parser: one subparser per preset, plus ``batch``."""
     p = _Parser(prog="wdendrite", formatter_class=argparse.RawDescriptionHelpFormatter,
                 description="Dendritic shapes grown with NVIDIA Warp kernels.\n\n"
                             "Run 'wdendrite PRESET --help' for a preset's parameters, defaults and units.\n"
-                            "Example: wdendrite fractal --size 256 -o fractal.png --force")
+                            "Example: wdendrite fractal --size 256 -o fractal.png --force",
+                epilog=_COMMON_HELP)
     sub = p.add_subparsers(dest="command", metavar="PRESET", required=True, parser_class=_Parser)
     for name, preset in all_presets().items():
         s = sub.add_parser(name, help=preset.summary, description=preset.doc,
