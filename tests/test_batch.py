@@ -184,3 +184,16 @@ def test_load_jobs_rejects_duplicate_task_names(tmp_path):
     (tmp_path / "j.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\n[[job]]\npreset = "costs"\n')
     with pytest.raises(UsageError, match="different 'name'"):
         batch.load_jobs(tmp_path / "j.toml")
+
+
+def test_dry_run_lists_tasks_and_writes_nothing(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nseeds = [1, 2]\nsize = 16\n')
+    code, out, err = wd("batch", "jobs.toml", "--dry-run", cwd=tmp_path)
+    assert code == 0, err
+    assert out.count("todo") == 2 and "costs_size16_seed2" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
+
+
+def test_plain_cuda_is_left_alone_off_a_worker():
+    assert batch.worker_device("cuda") == "cuda" and batch.worker_device("cpu") == "cpu"
+    assert batch.worker_device(None) is None

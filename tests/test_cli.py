@@ -41,7 +41,9 @@ def test_main_job_writes_the_fractal(tmp_path):
 
 def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
     code, out, _ = wd("--help", cwd=tmp_path)
-    assert code == 0
+    assert code == 0 and "exit codes" in out and "--seed INT" in out
+    main = subprocess.run([sys.executable, "-m", "wdendrite", "--help"], capture_output=True, text=True, cwd=tmp_path)
+    assert main.returncode == 0 and main.stdout == out
     for name in ("lightning", "tree", "coral", "lichen", "moss", "rock", "fractal", "letters", "competition",
                  "terrain", "dendry", "costs", "batch"):
         assert name in out

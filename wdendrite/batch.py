@@ -46,7 +46,7 @@ import numpy as np
 from ._spec import UsageError, all_presets, nearest, read_toml, resolve
 
 __all__ = ["Task", "dendry_array", "load_jobs", "run_file", "run_task", "tile_windows", "tiled_array",
-           "write_tiled"]
+           "worker_device", "write_tiled"]
 
 _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
@@ -239,13 +239,35 @@ def _write_manifest(task: Task, rec: dict) -> None:
     atomic_write(task.manifest, lambda tmp: Path(tmp).write_text(text), overwrite=True)
 
 
+def worker_device(device: str | None) -> str | None:
+    """On a Dask worker, plain ``"cuda"`` means one GPU per worker: worker k gets ``cuda:(k mod GPUs)``.
+
+    Anywhere else (or for any other device) ``device`` is returned as it is.
+    """
+    if device != "cuda":
+        return device
+    try:
+        from distributed import get_worker
+
+        name = get_worker().name
+    except (ImportError, ValueError):  # not on a worker
+        return device
+    import zlib
+
+    import warp as wp
+
+    count = wp.get_cuda_device_count()
+    k = name if isinstance(name, int) else zlib.crc32(str(name).encode())
+    return f"cuda:{k % count}" if count else device
+
+
 def run_task(task: Task, device: str | None = None) -> dict:
     """Run one (untiled) task, write its outputs and then its manifest; return the manifest."""
     from .cli import run_preset
 
     started = time.time()
     task.manifest.unlink(missing_ok=True)  # an old manifest must not vouch for new outputs
-    rec = run_preset(task.preset, task.values, task.outputs, device=device, force=True, quiet=True)
+    rec = run_preset(task.preset, task.values, task.outputs, device=worker_device(device), force=True, quiet=True)
     man = _manifest(task, rec, started)
     _write_manifest(task, man)
     return man
@@ -281,7 +303,7 @@ def _dendry_tile(window, *, setup: dict, output: str, device):
     from .cli import pick_device
     from .dendry import dendry
 
-    return dendry(**setup, output=output, window=window, device=pick_device(device))
+    return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)))
 
 
 def _tiled_setup(task: Task):
