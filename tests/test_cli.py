@@ -164,3 +164,49 @@ def test_run_preset_record_lists_every_parameter(tmp_path):
     assert rec["params"] == {"size": 16, "generators": 2, "seed": 0} and rec["device"] == "cpu"
     assert np.load(tmp_path / "c.npy").shape == (16, 16)
     json.dumps(rec)
+
+
+def test_a_new_preset_appears_with_typed_documented_options(monkeypatch, tmp_path):
+    from dataclasses import dataclass
+    from typing import Literal
+
+    from wdendrite import _spec, presets
+
+    @dataclass(frozen=True)
+    class GlowParams:
+        radius: float = 2.0
+        """Halo radius (pixels)."""
+        seed: int = 5
+        """Shadowed by the function's own seed."""
+
+    def sparkle(shape=(40, 40), *, colour: Literal["red", "blue"] = "red", gains: tuple[float, ...] = (1.0, 0.5),
+                limit: int | None = None, smooth: bool = True, mask=None, params: GlowParams = GlowParams(),
+                seed: int = 0):
+        """Sparkles on a dark sky.
+
+        Args:
+            colour: the sparkle colour.
+            gains: brightness of each layer.
+        """
+        from wdendrite._models import Made
+
+        img = np.zeros((*shape, 3), np.float32)
+        img[..., 0 if colour == "red" else 2] = params.radius / 4
+        return Made(img, parts={"field": img[..., 0] + (limit or 0)})
+
+    monkeypatch.setattr(presets, "sparkle", sparkle, raising=False)
+    monkeypatch.setattr(presets, "__all__", [*presets.__all__, "sparkle"])
+    monkeypatch.setattr(_spec, "_CACHE", {})
+    p = all_presets()["sparkle"]
+    kinds = {k: (v.kind, v.choices, v.group) for k, v in p.params.items()}
+    assert kinds == {"shape": ("ints", (), None), "colour": ("choice", ("red", "blue"), None),
+                     "gains": ("floats", (), None), "limit": ("int?", (), None), "smooth": ("bool", (), None),
+                     "radius": ("float", (), "GlowParams"), "seed": ("int", (), None)}
+    assert p.fixed == ["mask"] and p.size_param == "shape" and p.summary == "Sparkles on a dark sky."
+    assert p.params["colour"].doc == "the sparkle colour." and p.params["radius"].doc == "Halo radius (pixels)."
+    help_text = " ".join(cli.build_parser()._subparsers._group_actions[0].choices["sparkle"].format_help().split())
+    assert "--colour {red,blue} the sparkle colour; one of red, blue (default: red)" in help_text
+    assert cli.main(["sparkle", "--size", "16", "--colour", "blue", "--radius", "4", "--limit", "none",
+                     "-o", str(tmp_path / "s.npy"), "--quiet"]) == 0
+    assert np.load(tmp_path / "s.npy").shape == (16, 16)
+    assert cli.main(["sparkle", "--colour", "bleu", "-o", str(tmp_path / "t.png")]) == 2

@@ -15,6 +15,7 @@ import dataclasses
 import difflib
 import inspect
 import re
+import sys
 import textwrap
 import types
 import typing
@@ -25,6 +26,9 @@ __all__ = ["Param", "Preset", "UsageError", "all_presets", "nearest", "parse_con
 
 ALIASES = {"elm_tree": "tree", "staghorn_coral": "coral", "lichen_on_rock": "lichen"}
 """Command names of presets whose function names are long."""
+
+RESERVED = ("device", "progress", "out", "force", "quiet", "config", "heightmap", "help")
+"""Parameter names the command's own options use; presets' parameters of these names keep their defaults."""
 
 SIZE_NAMES = ("shape", "size", "cell", "height")
 """Parameters that ``--size`` sets (the first one a preset has)."""
@@ -288,7 +292,7 @@ def make_preset(name: str, func) -> Preset:
     docs = _arg_docs(func)
     sig = inspect.signature(func)
     for prm in sig.parameters.values():
-        if prm.default is inspect.Parameter.empty or prm.name in ("device", "progress"):
+        if prm.default is inspect.Parameter.empty or prm.name in RESERVED:
             continue
         ann = hints.get(prm.name, inspect.Parameter.empty)
         if dataclasses.is_dataclass(prm.default) and not isinstance(prm.default, type):
@@ -318,7 +322,7 @@ def _flatten(p: Preset, argname: str, instance, sig) -> None:
             continue
         value = getattr(instance, f.name)
         kind, choices = _kind(hints.get(f.name, inspect.Parameter.empty), value)
-        if kind is None:
+        if kind is None or f.name in p.params or f.name in RESERVED:  # unspellable, or the name is taken
             p.fixed.append(f"{argname}.{f.name}")
             continue
         p.params[f.name] = Param(f.name, value, kind, choices, docs.get(f.name, ""), group=cls.__name__)
@@ -338,13 +342,17 @@ def all_presets() -> dict[str, Preset]:
     found = {}
     try:
         from . import presets as mod
-    except ImportError:  # presets under construction must not take the command down
+    except Exception as exc:  # a broken presets module must not take the whole command down
+        print(f"wdendrite: warning: the presets are unavailable ({type(exc).__name__}: {exc})", file=sys.stderr)
         mod = None
     for fname in getattr(mod, "__all__", []):
         func = getattr(mod, fname, None)
         if inspect.isfunction(func):
             name = ALIASES.get(fname, fname.replace("_", "-"))
-            found[name] = make_preset(name, func)
+            try:
+                found[name] = make_preset(name, func)
+            except Exception as exc:  # one odd signature must not hide the other presets
+                print(f"wdendrite: warning: preset {name!r} skipped ({type(exc).__name__}: {exc})", file=sys.stderr)
     for name, func in MODELS.items():
         if name not in found:
             found[name] = make_preset(name, func)

@@ -144,6 +144,8 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if not isinstance(vals, list) or not vals:
             raise UsageError(f"{where}: grid {key!r} must be a non-empty list of values, but got {vals!r}")
     seeds = _list(job, "seed", "seeds", where, None)
+    if seeds != [None] and "seed" not in preset.params:
+        raise UsageError(f"{where}: preset {name!r} has no seed")
     sizes = _list(job, "size", "sizes", where, None)
     if sizes != [None] and not preset.size_param:
         raise UsageError(f"{where}: preset {name!r} has no size parameter")
