@@ -197,3 +197,26 @@ def test_dry_run_lists_tasks_and_writes_nothing(tmp_path):
 def test_plain_cuda_is_left_alone_off_a_worker():
     assert batch.worker_device("cuda") == "cuda" and batch.worker_device("cpu") == "cpu"
     assert batch.worker_device(None) is None
+
+
+def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
+    import signal
+    import time
+
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nseeds = ' + str(list(range(40)))
+                                        + '\nsize = 160\n')
+    run = subprocess.Popen([sys.executable, "-m", "wdendrite.cli", "batch", "jobs.toml", "--quiet"], cwd=tmp_path,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    out = tmp_path / "o"
+    deadline = time.time() + 120
+    while run.poll() is None and time.time() < deadline and len(list(out.glob("*.manifest.json"))) < 3:
+        time.sleep(0.005)
+    run.send_signal(signal.SIGKILL)
+    run.wait()
+    (out / ".costs_size160_seed39.png.left-by-a-kill.png").write_bytes(b"half")  # as a killed write leaves
+    done = len(list(out.glob("*.manifest.json")))
+    code, stdout, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert f"{40 - done} run, {done} already complete" in stdout
+    assert len(list(out.glob("*.manifest.json"))) == 40 and len(list(out.glob("*.png"))) == 40
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".")]

@@ -211,6 +211,17 @@ def load_jobs(path) -> tuple[list[Task], dict]:
     return tasks, {"out": folder, "device": raw.get("device")}
 
 
+def _sweep_temporaries(task: Task) -> None:
+    """Remove temporary files a killed run left behind for ``task`` (``.NAME.*`` beside each file it writes).
+
+    Tiled partial files and their tile records are named differently and kept: a re-run resumes them.
+    """
+    for path in [*map(Path, task.outputs), task.manifest]:
+        for tmp in path.parent.glob(f".{path.name}.*"):
+            if tmp.is_file():
+                tmp.unlink(missing_ok=True)
+
+
 def _prepare_folder(folder: Path) -> None:
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -365,7 +376,7 @@ def _store_block(block, target: _Target, block_info=None):
 def _open_partial(final: Path, shape, tile: int) -> tuple[Path, Path]:
     """The partial file (created when missing) and the folder of tile markers beside it."""
     partial = final.with_name(f".{final.stem}.partial{final.suffix}")  # keeps the suffix that names the format
-    marks = final.with_name(f".{final.name}.tiles")
+    marks = final.with_name(f".{final.stem}.tiles{final.suffix}")  # not ".{name}.*": those are temporaries
     if not partial.exists() or not marks.is_dir():
         shutil.rmtree(marks, ignore_errors=True)
         if partial.is_dir():
@@ -505,6 +516,8 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         return 0
     _prepare_folder(settings["out"])
     todo = [t for t in tasks if not t.complete()]
+    for t in todo:
+        _sweep_temporaries(t)
     client = cluster = None
     if scheduler is not None and todo:
         client, cluster = _client(scheduler, workers, processes, timeout)
