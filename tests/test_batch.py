@@ -220,3 +220,13 @@ def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
     assert f"{40 - done} run, {done} already complete" in stdout
     assert len(list(out.glob("*.manifest.json"))) == 40 and len(list(out.glob("*.png"))) == 40
     assert not [p.name for p in out.iterdir() if p.name.startswith(".")]
+
+
+def test_a_value_out_of_range_fails_its_task_only_with_exit_2(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "simple-dendrite"\nsize = 32\n'
+                                        'grid = { endpoints = [3, 0] }\n')
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 2 and "endpoints" in err and "Traceback" not in err
+    names = sorted(p.name for p in (tmp_path / "o").iterdir())
+    assert names == ["simple-dendrite_shape32x32_seed0_endpoints3.manifest.json",
+                     "simple-dendrite_shape32x32_seed0_endpoints3.png"]

@@ -486,7 +486,11 @@ def _client(scheduler: str, workers: int | None, processes: bool, timeout: float
 
 def run_file(path, *, scheduler: str | None = None, device: str | None = None, workers: int | None = None,
              quiet: bool = False, dry_run: bool = False, processes: bool = True, timeout: float = 10.0) -> int:
-    """Run every task of a job file that is not complete; return the exit code (0, 1 if a task failed).
+    """Run every task of a job file that is not complete; return the exit code.
+
+    0: every task is complete; 2: some tasks were rejected by their presets (values out of
+    range), nothing written for them; 1: some tasks failed otherwise. Failed tasks do not
+    stop the others and are redone by the next run.
 
     Args:
         path: the TOML job file.
@@ -553,12 +557,18 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
             cluster.close()
     print(f"batch: {len(tasks)} tasks, {len(todo) - len(failed)} run, {len(tasks) - len(todo)} already complete, "
           f"{len(failed)} failed -> {settings['out']}")
-    return 1 if failed else 0
+    if not failed:
+        return 0
+    # a preset that rejects its values is bad input (2); anything else is a failure (1)
+    return 2 if all(isinstance(exc, _BAD_INPUT) for _, exc in failed) else 1
+
+
+_BAD_INPUT = (ValueError, TypeError, FileExistsError, MemoryError)
 
 
 def _attempt(call, task: Task, failed: list) -> None:
     try:
         call()
     except Exception as exc:  # one bad task must not stop the others; it is redone next time
-        failed.append(task.name)
+        failed.append((task.name, exc))
         print(f"batch: task {task.name} failed: {type(exc).__name__}: {exc}", file=sys.stderr)
