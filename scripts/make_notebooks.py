@@ -66,8 +66,9 @@ io.save_png("quickstart_lightning.png", res.image, overwrite=True)
 show(res.image)'''),
     ],
     "02_path_planning": [
-        ("md", "# Path-planning dendrites: the papers' figures\n\nXu & Mould (2007), *Magnetic curves*-era "
-               "constructive path planning, and Xu's thesis (2008). Sizes are the papers' unless `SMALL`."),
+        ("md", "# Path-planning dendrites: the papers' figures\n\nXu & Mould's path-planning papers (the 2007 "
+               "paper and constructive path planning, as cited in `wdendrite.presets`) and Xu's thesis (2008). "
+               "Sizes are the papers' unless `SMALL`."),
         ("code", SETUP),
         ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), 2007 paper Fig. 8:"),
         ("code", '''\
