@@ -49,6 +49,25 @@ UNITS = {
 """Units shown in ``--help`` by parameter name."""
 
 
+DOCS = {
+    "shape": "lattice shape, (H, W) or (D, H, W)",
+    "seed": "random seed: the same seed gives the same output",
+    "endpoints": "number of endpoints traced back to the generator(s)",
+    "count": "endpoints of the first fractal growth iteration",
+    "iterations": "fractal growth iterations",
+    "cell": "side of each panel's lattice",
+    "r": "spread of the uniform weights W = length * (1 + r * R), R uniform in (0, 1)",
+    "neighbours": "generators placed around the central one",
+    "smooth": "smoothing passes of the mesh",
+    "refine_n": "refinement factor n (odd, >= 3), or none for no refinement",
+    "ns": "exponents n of the weights W = 1 + v^n, one panel each",
+    "toward": "tropism directions (left, right, top, bottom, axis, away_from_axis), one panel each",
+    "strength": "tropism strength: weights scale by 1 + strength * g, g from 0 on the cheap side to 1",
+    "geometry": "mesh of the branches: tubes, spheres or isosurface",
+}
+"""Help lines for parameters whose preset docstring has no ``Args:`` entry (a docstring entry wins)."""
+
+
 class UsageError(ValueError):
     """Bad usage or input: the command prints the message and exits with code 2."""
 
@@ -302,7 +321,7 @@ def make_preset(name: str, func) -> Preset:
         if kind is None:
             p.fixed.append(prm.name)
             continue
-        p.params[prm.name] = Param(prm.name, prm.default, kind, choices, docs.get(prm.name, ""))
+        p.params[prm.name] = Param(prm.name, prm.default, kind, choices, docs.get(prm.name) or DOCS.get(prm.name, ""))
     p.size_param = next((n for n in SIZE_NAMES if n in p.params), None)
     shape = p.params.get("shape")
     p.meshes = bool(shape and isinstance(shape.default, tuple) and len(shape.default) == 3)
