@@ -150,20 +150,11 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     if sizes != [None] and not preset.size_param:
         raise UsageError(f"{where}: preset {name!r} has no size parameter")
     fmts = _formats(job.get("formats", top_formats), where)
-    tile = job.get("tile")
-    if tile is not None:
-        if name not in _TILED_PRESETS:
-            raise UsageError(f"{where}: 'tile' is for {' and '.join(_TILED_PRESETS)} only")
-        if isinstance(tile, bool) or not isinstance(tile, int) or tile < 8:
-            raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
-        bad = [f for f in fmts if f not in _TILED_FORMATS]
-        if bad:
-            raise UsageError(f"{where}: a tiled job writes {' or '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
-    elif "zarr" in fmts:
-        raise UsageError(f"{where}: 'zarr' output needs a tiled job (set 'tile')")
+    if not preset.meshes and {"obj", "ply", "stl", "glb"} & set(fmts):
+        raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop the mesh formats")
+    tile = _tile(job.get("tile"), name, fmts, where)
     tasks = []
-    combos = list(itertools.product(*grid.values()))
-    for size, seed, combo in itertools.product(sizes, seeds, combos):
+    for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
         values = {p: preset.params[p].convert(v, source=f"{where} params {p!r}") for p, v in fixed.items()}
         values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}") for p, v in zip(grid, combo)})
         if seed is not None:
@@ -171,18 +162,34 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if size is not None:
             values[preset.size_param] = preset.sized(size)
         _, full = resolve(preset, values)
-        stem = job.get("name", name)
-        sz = full[preset.size_param] if preset.size_param else None
-        bits = [f"{preset.size_param}{'x'.join(map(str, sz)) if isinstance(sz, list) else sz}"] if sz else []
-        bits += [f"seed{full['seed']}"] if "seed" in full else []
-        bits += [f"{p}{_slug(v)}" for p, v in zip(grid, combo)]
-        task_name = "_".join([_slug(stem)] + bits)
-        outs = [str(folder / f"{task_name}.{f}") for f in fmts]
-        for o in outs:
-            if Path(o).suffix in (".obj", ".ply", ".stl", ".glb") and not preset.meshes:
-                raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop format {Path(o).suffix[1:]!r}")
-        tasks.append(Task(task_name, name, values, outs, full, tile))
+        stem = _task_name(job.get("name", name), preset, full, dict(zip(grid, combo)))
+        tasks.append(Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile))
     return tasks
+
+
+def _tile(tile, name: str, fmts: list[str], where: str) -> int | None:
+    """The tile size of a job (None: untiled), checked against its preset and formats."""
+    if tile is None:
+        if "zarr" in fmts:
+            raise UsageError(f"{where}: 'zarr' output needs a tiled job (set 'tile')")
+        return None
+    if name not in _TILED_PRESETS:
+        raise UsageError(f"{where}: 'tile' is for {' and '.join(_TILED_PRESETS)} only")
+    if isinstance(tile, bool) or not isinstance(tile, int) or tile < 8:
+        raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
+    bad = [f for f in fmts if f not in _TILED_FORMATS]
+    if bad:
+        raise UsageError(f"{where}: a tiled job writes {' or '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
+    return tile
+
+
+def _task_name(stem: str, preset, full: dict, swept: dict) -> str:
+    """``stem_size..._seed..._param value...``: what varies in a sweep, readable in the file name."""
+    sz = full[preset.size_param] if preset.size_param else None
+    bits = [f"{preset.size_param}{'x'.join(map(str, sz)) if isinstance(sz, list) else sz}"] if sz else []
+    bits += [f"seed{full['seed']}"] if "seed" in full else []
+    bits += [f"{p}{_slug(v)}" for p, v in swept.items()]
+    return "_".join([_slug(stem)] + bits)
 
 
 def load_jobs(path) -> tuple[list[Task], dict]:
