@@ -109,6 +109,14 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     assert len(seen) == len(batch.tile_windows(shape, tile)) - 5 and not set(seen) & set(calls)
     assert np.array_equal(np.load(out), value((0, 0, *shape)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.npy"]
+    # tiles recorded for another image (other parameters) are never reused
+    calls.clear()
+    with pytest.raises(KeyboardInterrupt):
+        batch.write_tiled(dies_after_five, shape, tile, out, key="levels=2")
+    seen.clear()
+    batch.write_tiled(lambda w: seen.append(w) or value(w) + 1, shape, tile, out, key="levels=3")
+    assert len(seen) == len(batch.tile_windows(shape, tile))
+    assert np.array_equal(np.load(out), value((0, 0, *shape)) + 1)
 
 
 def test_tiles_on_a_local_cluster_equal_the_whole_image(tmp_path):

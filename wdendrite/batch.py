@@ -173,7 +173,7 @@ def _tile(tile, name: str, fmts: list[str], where: str) -> int | None:
         if "zarr" in fmts:
             raise UsageError(f"{where}: 'zarr' output needs a tiled job (set 'tile')")
         return None
-    if name not in _TILED_PRESETS:
+    if name not in _TILED_PRESETS or all_presets()[name].func.__module__ != "wdendrite._models":
         raise UsageError(f"{where}: 'tile' is for {' and '.join(_TILED_PRESETS)} only")
     if isinstance(tile, bool) or not isinstance(tile, int) or tile < 8:
         raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
@@ -380,11 +380,17 @@ def _store_block(block, target: _Target, block_info=None):
     return np.ones((1, 1), np.int8)
 
 
-def _open_partial(final: Path, shape, tile: int) -> tuple[Path, Path]:
-    """The partial file (created when missing) and the folder of tile markers beside it."""
+def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
+    """The partial file and the folder of tile markers beside it, started afresh unless they hold
+    tiles of the same image (same ``key``, shape and tile size)."""
     partial = final.with_name(f".{final.stem}.partial{final.suffix}")  # keeps the suffix that names the format
     marks = final.with_name(f".{final.stem}.tiles{final.suffix}")  # not ".{name}.*": those are temporaries
-    if not partial.exists() or not marks.is_dir():
+    ident = json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
+    try:
+        same = (marks / "image.json").read_text() == ident
+    except OSError:
+        same = False
+    if not partial.exists() or not same:
         shutil.rmtree(marks, ignore_errors=True)
         if partial.is_dir():
             shutil.rmtree(partial)
@@ -402,10 +408,11 @@ def _open_partial(final: Path, shape, tile: int) -> tuple[Path, Path]:
             mm.flush()
             del mm
         marks.mkdir()
+        (marks / "image.json").write_text(ident)
     return partial, marks
 
 
-def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None) -> Path:
+def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "") -> Path:
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
     Finished tiles are recorded; calling again after an interruption computes only the
@@ -420,9 +427,10 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None) 
         path: the output file.
         client: a ``distributed.Client`` (None: compute here, one tile after another).
         progress: a callable told ``(done, total)`` after every tile.
+        key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
     """
     final = Path(path)
-    partial, marks = _open_partial(final, shape, tile)
+    partial, marks = _open_partial(final, shape, tile, key)
     target = _Target(partial, marks)
     windows = tile_windows(shape, tile)
     todo = [w for w in windows if not target.mark(w).exists()]
@@ -463,7 +471,8 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None) -> dict:
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
     t0 = time.perf_counter()
     for out in task.outputs:
-        write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress)
+        write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress,
+                    key=json.dumps(task.params, sort_keys=True))
     rec = {"device": dev or "default of each worker", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
