@@ -88,10 +88,11 @@ def test_formats_from_the_suffix(tmp_path):
 
 
 def test_heightmap_and_npy_equal_the_dendry_function(tmp_path):
-    code, _, err = wd("terrain", "--size", 40, "--no-rivers", "-o", "t.png", "-o", "t.npy", "--heightmap",
-                      "--device", "cpu", "--quiet", cwd=tmp_path)
+    code, out, err = wd("terrain", "--size", 40, "--no-rivers", "-o", "t.png", "-o", "t.npy", "--heightmap",
+                        "--device", "cpu", "--quiet", cwd=tmp_path)
     assert code == 0, err
     z = np.load(tmp_path / "t.npy")
+    assert f"grey 0 = {z.min():.6g}, 65535 = {z.max():.6g}" in out
     preset = all_presets()["terrain"]
     setup = cli.dendry_setup(40, preset.groups["params"][0], extent=4.0, control="perlin", frequency=1.0,
                              drained=True, seed=0)

@@ -201,8 +201,14 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
         t1 = time.perf_counter()
         written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
         bar.update(len(paths))
-    return {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
-            "write_seconds": round(time.perf_counter() - t1, 4)}
+    rec = {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
+           "write_seconds": round(time.perf_counter() - t1, 4)}
+    if heightmap and any(p.suffix.lower() == ".png" for p in paths):
+        z = np.asarray(_field(result, name), np.float64)
+        fin = z[np.isfinite(z)]
+        # grey 0 and 65535 stand for these values: what it takes to read the heightmap back
+        rec["heightmap_range"] = [float(fin.min()), float(fin.max())] if fin.size else [0.0, 0.0]
+    return rec
 
 
 # --------------------------------------------------------------------------- the parser
@@ -352,6 +358,8 @@ def main(argv=None) -> int:
                          heightmap=getattr(args, "heightmap", False))
         print(f"{preset.name}: {_brief(rec['params'], preset)} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
+        if "heightmap_range" in rec:
+            print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]))
         return 0
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         print(f"wdendrite: error: {exc}", file=sys.stderr)
