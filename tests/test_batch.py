@@ -185,7 +185,23 @@ def test_unreachable_scheduler_exits_2(tmp_path):
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\n')
     code, out, err = wd("batch", "jobs.toml", "--scheduler", "tcp://127.0.0.1:9", "--timeout", 1, cwd=tmp_path)
     assert code == 2 and "cannot reach the Dask scheduler" in err and "Traceback" not in err
-    assert not list((tmp_path / "o").iterdir()) if (tmp_path / "o").exists() else True
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--workers", "0", "--scheduler", "local"], ["--workers", "positive"]),
+    (["--workers", "2"], ["--scheduler local"]),
+    (["--timeout", "-1", "--scheduler", "local"], ["--timeout"]),
+    (["--scheduler", "nowhere"], ["'nowhere'", "tcp://host:8786"]),
+    (["--device", "cuda:9"], ["not available"]),
+])
+def test_bad_batch_options_exit_2(tmp_path, args, words):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\n')
+    code, out, err = wd("batch", "jobs.toml", *args, cwd=tmp_path)
+    assert code == 2 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, (w, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
 
 
 def test_load_jobs_rejects_duplicate_task_names(tmp_path):

@@ -492,8 +492,6 @@ def _client(scheduler: str, workers: int | None, processes: bool, timeout: float
         cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=processes,
                                dashboard_address=None)
         return Client(cluster), cluster
-    if not re.fullmatch(r"([a-z]+://)?[\w.\-\[\]:]+:\d+", scheduler):
-        raise UsageError(f"--scheduler must be 'local' or an address like tcp://host:8786, but got {scheduler!r}")
     try:
         return Client(scheduler, timeout=f"{timeout}s"), None
     except (OSError, TimeoutError) as exc:
@@ -526,6 +524,14 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
 
     from .cli import pick_device
 
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise UsageError(f"--workers must be a positive integer, but got {workers!r}")
+    if not timeout > 0:
+        raise UsageError(f"--timeout must be a positive number of seconds, but got {timeout!r}")
+    if scheduler not in (None, "local") and not re.fullmatch(r"([a-z]+://)?[\w.\-\[\]:]+:\d+", scheduler):
+        raise UsageError(f"--scheduler must be 'local' or an address like tcp://host:8786, but got {scheduler!r}")
+    if workers is not None and scheduler != "local":
+        raise UsageError("--workers sets the size of a LocalCluster: use it with --scheduler local")
     tasks, settings = load_jobs(path)
     device = device or settings["device"]
     if device is not None or scheduler is None:
@@ -534,13 +540,19 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         for t in tasks:
             print(f"{'done' if t.complete() else 'todo'}  {t.name}  -> {', '.join(t.outputs)}")
         return 0
+    created = not settings["out"].exists()
     _prepare_folder(settings["out"])
     todo = [t for t in tasks if not t.complete()]
     for t in todo:
         _sweep_temporaries(t)
     client = cluster = None
     if scheduler is not None and todo:
-        client, cluster = _client(scheduler, workers, processes, timeout)
+        try:
+            client, cluster = _client(scheduler, workers, processes, timeout)
+        except UsageError:
+            if created:  # leave no trace of a run that never started
+                shutil.rmtree(settings["out"], ignore_errors=True)
+            raise
     failed = []
     bar = tqdm(total=len(todo), desc="batch", disable=quiet, file=sys.stderr)
     try:
