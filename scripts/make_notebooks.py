@@ -105,6 +105,10 @@ calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0, glow_gain=0.6)
 wild = presets.LightningParams(alpha=4.0, forks=16, minor_forks=24, glow_radius=20)
 display(show(presets.lightning((n, n), params=calm, seed=7).image))
 show(presets.lightning((n, n), params=wild, seed=7).image)'''),
+        ("md", "One path at the papers' widths: T = 5.0 with a halo, 1.6, and the thesis' factors 0.6 and 0.2 "
+               "(constructive path planning Fig. 3, thesis Fig. 4.9):"),
+        ("code", '''\
+show(presets.width_demo((100, 60) if SMALL else (200, 120)).image)'''),
         ("md", "Widths: constant next to tapering along paths and along branches (constructive path planning Fig. 4):"),
         ("code", '''\
 show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
@@ -117,6 +121,10 @@ show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
 tree = presets.elm_tree((24, 24, 24) if SMALL else (80, 80, 80), endpoints=8 if SMALL else 17)
 print(tree.mesh)
 show(tree.image)'''),
+        ("md", "The same endpoints with weights biased toward a vertical axis, away from it, or upward "
+               "(constructive path planning Fig. 5):"),
+        ("code", '''\
+show(presets.tropism_objects((20, 20, 20) if SMALL else (60, 60, 60), endpoints=8 if SMALL else 24).image)'''),
         ("code", '''\
 coral = presets.staghorn_coral((20, 20, 20) if SMALL else (50, 50, 50), endpoints=8 if SMALL else 24,
                                refine_n=3)
