@@ -9,8 +9,6 @@ name there takes precedence.
 from __future__ import annotations
 
 import dataclasses
-import functools
-import inspect
 import math
 import typing
 from dataclasses import dataclass
@@ -20,8 +18,9 @@ from typing import Literal
 import numpy as np
 
 from ._spec import UsageError
+from .dendry import DendryParams
 
-__all__ = ["MODELS", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
+__all__ = ["MODELS", "TABLE1", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
 
 def unit_range(a: np.ndarray) -> np.ndarray:
@@ -123,21 +122,18 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
         raise UsageError(f"--control must be one of {', '.join(typing.get_args(Control))}, got {control!r}")
     if drained:
         c = ctl.drained(c)
-    params = _table1() if params is None else params
     return {"shape": (size, size), "domain": ((0.0, 0.0), (extent, extent)),
             "params": dataclasses.replace(params, seed=seed), "control": c}
 
 
 
-def _table1():
-    from .dendry import DendryParams
-
-    return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
+TABLE1 = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
+"""The paper's Table 1 Dendry parameters: the default of the ``dendry`` and ``terrain`` models."""
 
 
-def dendry(size: int = 512, *, params=None, output: Literal["distance", "elevation", "level"] = "distance",
-           extent: float = 4.0, control: Control = "perlin", frequency: float = 1.0, drained: bool = False,
-           seed: int = 0) -> Made:
+def dendry(size: int = 512, *, params: DendryParams = TABLE1,
+           output: Literal["distance", "elevation", "level"] = "distance", extent: float = 4.0,
+           control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
 
     Args:
@@ -161,7 +157,7 @@ def dendry(size: int = 512, *, params=None, output: Literal["distance", "elevati
     return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
 
 
-def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Control = "perlin",
+def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4.0, control: Control = "perlin",
             frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
     """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
 
@@ -192,7 +188,15 @@ def terrain(size: int = 512, *, params=None, extent: float = 4.0, control: Contr
 
 
 def relief(z: np.ndarray, spacing: float) -> np.ndarray:
-    """Hillshade (light from the north-west) over a green-brown-white elevation tint."""
+    """Hillshade (light from the north-west) over a green-brown-white elevation tint.
+
+    Args:
+        z: (H, W) elevation.
+        spacing: pixel side in the elevation's units (domain units per pixel).
+
+    Returns:
+        (H, W, 3) float64 picture in [0, 1].
+    """
     gy, gx = np.gradient(z.astype(np.float64), spacing)
     n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
@@ -203,26 +207,5 @@ def relief(z: np.ndarray, spacing: float) -> np.ndarray:
     return tint * (0.35 + 0.65 * shade[..., None])
 
 
-def _with_table1(func):
-    """Give ``params`` the paper's Table 1 default once the Dendry module can be imported."""
-    try:
-        default = _table1()
-    except ImportError:  # Dendry under construction: the model stays out of the command
-        return None
-    sig = inspect.signature(func)
-    prm = sig.parameters["params"].replace(default=default, annotation=type(default))
-
-    @functools.wraps(func)
-    def model(*args, params=default, **kwargs):
-        return func(*args, params=params, **kwargs)
-
-    model.__signature__ = sig.replace(parameters=[prm if p.name == "params" else p for p in sig.parameters.values()])
-    return model
-
-
-MODELS = {"fractal": fractal, "costs": costs}
+MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}
 """The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""
-for _name, _func in (("dendry", dendry), ("terrain", terrain)):
-    _m = _with_table1(_func)
-    if _m is not None:
-        MODELS[_name] = _m

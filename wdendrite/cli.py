@@ -30,7 +30,8 @@ from ._spec import UsageError, all_presets, nearest, parse_config, resolve
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
 
-PICTURE, FIELD, MESH, DENDRITE, SVG = (".png",), (".npy",), (".obj", ".ply", ".stl", ".glb"), (".npz", ".json"), (".svg",)
+PICTURE, FIELD, SVG = (".png",), (".npy",), (".svg",)
+MESH, DENDRITE = (".obj", ".ply", ".stl", ".glb"), (".npz", ".json")
 SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG
 
 
@@ -70,7 +71,8 @@ def check_outputs(paths, *, force: bool) -> list[Path]:
             os.close(fd)
             os.unlink(tmp)
         except OSError as exc:
-            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable ({exc.strerror})") from None
+            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable "
+                             f"({exc.strerror})") from None
         if p.exists() and not force:
             raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
         out.append(p)
