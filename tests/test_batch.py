@@ -25,7 +25,7 @@ grid = { cheap = [0.0, 0.5] }
 preset = "lightning"
 size = 48
 formats = ["png", "npz"]
-params = { forks = 2, minor_forks = 2 }
+params = { forks = 2, minor_forks = 2, main_width = [3.0, 2.0] }
 
 [[job]]
 preset = "dendry"
@@ -68,6 +68,8 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     from wdendrite.io import load_dendrite
 
     assert load_dendrite(runs / "lightning_shape48x48_seed0.npz")[0].shape == (48, 48)
+    light = json.loads((runs / "lightning_shape48x48_seed0.manifest.json").read_text())
+    assert light["params"]["main_width"] == {"start": 3.0, "end": 2.0, "beta": 1.0, "along": "path"}
     _, whole = _whole_dendry(50, levels=2)
     assert np.array_equal(np.load(runs / "dendry_size50_seed0.npy"), whole)  # 16-pixel tiles join seamlessly
     assert not [p for p in runs.iterdir() if p.name.startswith(".")]  # no temporary files left

@@ -65,7 +65,8 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
 
 def test_formats_from_the_suffix(tmp_path):
     outs = ["l.png", "l.npy", "l.npz", "l.json", "l.svg"]
-    code, _, err = wd("lightning", "--size", 48, "--forks", 2, "--minor-forks", 2, *sum((["-o", o] for o in outs), []),
+    code, _, err = wd("lightning", "--size", 48, "--forks", 2, "--minor-forks", 2, "--main-width", "3,2",
+                      *sum((["-o", o] for o in outs), []),
                       "--quiet", cwd=tmp_path)
     assert code == 0, err
     assert np.asarray(Image.open(tmp_path / "l.png")).shape == (48, 48, 3)
@@ -127,6 +128,8 @@ def test_bad_values_are_named(tmp_path):
     bad(["lightning", "--size", 48, "--forks", -1, "-o", "l.png"], tmp_path, "forks")
     bad(["lightning", "--size", 48, "--forks", "many", "-o", "l.png"], tmp_path, "--forks", "integer", "'many'")
     bad(["dendry", "--size", 32, "--levels", 9, "-o", "d.png"], tmp_path, "levels")
+    bad(["lightning", "--size", 48, "--main-width=-4,2", "-o", "l.png"], tmp_path, "--main-width", "'start'")
+    bad(["lightning", "--size", 48, "--main-width", "4,2,1,pth", "-o", "l.png"], tmp_path, "'along'", "'pth'")
     bad(["dendry", "--size", 32, "--control", "perlinn", "-o", "d.png"], tmp_path, "did you mean 'perlin'")
     bad(["fractal", "--size", 4, "-o", "f.png"], tmp_path, "--size")
     bad(["fractal", "--size", 32, "--device", "gpu", "-o", "f.png"], tmp_path, "--device", "'gpu'")

@@ -37,7 +37,8 @@ UNITS = {
     "shape": "nodes", "size": "nodes", "cell": "nodes", "height": "nodes", "endpoints": "count",
     "count": "count", "forks": "count", "minor_forks": "count", "neighbours": "count", "iterations": "count",
     "levels": "count", "generators": "count", "refine_n": "subdivisions", "smooth": "passes",
-    "primitive_steps": "levels", "glow_radius": "pixels", "r": "weight units", "d": "weight units",
+    "primitive_steps": "levels", "glow_radius": "pixels", "main_width": "pixels", "fork_width": "pixels",
+    "minor_width": "pixels", "r": "weight units", "d": "weight units",
     "epsilon": "weight units", "extent": "domain units", "resolution": "cells per domain unit",
     "frequency": "features per control unit", "paths_per_1000": "paths per 1000 nodes", "start": "pixels",
     "end": "pixels", "cheap": "fraction", "eps": "fraction of a cell", "delta": "fraction of a segment",
@@ -82,6 +83,8 @@ def nearest(word: str, names) -> str:
 
 
 def _fmt(v) -> str:
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        return _fmt(tuple(getattr(v, f.name) for f in dataclasses.fields(v)))
     if isinstance(v, (tuple, list)):
         return ",".join(_fmt(x) for x in v)
     if isinstance(v, bool):
@@ -98,7 +101,8 @@ class Param:
     default: object
     """Default value."""
     kind: str
-    """int, float, bool, str, choice, ints, floats, strs, int?, float? or float+ (one number or a list)."""
+    """int, float, bool, str, choice, ints, floats, strs, int?, float?, float+ (one number or a list)
+    or nested (a small frozen dataclass such as a Taper, given as its field values in order)."""
     choices: tuple = ()
     """Allowed strings of a ``choice``."""
     doc: str = ""
@@ -123,6 +127,9 @@ class Param:
 
     def metavar(self) -> str:
         """Placeholder shown in ``--help``."""
+        if self.kind == "nested":
+            names = [f.name.upper() for f in dataclasses.fields(self.default)]
+            return names[0] + "".join(f"[,{n}" for n in names[1:]) + "]" * (len(names) - 1)
         return {"int": "INT", "float": "X", "str": "TEXT", "choice": "{" + ",".join(self.choices) + "}",
                 "ints": "N,N,...", "floats": "X,X,...", "strs": "A,B,...", "int?": "INT|none",
                 "float?": "X|none", "float+": "X[,X,...]"}.get(self.kind, "VALUE")
@@ -131,15 +138,24 @@ class Param:
         """``value`` (a string from the command line or a TOML value) as this parameter's type."""
         where = source or f"'{self.name}'"
         try:
-            return self._convert(value)
+            if self.kind == "nested":
+                given = self._fields(value)
+            else:
+                return self._convert(value)
         except (TypeError, ValueError):
             pass
+        else:
+            try:
+                return dataclasses.replace(self.default, **given)
+            except (TypeError, ValueError) as exc:  # the dataclass names the field and its bounds
+                raise UsageError(f"{where}: {exc}") from None
         extra = nearest(value, self.choices) if self.kind == "choice" else ""
         want = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "text",
                 "choice": f"one of {', '.join(self.choices)}", "ints": "integers separated by commas",
                 "floats": "numbers separated by commas", "strs": "names separated by commas",
                 "int?": "an integer or none", "float?": "a number or none",
-                "float+": "a number or numbers separated by commas"}[self.kind]
+                "float+": "a number or numbers separated by commas",
+                "nested": f"{self.metavar()} (the fields of {type(self.default).__name__} in order)"}[self.kind]
         raise UsageError(f"{where} expects {want}, but got {value!r}{extra}")
 
     def _convert(self, v):
@@ -170,6 +186,16 @@ class Param:
             return out[0] if len(out) == 1 and not isinstance(v, (list, tuple)) else out
         inner = {"ints": "int", "floats": "float", "strs": "str"}[k]
         return tuple(Param(self.name, None, inner)._convert(x) for x in items)
+
+
+    def _fields(self, v) -> dict:
+        """``{field: value}`` of a nested dataclass from its field values in order (the leading ones)."""
+        fields = dataclasses.fields(self.default)
+        items = _items(v, allow_x=False)
+        if not 1 <= len(items) <= len(fields):
+            raise ValueError
+        return {f.name: Param(f.name, None, _kind_of_value(getattr(self.default, f.name)))._convert(x)
+                for f, x in zip(fields, items)}
 
 
 def _items(v, *, allow_x: bool) -> list:
@@ -206,7 +232,16 @@ def _kind(annotation, default) -> tuple[str | None, tuple]:
         return annotation.__name__, ()
     if annotation is inspect.Parameter.empty or annotation is None:
         return _kind_of_value(default), ()
+    if _nested(default) and isinstance(default, annotation if isinstance(annotation, type) else ()):
+        return "nested", ()
     return None, ()
+
+
+def _nested(v) -> bool:
+    """A small frozen dataclass of numbers and strings (a Taper): settable as its field values in order."""
+    if not dataclasses.is_dataclass(v) or isinstance(v, type) or not v.__dataclass_params__.frozen:
+        return False
+    return all(_kind_of_value(getattr(v, f.name)) in ("int", "float", "str", "bool") for f in dataclasses.fields(v))
 
 
 def _kind_of_value(v) -> str | None:
@@ -403,6 +438,9 @@ def resolve(preset: Preset, values: dict) -> tuple[dict, dict]:
 
 
 def _plain(v):
+    """``v`` as JSON-ready data (tuples as lists, small dataclasses as dicts) for manifests."""
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        return {f.name: _plain(getattr(v, f.name)) for f in dataclasses.fields(v)}
     return list(_plain(x) for x in v) if isinstance(v, tuple) else v
 
 
