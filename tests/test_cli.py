@@ -44,6 +44,8 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
     assert code == 0 and "exit codes" in out and "--seed INT" in out
     main = subprocess.run([sys.executable, "-m", "wdendrite", "--help"], capture_output=True, text=True, cwd=tmp_path)
     assert main.returncode == 0 and main.stdout == out
+    code, version, _ = wd("--version", cwd=tmp_path)
+    assert code == 0 and version.startswith("wdendrite ")
     for name in ("lightning", "tree", "coral", "lichen", "moss", "rock", "fractal", "letters", "competition",
                  "terrain", "dendry", "costs", "batch"):
         assert name in out

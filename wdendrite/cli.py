@@ -292,6 +292,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "Run 'wdendrite PRESET --help' for a preset's parameters, defaults and units.\n"
                             "Example: wdendrite fractal --size 256 -o fractal.png --force",
                 epilog=_COMMON_HELP)
+    from . import __version__
+
+    p.add_argument("--version", action="version", version=f"wdendrite {__version__}")
     sub = p.add_subparsers(dest="command", metavar="PRESET", required=True, parser_class=_Parser)
     for name, preset in all_presets().items():
         s = sub.add_parser(name, help=preset.summary, description=preset.doc,
