@@ -204,7 +204,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
         written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
         bar.update(len(paths))
     rec = {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
-           "write_seconds": round(time.perf_counter() - t1, 4)}
+           "write_seconds": round(time.perf_counter() - t1, 4), "made": _made(result)}
     if heightmap and any(p.suffix.lower() == ".png" for p in paths):
         z = np.asarray(_field(result, name), np.float64)
         fin = z[np.isfinite(z)]
@@ -361,7 +361,8 @@ def main(argv=None) -> int:
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
                          force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
                          heightmap=getattr(args, "heightmap", False))
-        print(f"{preset.name}: {_brief(rec['params'], preset)} in {rec['seconds']:.3f} s on {rec['device']} "
+        made = f": {rec['made']}" if rec["made"] else ""
+        print(f"{preset.name} ({_brief(rec['params'], preset)}){made} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
         if "heightmap_range" in rec:
             print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]))
@@ -381,6 +382,17 @@ def main(argv=None) -> int:
         traceback.print_exc()
         print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
         return 1
+
+
+def _made(result) -> str:
+    """What a result holds, in a few words (dendrite and mesh sizes)."""
+    bits = []
+    den, mesh = getattr(result, "dendrite", None), getattr(result, "mesh", None)
+    if den is not None:
+        bits.append(f"{len(den)} nodes, {len(den.endpoints)} endpoints")
+    if mesh is not None and hasattr(mesh, "faces"):
+        bits.append(f"{len(mesh.faces)} faces")
+    return ", ".join(bits)
 
 
 def _brief(params: dict, preset) -> str:
