@@ -247,7 +247,7 @@ def _manifest(task: Task, rec: dict, started: float) -> dict:
 
     return {"name": task.name, "preset": task.preset, "params": task.params, "seed": task.params.get("seed"),
             "device": rec["device"], "version": __version__, "outputs": task.outputs,
-            "seconds": rec["seconds"], "write_seconds": rec.get("write_seconds"),
+            "made": rec.get("made", ""), "seconds": rec["seconds"], "write_seconds": rec.get("write_seconds"),
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
             "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
