@@ -29,12 +29,13 @@ def bad(args, tmp_path, *words):
 
 
 def test_main_job_writes_the_fractal(tmp_path):
-    code, out, err = wd("fractal", "--size", 64, "-o", "fractal.png", "--force", cwd=tmp_path)
+    # the README's main job, exactly
+    code, out, err = wd("fractal", "--size", 256, "-o", "fractal.png", "--force", cwd=tmp_path)
     assert code == 0, err
     img = np.asarray(Image.open(tmp_path / "fractal.png"))
-    assert img.shape == (64, 64) and img.max() > 0 and "fractal.png" in out
-    # same seed, same picture; --force replaces it
-    code, _, err = wd("fractal", "--size", 64, "-o", "again.png", "--quiet", cwd=tmp_path)
+    assert img.shape == (256, 256) and img.max() > 0 and "fractal.png" in out and "endpoints" in out
+    # same seed, same picture
+    code, _, err = wd("fractal", "--size", 256, "-o", "again.png", "--quiet", cwd=tmp_path)
     assert code == 0, err
     assert np.array_equal(np.asarray(Image.open(tmp_path / "again.png")), img)
 
