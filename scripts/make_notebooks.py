@@ -211,6 +211,19 @@ man = json.loads((folder / "runs" / f"lightning_shape{size}x{size}_seed1.manifes
         ("md", "Running the file again does nothing: every task is complete."),
         ("code", '''\
 batch.run_file(folder / "jobs.toml", quiet=True)'''),
+        ("md", "The same kind of file on a Dask `LocalCluster` (threads here; on a workstation, the command "
+               "`wdendrite batch jobs.toml --scheduler local --workers 2 --device cuda` gives each worker a GPU):"),
+        ("code", '''\
+(folder / "more.toml").write_text(f"""
+out = "runs"
+device = "cpu"
+[[job]]
+preset = "competition"
+seeds = [3, 4]
+size = {2 * size}
+""")
+batch.run_file(folder / "more.toml", scheduler="local", workers=1, processes=False, quiet=True)
+display(Image.open(folder / "runs" / f"competition_shape{2 * size}x{2 * size}_seed3.png"))'''),
         ("md", "A large Dendry terrain is a lazy Dask array, one block per tile (computed by the cluster's workers):"),
         ("code", '''\
 from distributed import Client, LocalCluster
