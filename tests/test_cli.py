@@ -139,6 +139,7 @@ def test_bad_values_are_named(tmp_path):
     bad(["fractal", "--size", 32, "--device", "cuda:7", "-o", "f.png"], tmp_path, "not available")
     bad(["lightning", "--size", 48, "-o", "l.glb"], tmp_path, "no mesh")
     bad(["fractal", "--size", 32, "-o", "f.tiff"], tmp_path, "unknown suffix", ".png")
+    bad(["fractal", "--size", 32, "-o", "f.png", "-o", "./f.png"], tmp_path, "given twice")
     assert not list(tmp_path.iterdir())
 
 

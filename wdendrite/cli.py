@@ -60,6 +60,8 @@ def check_outputs(paths, *, force: bool) -> list[Path]:
     out = []
     for p in paths:
         p = Path(p)
+        if p.resolve() in [q.resolve() for q in out]:
+            raise UsageError(f"-o/--out {str(p)!r} is given twice")
         if p.suffix.lower() not in SUFFIXES:
             raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
                              f"use one of {', '.join(SUFFIXES)}")
