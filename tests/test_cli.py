@@ -218,3 +218,18 @@ def test_a_new_preset_appears_with_typed_documented_options(monkeypatch, tmp_pat
                      "-o", str(tmp_path / "s.npy"), "--quiet"]) == 0
     assert np.load(tmp_path / "s.npy").shape == (16, 16)
     assert cli.main(["sparkle", "--colour", "bleu", "-o", str(tmp_path / "t.png")]) == 2
+
+
+def test_tiled_terrain_from_the_command_equals_the_whole_image(tmp_path):
+    code, out, err = wd("dendry", "--size", 45, "--output", "elevation", "--tile", 16, "-o", "d.npy", "--quiet",
+                        "--device", "cpu", cwd=tmp_path)
+    assert code == 0, err
+    preset = all_presets()["dendry"]
+    setup = cli.dendry_setup(45, preset.groups["params"][0], extent=4.0, control="perlin", frequency=1.0,
+                             drained=False, seed=0)
+    from wdendrite.dendry import dendry
+
+    assert np.array_equal(np.load(tmp_path / "d.npy"), dendry(**setup, output="elevation", device="cpu"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npy"]
+    bad(["terrain", "--size", 45, "--tile", 16, "-o", "t.png"], tmp_path, "'.png'", ".npy, .zarr")
+    bad(["terrain", "--size", 45, "--tile", 4, "-o", "t.npy"], tmp_path, "--tile")

@@ -45,12 +45,12 @@ import numpy as np
 
 from ._spec import UsageError, all_presets, nearest, read_toml, resolve
 
-__all__ = ["Task", "dendry_array", "load_jobs", "run_file", "run_task", "tile_windows", "tiled_array",
-           "worker_device", "write_tiled"]
+__all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "run_file", "run_task", "run_tiled", "tile_windows",
+           "need_zarr", "tiled_array", "worker_device", "write_tiled"]
 
 _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
-_TILED_PRESETS = ("dendry", "terrain")
+TILED_PRESETS = ("dendry", "terrain")
 _TILED_FORMATS = ("npy", "zarr")
 
 
@@ -167,19 +167,28 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     return tasks
 
 
+def need_zarr(paths) -> None:
+    """Raise :class:`UsageError` when a ``.zarr`` output is asked for and zarr is not installed."""
+    import importlib.util
+
+    if any(str(p).lower().endswith(".zarr") for p in paths) and importlib.util.find_spec("zarr") is None:
+        raise UsageError("Zarr outputs need zarr: pip install 'wdendrite[zarr]' (or write .npy)")
+
+
 def _tile(tile, name: str, fmts: list[str], where: str) -> int | None:
     """The tile size of a job (None: untiled), checked against its preset and formats."""
     if tile is None:
         if "zarr" in fmts:
             raise UsageError(f"{where}: 'zarr' output needs a tiled job (set 'tile')")
         return None
-    if name not in _TILED_PRESETS or all_presets()[name].func.__module__ != "wdendrite._models":
-        raise UsageError(f"{where}: 'tile' is for {' and '.join(_TILED_PRESETS)} only")
+    if name not in TILED_PRESETS or all_presets()[name].func.__module__ != "wdendrite._models":
+        raise UsageError(f"{where}: 'tile' is for {' and '.join(TILED_PRESETS)} only")
     if isinstance(tile, bool) or not isinstance(tile, int) or tile < 8:
         raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
     bad = [f for f in fmts if f not in _TILED_FORMATS]
     if bad:
         raise UsageError(f"{where}: a tiled job writes {' or '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
+    need_zarr([f".{f}" for f in fmts])
     return tile
 
 
@@ -460,12 +469,13 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     return final
 
 
-def run_tiled(task: Task, device=None, *, client=None, progress=None) -> dict:
-    """Run a tiled Dendry task: every output written tile by tile, then the manifest."""
+def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
+    """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
     from .cli import pick_device
 
     started = time.time()
-    task.manifest.unlink(missing_ok=True)
+    if manifest:
+        task.manifest.unlink(missing_ok=True)
     setup, output = _tiled_setup(task)
     dev = device if client is not None else pick_device(device)
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
@@ -476,7 +486,8 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None) -> dict:
     rec = {"device": dev or "default of each worker", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
-    _write_manifest(task, man)
+    if manifest:
+        _write_manifest(task, man)
     return man
 
 

@@ -55,16 +55,16 @@ def pick_device(name: str | None) -> str:
     return want
 
 
-def check_outputs(paths, *, force: bool) -> list[Path]:
+def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -> list[Path]:
     """Validate output paths before any work: known suffix, existing writable folder, no clobbering."""
     out = []
     for p in paths:
         p = Path(p)
         if p.resolve() in [q.resolve() for q in out]:
             raise UsageError(f"-o/--out {str(p)!r} is given twice")
-        if p.suffix.lower() not in SUFFIXES:
+        if p.suffix.lower() not in suffixes:
             raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
-                             f"use one of {', '.join(SUFFIXES)}")
+                             f"use one of {', '.join(suffixes)}")
         folder = p.parent if str(p.parent) else Path(".")
         if not folder.is_dir():
             raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
@@ -247,6 +247,10 @@ def _add_common(p, preset) -> None:
                         f"(default: {preset.name}.png)")
     g.add_argument("--heightmap", action="store_true", default=argparse.SUPPRESS,
                    help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture")
+    if preset.name in ("dendry", "terrain") and preset.func.__module__ == "wdendrite._models":
+        g.add_argument("--tile", type=int, default=argparse.SUPPRESS, metavar="N",
+                       help="compute the field in N x N tiles straight into .npy (or .zarr) outputs, never the "
+                            "whole image in memory; a killed run resumes (default: whole image) [pixels]")
     g.add_argument("--config", metavar="FILE.toml", default=argparse.SUPPRESS,
                    help="TOML file whose keys are this preset's parameters (options given here override it)")
     g.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite existing outputs")
@@ -348,6 +352,9 @@ def main(argv=None) -> int:
     """Entry point of the ``wdendrite`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
+        import warp as wp
+
+        wp.config.log_level = logging.WARNING  # no start-up banner, whatever initializes Warp first
         parser = build_parser()
         args, extras = parser.parse_known_args(argv)
         if extras:
@@ -360,6 +367,8 @@ def main(argv=None) -> int:
         preset = all_presets()[args._preset]
         values = _values_from(args, preset)
         outs = getattr(args, "out", None) or [f"{preset.name}.png"]
+        if "tile" in args:
+            return _tiled(preset, values, outs, args)
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
                          force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
                          heightmap=getattr(args, "heightmap", False))
@@ -384,6 +393,31 @@ def main(argv=None) -> int:
         traceback.print_exc()
         print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
         return 1
+
+
+def _tiled(preset, values: dict, outs: list, args) -> int:
+    """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
+    from tqdm.auto import tqdm
+
+    from .batch import Task, need_zarr, run_tiled
+
+    if isinstance(args.tile, bool) or args.tile < 8:
+        raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
+    # tiles go straight into the field's file: no picture, which would need the whole image
+    paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"))
+    need_zarr(paths)
+    _, full = resolve(preset, values)
+    task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)
+    with tqdm(desc=f"{preset.name} tiles", disable=getattr(args, "quiet", False), file=sys.stderr,
+              leave=False) as bar:
+        def tick(done, total):
+            bar.total, bar.n = total, done
+            bar.refresh()
+
+        rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False)
+    print(f"{preset.name} ({_brief(full, preset)}) in {args.tile}-pixel tiles: {rec['seconds']:.3f} s on "
+          f"{rec['device']} -> {', '.join(task.outputs)}")
+    return 0
 
 
 def _made(result) -> str:
