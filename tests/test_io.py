@@ -199,3 +199,16 @@ def empty_dendrite(shape):
     return Dendrite(shape=shape, nodes=np.zeros((0, nd), np.int64), parent=np.zeros(0, np.int64),
                     cost=np.zeros(0, np.float32), label=np.zeros(0, np.int32), generation=np.zeros(0, np.int32),
                     endpoints=np.zeros(0, np.int64), _padded=np.zeros(0, np.int64))
+
+
+def test_written_files_follow_the_umask(tmp_path):
+    import os
+
+    from wdendrite.io import atomic_write
+
+    old = os.umask(0o022)
+    try:
+        out = atomic_write(tmp_path / "x.txt", lambda p: open(p, "w").write("hi"))
+    finally:
+        os.umask(old)
+    assert (out.stat().st_mode & 0o777) == 0o644
