@@ -25,7 +25,15 @@ def _target(path, overwrite: bool) -> Path:
 
 
 def _umask() -> int:
-    current = os.umask(0)
+    # reading it from /proc leaves the process umask alone (setting it is not thread-safe)
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    current = os.umask(0o022)
     os.umask(current)
     return current
 
