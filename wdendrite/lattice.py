@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from . import _checks
+from . import _checks, _memory
 from .kernels import sssp as _ks
 from .kernels import weights as _kw
 
@@ -240,7 +240,7 @@ class Lattice:
                 hashed.params = self.distribution.kernel_params(self.shape, device)
                 source = wp.zeros(1, dtype=float, device=device)
             # node-major records: a node's weights and stamps share its cache line
-            aux = wp.empty(int(np.prod(padded)) * (nw + 2), dtype=wp.int32, device=device)
+            aux = _memory.empty(int(np.prod(padded)) * (nw + 2), wp.int32, device)
             wp.launch(_ks.build_records_kernel, dim=padded[0] * padded[1],
                       inputs=[source, wp.vec3i(*shape3), wp.vec3i(*pad3), nw + 2, nw], outputs=[aux], device=device)
             mask = np.zeros(padded, np.uint8)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from . import _checks
+from . import _checks, _memory
 from .kernels import sssp as _k
 from .lattice import Lattice
 
@@ -92,7 +92,7 @@ class _Frontiers:
     def __init__(self, n: int, device, capacity: int | None = None):
         # a node sits in a list at most once, so lists need room for the usable nodes only
         cap = n if capacity is None else max(1, capacity)
-        self.lists = [wp.empty(cap, dtype=wp.int32, device=device) for _ in range(4)]
+        self.lists = [_memory.empty(cap, wp.int32, device) for _ in range(4)]
         self.counts = wp.zeros(4, dtype=wp.int32, device=device)
         self.far_min = wp.full(1, math.inf, dtype=float, device=device)
         self._cpu = device.is_cpu
@@ -255,7 +255,7 @@ def shortest_paths(
         far_id = arrays.stamps.next()
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
-            packed = wp.empty(size, dtype=wp.uint64)
+            packed = _memory.empty(size, wp.uint64, device)
             wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, chunk], outputs=[packed])
             new_rows = np.arange(len(gens))
         else:
@@ -281,8 +281,8 @@ def shortest_paths(
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
         fr.max_threads = _max_threads
         rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo, far_id)
-        dist = wp.empty(lattice.shape, dtype=float)
-        label = wp.empty(lattice.shape, dtype=wp.int32)
+        dist = _memory.empty(lattice.shape, float, device)
+        label = _memory.empty(lattice.shape, wp.int32, device)
         wp.launch(
             _k.unpack_kernel,
             dim=_threads(n, chunk),
