@@ -35,7 +35,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
-from ._checks import fits_in_memory, lattice_shape
+from ._checks import finite, fits_in_memory, lattice_shape
 from .control import Control, perlin, rectangle
 from .kernels import dendry as _kd
 
@@ -59,13 +59,8 @@ def _int_in(name: str, value, lo: int, hi: int) -> int:
 
 
 def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
-    if not (x > lo if open_lo else x >= lo) or not x <= hi or math.isnan(x):
+    x = finite(name, value)
+    if not (x > lo if open_lo else x >= lo) or not x <= hi:
         raise ValueError(f"Expected '{name}' in {'(' if open_lo else '['}{lo}, {hi}], but got {value!r}")
     return x
 
