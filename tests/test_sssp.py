@@ -262,3 +262,15 @@ def test_unstored_weights_give_the_stored_result(shape, conn, dist, device):
 def test_unstored_weights_need_a_distribution():
     with pytest.raises(ValueError, match="store_weights"):
         wd.Lattice((4, 4), weights=np.ones((2, 4, 4)), store_weights=False)
+
+
+def test_stamp_ids_wrap_safely():
+    # the record stamps are int32 ids that only grow; near the limit they are cleared and restart
+    lat = wd.Lattice((40, 50), 8, weights=wd.weights.Uniform(seed=4))
+    ref = wd.shortest_paths(lat, [[3, 4], [30, 40]])
+    stamps = lat.device_arrays().stamps
+    stamps.last = stamps.LIMIT - 10
+    for fifo in (True, False):
+        again = wd.shortest_paths(lat, [[3, 4], [30, 40]], _fifo=fifo)
+        assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()
+    assert stamps.last < 10**6
