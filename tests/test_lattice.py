@@ -85,3 +85,8 @@ def test_bad_input(kwargs, exc, words):
     with pytest.raises(exc) as info:
         wd.Lattice(**kwargs)
     assert words in str(info.value)
+
+
+def test_lattices_beyond_int32_record_indices_are_refused_before_work():
+    with pytest.raises(ValueError, match="int32"):
+        wd.Lattice((1100, 1100, 1100), 26, weights=wd.weights.Uniform(seed=0), store_weights=False)

@@ -169,6 +169,13 @@ class Lattice:
             self._weights = checked.copy() if np.may_share_memory(checked, weights) and not _adopt else checked
         if self._weights is not None:
             self._weights.flags.writeable = False
+        words = int(np.prod([n + 2 for n in self.shape])) * ((len(self.offsets) if self._weights is not None else 0) + 2)
+        if words >= 2**31:
+            raise ValueError(
+                f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
+                "beyond the kernels' int32 indices (2**31)"
+                + ("; store_weights=False needs fewer" if self._weights is not None else "")
+            )
         self._device_arrays: dict[str, LatticeArrays] = {}
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
         self._num_usable: int | None = None
