@@ -203,8 +203,11 @@ def relax_edge(
     near_out: wp.array(dtype=wp.int32),
     far_out: wp.array(dtype=wp.int32),
 ):
-    """Offer ``other`` the cost ``new_cost`` from generator ``label``; queue it if it improved."""
-    if new_cost <= limit:
+    """Offer ``other`` the cost ``new_cost`` from generator ``label``; queue it if it improved.
+
+    A cost that overflowed float32 is never offered: the node stays unreached.
+    """
+    if new_cost <= limit and wp.isfinite(new_cost):
         candidate = pack_cost(new_cost, label)
         if candidate < packed[other]:
             if candidate < wp.atomic_min(packed, other, candidate):
@@ -268,8 +271,11 @@ def relax_kernel(
                 w_fwd = wp.cast(aux[node * stride + k], wp.float32)
                 w_bwd = wp.cast(aux[(node - step) * stride + k], wp.float32)
             else:
-                w_fwd = edge_cost(aux, stride, hashed, node, k)
-                w_bwd = edge_cost(aux, stride, hashed, node - step, k)
+                # only for neighbours that could improve: border nodes have no weights to compute
+                if packed[node + step] != wp.uint64(0):
+                    w_fwd = edge_cost(aux, stride, hashed, node, k)
+                if packed[node - step] != wp.uint64(0):
+                    w_bwd = edge_cost(aux, stride, hashed, node - step, k)
             relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
                        near_slot, far_slot, packed, aux, counts, far_min, near_out, far_out)
             relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,

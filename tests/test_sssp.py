@@ -274,3 +274,17 @@ def test_stamp_ids_wrap_safely():
         again = wd.shortest_paths(lat, [[3, 4], [30, 40]], _fifo=fifo)
         assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()
     assert stamps.last < 10**6
+
+
+def test_searches_end_on_overflow_tiny_buckets_and_huge_weight_ranges():
+    # costs that overflow float32 stay unreached (inf, -1) instead of stalling the buckets
+    lat = wd.Lattice((1, 3), weights=np.full((2, 1, 3), 2e38, np.float32))
+    cf = wd.shortest_paths(lat, [[0, 0]])
+    assert cf.dist[0, 1] == np.float32(2e38) and np.isinf(cf.dist[0, 2]) and cf.label[0, 2] == -1
+    # a bucket width that vanishes next to the costs still moves at least one node per bucket
+    cf = wd.shortest_paths(wd.Lattice((4, 4)), [[0, 0]], delta=1e-20)
+    np.testing.assert_array_equal(cf.dist, np.add.outer(np.arange(4), np.arange(4)).astype(np.float32))
+    w = np.full((2, 1, 4), 1e-9, np.float32)
+    w[0, 0, 1] = 1e12
+    cf = wd.shortest_paths(wd.Lattice((1, 4), weights=w), [[0, 0]])
+    assert cf.dist[0, 3] == np.float32(1e12) and np.isfinite(cf.dist).all()

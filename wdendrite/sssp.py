@@ -255,7 +255,7 @@ def shortest_paths(
     with wp.ScopedDevice(device), arrays.stamps.lock:
         chunk = _chunk(device)
         size = arrays.mask.shape[0]
-        if not arrays.stamps.room(4 * size + 1000):
+        if not arrays.stamps.room(2**24):
             wp.launch(_k.clear_stamps_kernel, dim=_threads(size, chunk), inputs=[arrays.stride, arrays.nw, chunk],
                       outputs=[arrays.aux])
             arrays.stamps.last = 0
@@ -351,6 +351,20 @@ class _Launches:
         cmd.launch()
 
 
+def _next_threshold(threshold: float, far_min: float, delta: float) -> float:
+    """The next bucket's upper bound, as the float32 the kernels compare with.
+
+    It is strictly above ``far_min``, so at least the far pile's cheapest node
+    moves to the near list even when ``delta`` vanishes next to large costs.
+    """
+    wanted = max(threshold + delta, far_min + delta)
+    t = np.float32(wanted) if wanted < float(np.finfo(np.float32).max) else np.float32(np.inf)
+    low = np.float32(far_min)
+    if not t > low:
+        t = np.nextafter(low, np.float32(np.inf))
+    return float(t)
+
+
 def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, fifo: bool,
          far_id: int) -> tuple[int, int]:
     """Drive near-far rounds until both the near list and the far pile are empty.
@@ -391,8 +405,11 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
         n_far = int(counts[2 + far])
         if n_far == 0:
             return rounds, relaxed
+        far_min = fr.far_minimum()
+        if not math.isfinite(far_min):
+            return rounds, relaxed
         previous = threshold
-        threshold = max(threshold + delta, fr.far_minimum() + delta)
+        threshold = _next_threshold(threshold, far_min, delta)
         fr.reset_far_min()
         generation = queue_generation if fifo else arrays.stamps.next()
         fr.set_count(3 - far, 0)
