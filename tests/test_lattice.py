@@ -90,3 +90,25 @@ def test_bad_input(kwargs, exc, words):
 def test_lattices_beyond_int32_record_indices_are_refused_before_work():
     with pytest.raises(ValueError, match="int32"):
         wd.Lattice((1100, 1100, 1100), 26, weights=wd.weights.Uniform(seed=0), store_weights=False)
+
+
+def test_outside_entries_are_ignored_and_filled():
+    rng = np.random.default_rng(0)
+    w = rng.uniform(1, 2, size=(4, 6, 7)).astype(np.float32)
+    w[0][:, -1] = np.nan  # the (0, 1) edges leaving the right border
+    w[1][-1, :] = 0.0  # the (1, 0) edges leaving the bottom border
+    lat = wd.Lattice((6, 7), 8, weights=w)
+    assert np.isfinite(lat.weights).all() and (lat.weights > 0).all()
+    np.testing.assert_array_equal(lat.weights[0][:, -1], w[0][:, -2])
+    k = [tuple(o) for o in lat.offsets.tolist()].index((1, 1))
+    np.testing.assert_array_equal(lat.weights[k][:-1, :-1], w[k][:-1, :-1])
+
+
+def test_zero_weights_on_usable_edges_are_refused_but_allowed_next_to_masked_nodes():
+    w = np.ones((2, 4, 4), np.float32)
+    w[0, 1, 1] = 0.0
+    with pytest.raises(ValueError, match="positive on usable edges"):
+        wd.Lattice((4, 4), weights=w)
+    mask = np.ones((4, 4), bool)
+    mask[1, 2] = False  # the zero edge (1, 1) -> (1, 2) now touches a masked node
+    wd.Lattice((4, 4), weights=w, mask=mask)

@@ -33,14 +33,21 @@ def lattice_shape(shape) -> tuple[int, ...]:
     return tuple(out)
 
 
-def float_array(name: str, value, shape: tuple[int, ...], *, positive: bool = False) -> np.ndarray:
-    """Return ``value`` as a float32 array of ``shape`` whose entries are finite and >= 0 (> 0)."""
+def float_array(
+    name: str, value, shape: tuple[int, ...], *, positive: bool = False, check_values: bool = True
+) -> np.ndarray:
+    """Return ``value`` as a float32 array of ``shape`` whose entries are finite and >= 0 (> 0).
+
+    With ``check_values=False`` only the dtype and shape are checked.
+    """
     arr = np.asarray(value)
     if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
         raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
     if arr.shape != tuple(shape):
         raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
     arr = np.ascontiguousarray(arr, dtype=np.float32)
+    if not check_values:
+        return arr
     if arr.size:
         lo, hi = float(arr.min()), float(arr.max())
         # the common case costs two reductions; the slow scans below only name the culprit

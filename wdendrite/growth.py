@@ -81,10 +81,10 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     Args:
         lattice: the lattice the dendrite lives on.
         dendrite: its edges are the pairs (row, parent[row]).
-        factor: multiplier in [0, 1].
+        factor: multiplier in (0, 1] (weights must stay positive).
         rows: only the edges leaving these rows (default: all).
     """
-    factor = _checks.nonnegative("factor", factor, allow_none=False)
+    factor = _checks.positive("factor", factor)
     rows = np.arange(len(dendrite)) if rows is None else np.asarray(rows, dtype=np.int64)
     rows = rows[dendrite.parent[rows] >= 0]
     a, b = dendrite.nodes[rows], dendrite.nodes[dendrite.parent[rows]]

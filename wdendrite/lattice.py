@@ -42,6 +42,56 @@ def half_offsets(ndim: int, connectivity: int) -> np.ndarray:
     return np.array(out, dtype=np.int64)
 
 
+def fill_outside(weights: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Give the entries whose neighbour lies outside the lattice (never used) their nearest used value, in place.
+
+    Edges leaving the lattice carry no cost, but interpolating the weights
+    (refinement) reads them; copying the nearest real edge keeps them harmless.
+    """
+    for k, off in enumerate(offsets):
+        w = weights[k]
+        for axis, o in enumerate(off):
+            n = w.shape[axis]
+            if o == 0 or n < 2:
+                continue
+            take = [slice(None)] * w.ndim
+            put = [slice(None)] * w.ndim
+            if o > 0:
+                put[axis], take[axis] = slice(n - 1, n), slice(n - 2, n - 1)
+            else:
+                put[axis], take[axis] = slice(0, 1), slice(1, 2)
+            w[tuple(put)] = w[tuple(take)]
+    return weights
+
+
+def _checked_weights(weights: np.ndarray, offsets: np.ndarray, mask) -> np.ndarray:
+    """Fill the outside entries, then require finite weights, positive on every usable edge."""
+    fill_outside(weights, offsets)
+    if weights.size and 0 < float(weights.min()) and np.isfinite(float(weights.max())):
+        return weights  # the common case: two reductions
+    bad = ~np.isfinite(weights)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries (first at {where})")
+    low = weights <= 0
+    if mask is not None:
+        # an edge touching a masked-out node is never used, whatever it costs
+        for k, off in enumerate(offsets):
+            shape = mask.shape
+            src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(off, shape))
+            dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(off, shape))
+            usable = np.zeros(shape, bool)
+            usable[src] = mask[src] & mask[dst]
+            low[k] &= usable
+    if low.any():
+        where = tuple(int(i) for i in np.argwhere(low)[0])
+        raise ValueError(
+            f"'weights' must be positive on usable edges, but has value {weights[where]} at index {where} "
+            f"({int(low.sum())} such entries)"
+        )
+    return weights
+
+
 @dataclass(frozen=True)
 class LatticeArrays:
     """A lattice's arrays on one Warp device, as the shortest-path kernels take them.
@@ -104,8 +154,9 @@ class Lattice:
     Args:
         shape: ``(H, W)`` or ``(D, H, W)``, positive ints.
         connectivity: 4 or 8 in 2D, 6 or 26 in 3D (default: 4 in 2D, 6 in 3D).
-        weights: a ``(K, *shape)`` array of non-negative, finite edge costs
-            (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``), or a
+        weights: a ``(K, *shape)`` array of finite edge costs, positive on every
+            usable edge (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``;
+            entries whose neighbour lies outside are ignored), or a
             distribution from :mod:`wdendrite.weights` such as
             ``wd.weights.Uniform(r=10, seed=0)``. Default: each edge costs its
             length (1, sqrt(2), sqrt(3)), giving plain lattice distances.
@@ -161,12 +212,14 @@ class Lattice:
             self._weights = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
         elif hasattr(weights, "sample"):
             _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
-            self._weights = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
+            sampled = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
+            self._weights = fill_outside(sampled, self.offsets)
         else:
-            checked = _checks.float_array("weights", weights, wshape)
+            checked = _checks.float_array("weights", weights, wshape, check_values=False)
             # own the array: copy unless float_array already made a private one
             # (``_adopt``: the caller hands over an array nobody else holds)
-            self._weights = checked.copy() if np.may_share_memory(checked, weights) and not _adopt else checked
+            own = checked.copy() if np.may_share_memory(checked, weights) and not _adopt else checked
+            self._weights = _checked_weights(own, self.offsets, self.mask)
         if self._weights is not None:
             self._weights.flags.writeable = False
         words = int(np.prod([n + 2 for n in self.shape])) * ((len(self.offsets) if self._weights is not None else 0) + 2)
@@ -194,7 +247,8 @@ class Lattice:
         """
         if self._weights is not None:
             return self._weights
-        return np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
+        sampled = np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
+        return fill_outside(sampled, self.offsets)
 
     @property
     def num_nodes(self) -> int:
