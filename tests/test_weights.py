@@ -349,3 +349,8 @@ def test_overflowing_composite_raises():
     dist = weights.Power(alpha=8.0, max=1000.0) * weights.Tropism("left", strength=1e10)
     with pytest.raises(ValueError, match="above the supported"):
         dist.sample((4, 4), _lengths(2, 4))
+
+
+def test_constant_weights_must_be_positive():
+    with pytest.raises(ValueError, match="value"):
+        weights.Constant(0.0)

@@ -245,10 +245,10 @@ class Constant(Distribution):
     """Weights ``length * value``: no randomness (with ``value = 1``, plain lattice distances)."""
 
     value: float = 1.0
-    """Cost of a unit-length edge; must be >= 0."""
+    """Cost of a unit-length edge; must be > 0 (paths need positive steps)."""
 
     def __post_init__(self):
-        _number("value", self.value, low=0.0)
+        _number("value", self.value, low=0.0, low_open=True)
 
     def _base(self):
         return _kw.CONSTANT, float(self.value), 0.0, 0
