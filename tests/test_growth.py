@@ -137,3 +137,28 @@ def test_masked_letters_keep_paths_inside():
     assert np.isinf(cf.dist[~mask]).all() and np.isfinite(cf.dist[mask]).all()
     den = wd.trace(cf, [[5, 5], [24, 9], [6, 24], [24, 20]])
     assert mask[tuple(den.nodes.T)].all()
+
+
+def test_unstored_weights_with_cheap_former_paths_and_a_region():
+    hashed = wd.Lattice((96, 96), 8, weights=wd.weights.Uniform(r=10, seed=5), store_weights=False)
+    p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=0.5)
+    a = wd.grow(hashed, [[48, 48]], p, seed=3)
+    b = wd.grow(LAT, [[48, 48]], p, seed=3)  # the same weights, stored
+    np.testing.assert_array_equal(a.nodes, b.nodes)
+    # endpoints confined to a region the band barely reaches: fewer endpoints, no error
+    box = wd.endpoints.Box((0, 0), (20, 96))
+    den = wd.grow(LAT, [[48, 48]], PARAMS, seed=1, within=box)
+    assert box.mask(LAT.shape)[tuple(den.nodes[den.endpoints].T)].all()
+
+
+def test_a_start_dendrite_makes_its_edges_cheap_from_the_first_iteration():
+    start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5], [90, 90]])
+    p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=0.3)
+    den = wd.grow(LAT, [[48, 48]], p, seed=2, start=start)
+    np.testing.assert_array_equal(den.nodes[: len(start)], start.nodes)
+    # the first iteration's costs already use the lowered start edges
+    lowered = lower_dendrite_weights(LAT, start, 0.3)
+    first = len(start) + np.flatnonzero(den.generation[len(start):] == 0)
+    assert len(first)
+    cf = wd.shortest_paths(lowered, [[48, 48]])
+    np.testing.assert_array_equal(den.cost[first], cf.dist[tuple(den.nodes[first].T)])

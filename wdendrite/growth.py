@@ -110,6 +110,22 @@ def _relabel(den: Dendrite, first: int, n_gens: int, gen_labels: np.ndarray) -> 
     return dataclasses.replace(den, label=label)
 
 
+def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing):
+    """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
+    ``min_spacing`` apart) cannot hold that many; None when it holds none."""
+    usable, _ = _endpoints._candidates(cf.lattice.shape, cf.lattice.mask, within)
+    dist = cf.dist.reshape(-1)
+    n = min(m, int(np.count_nonzero(usable & (dist > d - r) & (dist < d + r))))
+    while n > 0:
+        try:
+            return _endpoints.in_band(cf, n, d, r, seed=rng, within=within, min_spacing=min_spacing)
+        except ValueError:
+            if min_spacing is None:
+                raise
+            n //= 2  # the spacing leaves room for fewer: ask for half as many
+    return None
+
+
 def grow(
     lattice: Lattice,
     generators,
@@ -165,17 +181,18 @@ def grow(
         bar = tqdm(total=len(plan), desc="growing", unit="iteration")
 
     den = start
-    lat = lattice
+    # cheap former paths change stored weights, so a hashed lattice gets its array once
+    base_lat = lattice if new_generators or lattice.stores_weights else lattice.with_weights(lattice.weights)
+    lat = base_lat
+    if start is not None and not new_generators:
+        lat = lower_dendrite_weights(base_lat, start, params.cheap)
     cf: CostField | None = None
     for it, (m, d) in enumerate(plan):
         if cf is None:
             base = gens if not (new_generators and den is not None) else np.concatenate([gens, den.nodes])
             cf = shortest_paths(lat, base, limit=d + r, device=device)
-        dist = cf.dist
-        available = int(np.count_nonzero((dist > d - r) & (dist < d + r)))
-        n = min(m, available)
-        if n > 0:
-            ep = _endpoints.in_band(cf, n, d, r, seed=rng, within=within, min_spacing=params.min_spacing)
+        ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing)
+        if ep is not None:
             first = 0 if den is None else len(den)
             den = trace(cf, ep, extend=den, generation=it)
             if new_generators:
@@ -186,7 +203,7 @@ def grow(
                 if new_generators:
                     cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf)
                 else:
-                    lat = lower_dendrite_weights(lattice, den, params.cheap)
+                    lat = lower_dendrite_weights(base_lat, den, params.cheap)
                     cf = shortest_paths(lat, gens, limit=limit, warm_start=cf)
         if bar is not None:
             bar.update(1)
