@@ -288,3 +288,12 @@ def test_searches_end_on_overflow_tiny_buckets_and_huge_weight_ranges():
     w[0, 0, 1] = 1e12
     cf = wd.shortest_paths(wd.Lattice((1, 4), weights=w), [[0, 0]])
     assert cf.dist[0, 3] == np.float32(1e12) and np.isfinite(cf.dist).all()
+
+
+def test_unstored_map_weights_pick_their_own_bucket_width():
+    sketch = np.linspace(0, 1, 40 * 30, dtype=np.float32).reshape(40, 30)
+    dist = wd.weights.Uniform(seed=1) * wd.weights.Map(sketch, strength=3.0)
+    hashed = wd.Lattice((40, 30), 8, weights=dist, store_weights=False)
+    stored = wd.Lattice((40, 30), 8, weights=dist)
+    a, b = wd.shortest_paths(hashed, [[5, 5]]), wd.shortest_paths(stored, [[5, 5]])
+    assert a.dist.tobytes() == b.dist.tobytes()

@@ -135,8 +135,11 @@ def _default_delta(lattice: Lattice) -> float:
     if lattice.stores_weights:
         flat = lattice.weights.reshape(-1)
     else:
-        flat = lattice.distribution.sample((64, 64) if lattice.ndim == 2 else (16, 16, 16), lattice.lengths,
-                                           offsets=lattice.offsets).reshape(-1)
+        # weights of edges spread over the real lattice (fields such as maps need its shape)
+        k = len(lattice.offsets)
+        nodes = np.linspace(0, lattice.num_nodes - 1, min(lattice.num_nodes, 8192)).astype(np.int64)
+        flat = lattice.distribution.evaluate(lattice.shape, lattice.lengths, np.repeat(nodes, k),
+                                             np.tile(np.arange(k), len(nodes)), offsets=lattice.offsets)
     # 32 contiguous runs spread over the array: cheap to read, and they still see
     # weights that vary across the lattice (tropisms, maps)
     run = 2048
