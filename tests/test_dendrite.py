@@ -217,3 +217,11 @@ def test_from_arrays_round_trip_and_checks():
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 0]], [-1, 0])
     with pytest.raises(ValueError, match="inside"):
         wd.Dendrite.from_arrays((5, 5), [[0, 5]], [-1])
+    with pytest.raises(ValueError, match="endpoints"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[-1])
+    with pytest.raises(ValueError, match="endpoints"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[2])
+    with pytest.raises(ValueError, match=r"\(N, 2\)"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0, 0]], [-1])
+    with pytest.raises(ValueError, match="neighbour"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 3]], [-1, 0])

@@ -75,7 +75,9 @@ class Dendrite:
             origin, spacing: placement in the world.
         """
         shape = _checks.lattice_shape(shape)
-        nodes = np.asarray(nodes, dtype=np.int64).reshape(-1, len(shape))
+        nodes = np.asarray(nodes, dtype=np.int64)
+        if nodes.ndim != 2 or nodes.shape[1] != len(shape):
+            raise ValueError(f"Expected 'nodes' of shape (N, {len(shape)}), but got shape {nodes.shape}")
         n = len(nodes)
         if n and (nodes.min() < 0 or np.any(nodes >= np.asarray(shape))):
             raise ValueError(f"'nodes' must lie inside the lattice of shape {shape}")
@@ -92,12 +94,20 @@ class Dendrite:
                 raise ValueError(f"Expected '{name}' of shape ({n},), but got shape {arr.shape}")
             return arr
 
+        child = np.flatnonzero(parent >= 0)
+        steps = np.abs(nodes[parent[child]] - nodes[child]).max(axis=1) if len(child) else np.zeros(0)
+        if np.any(steps != 1):
+            row = int(child[np.argmax(steps != 1)])
+            raise ValueError(f"'parent' row {row} is not a lattice neighbour of node {tuple(nodes[row].tolist())}")
         if endpoints is None:
             has_child = np.zeros(n, bool)
-            has_child[parent[parent >= 0]] = True
+            has_child[parent[child]] = True
             endpoints = np.flatnonzero(~has_child)
+        endpoints = np.asarray(endpoints, dtype=np.int64).reshape(-1)
+        if endpoints.size and (endpoints.min() < 0 or endpoints.max() >= n):
+            raise ValueError(f"'endpoints' must be rows in [0, {n}), but range over [{endpoints.min()}, {endpoints.max()}]")
         den = cls(shape, nodes, parent, per_node("cost", cost, np.float32), per_node("label", label, np.int32),
-                  per_node("generation", generation, np.int32), np.asarray(endpoints, dtype=np.int64).reshape(-1),
+                  per_node("generation", generation, np.int32), endpoints,
                   padded, origin, float(spacing))
         den.depth  # raises on a cycle
         return den

@@ -214,7 +214,10 @@ def load_dendrite(path):
         origin=tuple(float(x) for x in raw["origin"]),
         spacing=float(raw["spacing"]),
     )
-    return den, raw["width"].astype(np.float32)
+    width = raw["width"].astype(np.float32).reshape(-1)
+    if width.shape != (len(den),):
+        raise ValueError(f"{str(path)!r} holds {len(width)} widths for {len(den)} nodes")
+    return den, width
 
 
 def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, float]]:

@@ -68,7 +68,8 @@ class Refined(Distribution):
 
 def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
     """Coarse nodes whose blocks make the refined graph: the dendrite, plus for each
-    diagonal step the axis neighbours it passes, so consecutive blocks share a face."""
+    diagonal step the nodes it passes along its first axes, so consecutive blocks touch
+    along a face in 2D and at least an edge in 3D (connected for every connectivity in use)."""
     keep = np.zeros(lattice.shape, bool)
     keep[tuple(den.nodes.T)] = True
     child = np.flatnonzero(den.parent >= 0)
@@ -140,9 +141,10 @@ def refine(
     Returns:
         ``(fine, fine_lattice)``: the refined :class:`Dendrite` (its roots and
         endpoints sit at the centres of the coarse ones' blocks; its
-        ``origin``/``spacing`` place it over the coarse one) and the masked
-        fine lattice, cropped to the dendrite's bounding box. Refine again
-        for more detail.
+        ``origin``/``spacing`` place it over the coarse one; its ``label``
+        numbers the fine roots in the order of their coordinates, not the
+        coarse generators) and the masked fine lattice, cropped to the
+        dendrite's bounding box. Refine again for more detail.
 
     Raises:
         ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), or a dendrite
