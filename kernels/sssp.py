@@ -205,9 +205,10 @@ def relax_edge(
 ):
     """Offer ``other`` the cost ``new_cost`` from generator ``label``; queue it if it improved.
 
-    A cost that overflowed float32 is never offered: the node stays unreached.
+    ``limit`` is finite (the host caps it at the largest float32), so a cost
+    that overflowed float32 is never offered: the node stays unreached.
     """
-    if new_cost <= limit and wp.isfinite(new_cost):
+    if new_cost <= limit:
         candidate = pack_cost(new_cost, label)
         if candidate < packed[other]:
             if candidate < wp.atomic_min(packed, other, candidate):

@@ -92,7 +92,8 @@ class _Frontiers:
     def __init__(self, n: int, device, capacity: int | None = None):
         # a node sits in a list at most once, so lists need room for the usable nodes only
         cap = n if capacity is None else max(1, capacity)
-        self.lists = [_memory.empty(cap, wp.int32, device) for _ in range(4)]
+        # read in order: plain pages do (huge pages go to the randomly read records and state)
+        self.lists = [wp.empty(cap, dtype=wp.int32, device=device) for _ in range(4)]
         self.counts = wp.zeros(4, dtype=wp.int32, device=device)
         self.far_min = wp.full(1, math.inf, dtype=float, device=device)
         self._cpu = device.is_cpu
@@ -290,9 +291,11 @@ def shortest_paths(
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
         fr.max_threads = _max_threads
-        rounds, relaxed = _run(arrays, packed, fr, limit_f, delta_f, fifo, far_id)
-        dist = _memory.empty(lattice.shape, float, device)
-        label = _memory.empty(lattice.shape, wp.int32, device)
+        # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
+        kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
+        rounds, relaxed = _run(arrays, packed, fr, kernel_limit, delta_f, fifo, far_id)
+        dist = wp.empty(lattice.shape, dtype=float)
+        label = wp.empty(lattice.shape, dtype=wp.int32)
         wp.launch(
             _k.unpack_kernel,
             dim=_threads(n, chunk),
