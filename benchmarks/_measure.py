@@ -3,7 +3,8 @@
 ``run_isolated(fn_path, kwargs)`` starts ``python -c`` in a child that imports
 the function, builds its inputs, resets the kernel's peak-RSS counter
 (``/proc/self/clear_refs``), runs it, and prints a JSON line with the wall
-time and the growth of the peak resident set over the inputs. Running each
+time and the growth of the peak resident set over the inputs. A result entry
+``_save: (path, array)`` is written to disk after the measurement. Running each
 case in its own process keeps one method's memory from hiding another's.
 """
 
@@ -33,6 +34,12 @@ t = time.perf_counter()
 result = run(state)
 dt = time.perf_counter() - t
 peak = rss_kib('VmHWM')
+if isinstance(result, dict) and '_save' in result:
+    # writing the result for the cross-check is not part of the measured computation
+    import numpy as np
+    path, value = result.pop('_save')
+    np.save(path, np.asarray(value, dtype=np.float32))
+    result['file'] = path
 print('RESULT ' + json.dumps({'seconds': dt, 'peak_mib': (peak - base) / 1024.0, 'result': result}))
 """
 

@@ -5,7 +5,9 @@ All three solve the same problem on the same lattice: node costs ``c = 1 + 10 R`
 ``skimage.graph.MCP_Geometric`` charges), from one generator at the centre or
 8 random generators. Each measurement runs in its own process and covers the
 whole computation from the weight array: wdendrite builds its Lattice, SciPy
-its sparse graph, MCP its cost object. Results are checked against SciPy.
+its sparse graph, MCP its cost object, and each ends holding its cost array
+(written to disk for the cross-check after the clock stops). Results are
+checked against SciPy.
 
 Usage: python benchmarks/bench_sssp.py [--quick] [--device cpu|cuda]
 """
@@ -52,11 +54,6 @@ def _edge_weights(cost, connectivity):
     return w
 
 
-def _save(dist, out):
-    np.save(out, np.asarray(dist, dtype=np.float32))
-    return out
-
-
 def wdendrite_case(shape, connectivity, gens, out, device="cpu"):
     def prepare():
         import warp as wp
@@ -73,8 +70,7 @@ def wdendrite_case(shape, connectivity, gens, out, device="cpu"):
         wd, w, g = state
         lat = wd.Lattice(tuple(shape), connectivity, weights=w)
         cf = wd.shortest_paths(lat, g, device=device)
-        dist = cf.dist
-        return {"rounds": cf.rounds, "relaxed_per_node": cf.relaxed / lat.num_nodes, "file": _save(dist, out)}
+        return {"rounds": cf.rounds, "relaxed_per_node": cf.relaxed / lat.num_nodes, "_save": (out, cf.dist)}
 
     return prepare, run
 
@@ -105,7 +101,7 @@ def scipy_case(shape, connectivity, gens, out):
         del r, c, v, rows, cols, vals
         flat = np.ravel_multi_index(tuple(g.T), shape)
         dist = dijkstra(graph, directed=False, indices=flat, min_only=True)
-        return {"file": _save(dist.reshape(shape), out)}
+        return {"_save": (out, dist.reshape(shape))}
 
     return prepare, run
 
@@ -121,7 +117,7 @@ def mcp_case(shape, connectivity, gens, out):
         cost, g = state
         mcp = MCP_Geometric(cost, fully_connected=connectivity in (8, 26))
         dist, _ = mcp.find_costs([tuple(p) for p in g])
-        return {"file": _save(dist, out)}
+        return {"_save": (out, dist)}
 
     return prepare, run
 
