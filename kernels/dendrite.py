@@ -68,7 +68,7 @@ def trace_kernel(
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     packed: wp.array(dtype=wp.uint64),
-    is_root: wp.array(dtype=wp.uint8),
+    is_root: wp.array(dtype=wp.int32),
     max_steps: int,
     visited: wp.array(dtype=wp.int32),
     pred_out: wp.array(dtype=wp.int32),
@@ -88,7 +88,7 @@ def trace_kernel(
         if wp.atomic_exch(visited, node, 1) != 0:
             return
         new_nodes_out[wp.atomic_add(new_count, 0, 1)] = node
-        if is_root[node] != wp.uint8(0):
+        if is_root[node] != 0:
             pred_out[node] = -1
             return
         if packed[node] == UNREACHED:
@@ -107,10 +107,4 @@ def trace_kernel(
 @wp.kernel
 def mark_kernel(indices: wp.array(dtype=wp.int32), value: int, out: wp.array(dtype=wp.int32)):
     """``out[indices[i]] = value``."""
-    out[indices[wp.tid()]] = value
-
-
-@wp.kernel
-def mark_u8_kernel(indices: wp.array(dtype=wp.int32), value: wp.uint8, out: wp.array(dtype=wp.uint8)):
-    """``out[indices[i]] = value`` for byte flags."""
     out[indices[wp.tid()]] = value

@@ -11,6 +11,7 @@ import warp as wp
 
 from . import _checks
 from .kernels import dendrite as _kd
+from .lattice import coords_of_padded, padded_index_of
 from .sssp import CostField
 
 __all__ = ["Dendrite", "trace"]
@@ -84,7 +85,7 @@ class Dendrite:
         parent = np.asarray(parent, dtype=np.int64).reshape(-1)
         if parent.shape != (n,) or (n and (parent.min() < -1 or parent.max() >= n)):
             raise ValueError(f"Expected 'parent' of shape ({n},) with rows in [-1, {n}), but got shape {parent.shape}")
-        padded = np.ravel_multi_index(tuple((nodes + 1).T), tuple(k + 2 for k in shape)).astype(np.int64)
+        padded = padded_index_of(nodes, shape)
         if len(np.unique(padded)) != n:
             raise ValueError("'nodes' lists a node twice")
 
@@ -172,11 +173,6 @@ class Dendrite:
             yield self.path(e)
 
 
-def _padded_to_coords(padded: np.ndarray, shape: tuple) -> np.ndarray:
-    coords = np.stack(np.unravel_index(padded, tuple(n + 2 for n in shape)), axis=1).astype(np.int64)
-    return coords - 1
-
-
 def _rows_of(all_padded: np.ndarray, wanted: np.ndarray) -> np.ndarray:
     """Rows of ``all_padded`` holding each value of ``wanted`` (-1 stays -1)."""
     order = np.argsort(all_padded, kind="stable")
@@ -242,9 +238,9 @@ def trace(
     starts = lattice.padded_indices(pts)
     old = np.zeros(0, np.int64) if extend is None else extend._padded
     with wp.ScopedDevice(device):
-        is_root = wp.zeros(size, dtype=wp.uint8)
+        is_root = wp.zeros(size, dtype=wp.int32)
         roots = lattice.padded_indices(costfield.generators)
-        wp.launch(_kd.mark_u8_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), wp.uint8(1)],
+        wp.launch(_kd.mark_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), 1],
                   outputs=[is_root])
         visited = wp.zeros(size, dtype=wp.int32)
         if len(old):
@@ -274,7 +270,7 @@ def trace(
             "lattice's smallest weights any more; use weights spanning fewer orders of magnitude"
         )
     all_padded = np.concatenate([old, fresh])
-    coords = _padded_to_coords(fresh, lattice.shape)
+    coords = coords_of_padded(fresh, lattice.shape)
     new_parent = _rows_of(all_padded, fresh_pred)
     end_rows = np.unique(_rows_of(all_padded, starts.astype(np.int64)))
     def _cat(name, new, dtype):

@@ -100,12 +100,15 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     return lattice.with_weights(w)
 
 
-def _relabel(den: Dendrite, first: int, n_gens: int, gen_labels: np.ndarray) -> Dendrite:
-    """Map labels that name dendrite rows (new-generators mode) back to the first generators."""
+def _relabel(den: Dendrite, first: int, n_gens: int) -> Dendrite:
+    """Map labels that name dendrite rows (new-generators mode) back to the first generators.
+
+    New rows (from ``first`` on) point at older rows, whose labels are already mapped.
+    """
     label = den.label.copy()
     new = label[first:]
     via_node = new >= n_gens
-    new[via_node] = gen_labels[new[via_node] - n_gens]
+    new[via_node] = den.label[new[via_node] - n_gens]
     label[first:] = new
     return dataclasses.replace(den, label=label)
 
@@ -196,7 +199,7 @@ def grow(
             first = 0 if den is None else len(den)
             den = trace(cf, ep, extend=den, generation=it)
             if new_generators:
-                den = _relabel(den, first, len(gens), den.label[: len(den)])
+                den = _relabel(den, first, len(gens))
             if it + 1 < len(plan):
                 # the next band lies below the next limit: nothing beyond it is searched
                 limit = plan[it + 1][1] + r

@@ -42,6 +42,17 @@ def half_offsets(ndim: int, connectivity: int) -> np.ndarray:
     return np.array(out, dtype=np.int64)
 
 
+def padded_index_of(coords, shape: tuple) -> np.ndarray:
+    """Flat int64 indices, in the kernels' padded lattice of ``shape``, of ``(G, ndim)`` node coordinates."""
+    # 2D lattices are padded in y and x only, 3D ones in z too: +1 on every given axis
+    return np.ravel_multi_index(tuple((np.asarray(coords) + 1).T), tuple(n + 2 for n in shape)).astype(np.int64)
+
+
+def coords_of_padded(index, shape: tuple) -> np.ndarray:
+    """``(G, ndim)`` int64 node coordinates of flat padded indices (inverse of :func:`padded_index_of`)."""
+    return np.stack(np.unravel_index(np.asarray(index), tuple(n + 2 for n in shape)), axis=1).astype(np.int64) - 1
+
+
 def fill_outside(weights: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Give the entries whose neighbour lies outside the lattice (never used) their nearest used value, in place.
 
@@ -323,9 +334,7 @@ class Lattice:
 
     def padded_indices(self, coords: np.ndarray) -> np.ndarray:
         """Flat indices in the kernels' padded lattice of ``(G, ndim)`` node coordinates (int32)."""
-        # 2D lattices are padded in y and x only, 3D ones in z too: +1 on every given axis
-        padded = tuple(n + 2 for n in self.shape)
-        return np.ravel_multi_index(tuple((np.asarray(coords) + 1).T), padded).astype(np.int32)
+        return padded_index_of(coords, self.shape).astype(np.int32)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every usable undirected edge as flat node indices ``(u, v)`` int64 and weights float32.
