@@ -15,6 +15,9 @@ where its cells start in the flat arrays:
   to 5 polyline vertices x, y, z, upstream first, then a circle holding them);
 - L = 7: terrain primitives (``prims``: x, y, h).
 
+Per-pixel elevation also keeps, per slot, a shortlist of the polyline pieces near
+its pixel (``nearby``, see :func:`elevation`), read by the queries of its primitives.
+
 In the cached mode one slot (0) covers a whole window and each stage is one
 launch over its cells; in the per-pixel mode each thread uses a slot of its own
 (shared in turn on the CPU, which runs a launch's threads one by one), plans
@@ -26,7 +29,7 @@ that decides a value: that sharing is what makes them agree bit for bit.
 import warp as wp
 
 from .noise import Control, control_inside, control_value
-from .random import hash3, hash_uniform
+from .random import hash3, mix32
 
 wp.set_module_options({"enable_backward": False})
 
@@ -41,6 +44,8 @@ STATE_SEGMENT = wp.constant(2.0)  # key point owning a segment
 OUT_DISTANCE = wp.constant(0)
 OUT_ELEVATION = wp.constant(1)
 OUT_LEVEL = wp.constant(2)
+
+GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # Weyl increment between a cell's random streams
 
 vec6 = wp.types.vector(length=6, dtype=float)
 vec6i = wp.types.vector(length=6, dtype=int)
@@ -84,10 +89,25 @@ def cell_of(u: wp.vec2, level: int) -> wp.vec2i:
 
 
 @wp.func
+def cell_key(seed: wp.uint32, level: int, c: wp.vec2i) -> wp.uint32:
+    """The random state of cell ``c`` of ``level``: one hash of (seed, level, cell)."""
+    return hash3(seed + wp.uint32(level) * GOLDEN, wp.uint32(c[0]), wp.uint32(c[1]))
+
+
+@wp.func
+def key_uniform(key: wp.uint32, stream: int) -> float:
+    """Uniform number ``stream`` of a cell's state ``key``, strictly inside (0, 1).
+
+    A Weyl step and one mix per number; the top 23 bits plus one half are exact in float32.
+    """
+    h = mix32(key + wp.uint32(stream) * GOLDEN)
+    return (float(h >> wp.uint32(9)) + 0.5) * (1.0 / 8388608.0)
+
+
+@wp.func
 def cell_rand(seed: wp.uint32, level: int, c: wp.vec2i, stream: int) -> float:
     """Uniform (0, 1) number ``stream`` of cell ``c`` of ``level``."""
-    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))
-    return hash_uniform(seed, key, wp.uint32(stream))
+    return key_uniform(cell_key(seed, level, c), stream)
 
 
 @wp.func
@@ -95,10 +115,10 @@ def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
     """The jittered key point of cell ``c``: uniform in the cell shrunk by ``eps`` on each side."""
     h = 1.0 / level_factor(level)
     span = 1.0 - 2.0 * s.eps
-    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))  # as in cell_rand, computed once
+    key = cell_key(s.seed, level, c)
     return wp.vec2(
-        (float(c[0]) + s.eps + span * hash_uniform(s.seed, key, wp.uint32(0))) * h,
-        (float(c[1]) + s.eps + span * hash_uniform(s.seed, key, wp.uint32(1))) * h,
+        (float(c[0]) + s.eps + span * key_uniform(key, 0)) * h,
+        (float(c[1]) + s.eps + span * key_uniform(key, 1)) * h,
     )
 
 
@@ -128,26 +148,35 @@ def block_index(blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi
 
 
 @wp.func
-def catmull_rom_knots(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2) -> wp.vec3:
-    """Chordal knots t1, t2, t3 (t0 = 0) of the Catmull-Rom spline through p0..p3."""
-    t1 = wp.length(p1 - p0) + 1.0e-6
-    t2 = t1 + wp.length(p2 - p1) + 1.0e-6
-    return wp.vec3(t1, t2, t2 + wp.length(p3 - p2) + 1.0e-6)
+def spline_tangents(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2) -> wp.vec4:
+    """Hermite tangents (scaled to the span p1 -> p2) of the chordal Catmull-Rom spline through p0..p3.
+
+    The chordal spline between p1 and p2 is the cubic Hermite curve whose end
+    derivatives follow from the knot spacings d1, L, d3 (the chord lengths):
+    ``m1 = (p1 - p0) / d1 - (p2 - p0) / (d1 + L) + (p2 - p1) / L`` and likewise at p2;
+    this is the Barry-Goldman pyramid of the spline written out once per segment.
+    Returns (L * m1, L * m2).
+    """
+    d1 = wp.length(p1 - p0) + 1.0e-6
+    span = wp.length(p2 - p1) + 1.0e-6
+    d3 = wp.length(p3 - p2) + 1.0e-6
+    e12 = (p2 - p1) / span
+    m1 = (p1 - p0) / d1 - (p2 - p0) / (d1 + span) + e12
+    m2 = e12 - (p3 - p1) / (span + d3) + (p3 - p2) / d3
+    return wp.vec4(m1[0] * span, m1[1] * span, m2[0] * span, m2[1] * span)
 
 
 @wp.func
-def catmull_rom(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2, k: wp.vec3, s: float) -> wp.vec2:
-    """Chordal Catmull-Rom point at fraction ``s`` of the way from p1 to p2 (Barry-Goldman), knots ``k``."""
-    t1 = k[0]
-    t2 = k[1]
-    t3 = k[2]
-    t = t1 + s * (t2 - t1)
-    a1 = ((t1 - t) * p0 + t * p1) / t1
-    a2 = ((t2 - t) * p1 + (t - t1) * p2) / (t2 - t1)
-    a3 = ((t3 - t) * p2 + (t - t2) * p3) / (t3 - t2)
-    b1 = ((t2 - t) * a1 + t * a2) / t2
-    b2 = ((t3 - t) * a2 + (t - t1) * a3) / (t3 - t1)
-    return ((t2 - t) * b1 + (t - t1) * b2) / (t2 - t1)
+def hermite(p1: wp.vec2, p2: wp.vec2, tan: wp.vec4, t: float) -> wp.vec2:
+    """The Hermite curve from p1 to p2 with scaled tangents ``tan`` at fraction ``t``."""
+    u = 1.0 - t
+    h01 = t * t * (3.0 - 2.0 * t)
+    h10 = t * u * u
+    h11 = -t * t * u
+    return wp.vec2(
+        p1[0] + h01 * (p2[0] - p1[0]) + h10 * tan[0] + h11 * tan[2],
+        p1[1] + h01 * (p2[1] - p1[1]) + h10 * tan[1] + h11 * tan[3],
+    )
 
 
 @wp.func
@@ -171,32 +200,34 @@ def write_polyline(
     side = wp.vec2(0.0, 0.0)
     if length > 0.0:
         side = wp.vec2(-d[1], d[0]) / length
-    knots = catmull_rom_knots(p0, pa, pb, p3)
-    key = hash3(wp.uint32(level), wp.uint32(c[0]), wp.uint32(c[1]))  # cell_rand's key, computed once
+    tan = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    if s.smoothing != 0 and pieces > 1:
+        tan = spline_tangents(p0, pa, pb, p3)
+    key = cell_key(s.seed, level, c)
     amp = s.delta[level - 1] * length
     verts_out[vi * NV] = a
-    lo = pa
-    hi = pa
+    lo = wp.min(pa, pb)
+    hi = wp.max(pa, pb)
     for j in range(1, pieces):
         t = float(j) / float(pieces)
         pos = pa + t * d
         if s.smoothing != 0:
-            pos = catmull_rom(p0, pa, pb, p3, knots, t)
-        pos = pos + (2.0 * hash_uniform(s.seed, key, wp.uint32(8 + j)) - 1.0) * amp * side
+            pos = hermite(pa, pb, tan, t)
+        pos = pos + (2.0 * key_uniform(key, 8 + j) - 1.0) * amp * side
         verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
     for j in range(pieces, BOUND):
         verts_out[vi * NV + j] = b
-    lo = wp.min(lo, pb)
-    hi = wp.max(hi, pb)
-    # a slightly inflated circle around the polyline lets searches skip the cell exactly
+    # a circle around the polyline, inflated against rounding (relative to the radius and to the
+    # coordinates), lets searches skip the cell exactly
     centre = 0.5 * (lo + hi)
-    radius = float(0.0)
+    r2 = float(0.0)
     for j in range(pieces + 1):
         v = verts_out[vi * NV + j]
-        radius = wp.max(radius, wp.length(wp.vec2(v[0], v[1]) - centre))
-    verts_out[vi * NV + BOUND] = wp.vec3(centre[0], centre[1], radius * 1.0001 + 1.0e-6)
+        r2 = wp.max(r2, wp.length_sq(wp.vec2(v[0], v[1]) - centre))
+    pad = 1.0e-6 * (1.0 + wp.abs(centre[0]) + wp.abs(centre[1]))
+    verts_out[vi * NV + BOUND] = wp.vec3(centre[0], centre[1], wp.sqrt(r2) * 1.0001 + pad)
 
 
 @wp.func
@@ -214,18 +245,21 @@ def point1(s: Setup, ctl: Control, c: wp.vec2i) -> wp.vec4:
 def lowest1(
     pts1: wp.array(dtype=wp.vec4), blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, c: wp.vec2i
 ) -> wp.vec2i:
-    """The cell of the lowest level-1 key point among the 3 x 3 around ``c`` (``c`` itself on ties)."""
+    """The cell of the lowest level-1 key point among the 3 x 3 around ``c`` (``c`` itself on ties).
+
+    The point block always holds the whole 3 x 3 (the plan keeps it 2 cells wider than the cells
+    that ask), so neighbours are read at fixed offsets from the centre.
+    """
+    w = blocks[bi][2]
+    centre = block_index(blocks, bases, bi, c)
     best = c
-    bz = pts1[block_index(blocks, bases, bi, c)][2]
+    bz = pts1[centre][2]
     for dy in range(-1, 2):
         for dx in range(-1, 2):
-            n = wp.vec2i(c[0] + dx, c[1] + dy)
-            i = block_index(blocks, bases, bi, n)
-            if i >= 0:
-                z = pts1[i][2]
-                if z < bz:
-                    bz = z
-                    best = n
+            z = pts1[centre + dy * w + dx][2]
+            if z < bz:
+                bz = z
+                best = wp.vec2i(c[0] + dx, c[1] + dy)
     return best
 
 
@@ -270,46 +304,128 @@ def fill_segment1(
 
 
 @wp.func
-def ring_offset(k: int, i: int) -> wp.vec2i:
-    """Offset ``i`` (0 .. 8k-1) on the square ring at Chebyshev distance ``k`` >= 1."""
-    side = i / (2 * k)
-    pos = i - side * 2 * k
-    if side == 0:
-        return wp.vec2i(-k + pos, -k)
-    if side == 1:
-        return wp.vec2i(k, -k + pos)
-    if side == 2:
-        return wp.vec2i(k - pos, k)
-    return wp.vec2i(-k, k - pos)
+def piece_near(q: wp.vec2, a: wp.vec3, b: wp.vec3) -> wp.vec2:
+    """(squared distance, fraction along the piece) of the point of piece a -> b nearest to ``q``."""
+    pa = wp.vec2(a[0], a[1])
+    ab = wp.vec2(b[0], b[1]) - pa
+    den = wp.dot(ab, ab)
+    t = float(0.0)
+    if den > 0.0:
+        t = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
+    return wp.vec2(wp.length_sq(q - (pa + t * ab)), t)
 
 
 @wp.func
-def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, nv: int, best: float) -> wp.vec3:
-    """Closest piece of cell ``o``'s polyline to ``q`` if nearer than ``best`` (squared).
+def reach_of(best: float) -> float:
+    """A distance a little above ``sqrt(best)``: cells whose circle lies farther cannot hold a piece nearer than best."""
+    return wp.sqrt(best) * 1.00001
+
+
+@wp.func
+def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
+    """True when cell ``o``'s bounding circle lies at least ``sb`` away from ``q`` (no sqrt)."""
+    bd = verts[o * NV + BOUND]
+    gap = bd[2] + sb
+    return wp.length_sq(q - wp.vec2(bd[0], bd[1])) >= gap * gap
+
+
+@wp.func
+def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, nv: int, best: float, sb: float) -> wp.vec3:
+    """Closest piece of cell ``o``'s polyline to ``q`` if nearer than ``best`` (squared; ``sb`` its reach).
 
     Returns (squared distance, piece, fraction along it); piece -1 when none beats ``best``.
     """
-    bd = verts[o * NV + BOUND]
-    gap = wp.length(q - wp.vec2(bd[0], bd[1])) - bd[2]
-    if gap > 0.0 and gap * gap >= best:
+    if cell_far(q, verts, o, sb):
         return wp.vec3(best, -1.0, 0.0)
     bj = int(-1)
     bt = float(0.0)
     for j in range(nv - 1):
-        a = verts[o * NV + j]
-        b = verts[o * NV + j + 1]
-        pa = wp.vec2(a[0], a[1])
-        ab = wp.vec2(b[0], b[1]) - pa
-        den = wp.dot(ab, ab)
-        t = float(0.0)
-        if den > 0.0:
-            t = wp.clamp(wp.dot(q - pa, ab) / den, 0.0, 1.0)
-        d2 = wp.length_sq(q - (pa + t * ab))
-        if d2 < best:
-            best = d2
+        r = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
+        if r[0] < best:
+            best = r[0]
             bj = j
-            bt = t
+            bt = r[1]
     return wp.vec3(best, float(bj), bt)
+
+
+@wp.struct
+class Hit:
+    """The best piece found so far by a search (``o`` -1 while none)."""
+
+    best: float  # squared distance
+    sb: float  # reach_of(best)
+    o: int  # cell index
+    j: int  # piece
+    t: float  # fraction along the piece
+    l: int  # level
+
+
+@wp.func
+def no_hit() -> Hit:
+    h = Hit()
+    h.best = 1.0e30
+    h.sb = 1.0e15
+    h.o = -1
+    h.j = 0
+    h.t = 0.0
+    h.l = 0
+    return h
+
+
+@wp.func
+def ring_cell(ring: int, side: int, pos: int) -> wp.vec2i:
+    """Offset ``pos`` (0 .. 2 ring - 1) along side ``side`` (0..3) of the square ring at Chebyshev
+    distance ``ring`` >= 1: the search order goes round the ring from its (-ring, -ring) corner."""
+    if side == 0:
+        return wp.vec2i(-ring + pos, -ring)
+    if side == 1:
+        return wp.vec2i(ring, -ring + pos)
+    if side == 2:
+        return wp.vec2i(ring - pos, ring)
+    return wp.vec2i(-ring, ring - pos)
+
+
+@wp.func
+def scan(
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int, nv: int,
+    q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
+) -> Hit:
+    """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
+    for a piece nearer to ``q`` than ``hit``: centre first, then ring by ring, so far cells are
+    mostly skipped by their bounding circles."""
+    b = blocks[bi]
+    dx = c[0] - b[0]
+    dy = c[1] - b[1]
+    # the plans make blocks hold every neighbourhood asked for; cells are then at fixed offsets
+    whole = dx >= r and dy >= r and dx + r < b[2] and dy + r < b[3]
+    centre = bases[bi] + dy * b[2] + dx
+    for ring in range(r + 1):
+        sides = 4
+        steps = 2 * ring
+        if ring == 0:
+            sides = 1
+            steps = 1
+        for side in range(sides):
+            for pos in range(steps):
+                off = wp.vec2i(0, 0)
+                if ring > 0:
+                    off = ring_cell(ring, side, pos)
+                o = int(-1)
+                if whole:
+                    o = centre + off[1] * b[2] + off[0]
+                else:
+                    o = block_index(blocks, bases, bi, c + off)
+                if o >= 0:
+                    if keyp[o][3] == STATE_SEGMENT:
+                        rr = cell_nearest(q, verts, o, nv, hit.best, hit.sb)
+                        if rr[1] >= 0.0:
+                            hit.best = rr[0]
+                            hit.sb = reach_of(rr[0])
+                            hit.o = o
+                            hit.j = int(rr[1])
+                            hit.t = rr[2]
+                            hit.l = l
+    return hit
 
 
 @wp.func
@@ -324,35 +440,18 @@ def nearest_on_tree(
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
     its polyline, 1 when the vertex exists.
     """
-    best = float(1.0e30)
-    bo = int(-1)
-    bj = int(0)
-    bnv = int(0)
+    hit = no_hit()
     for i in range(1, level):
         l = level - i
         anc = wp.vec2i(c[0] >> i, c[1] >> i)
-        bi = slot * SLOT + l
-        nv = s.pieces[l - 1] + 1
-        for k in range(9):
-            off = wp.vec2i(0, 0)
-            if k > 0:
-                off = ring_offset(1, k - 1)
-            o = block_index(blocks, bases, bi, anc + off)
-            if o >= 0:
-                if keyp[o][3] == STATE_SEGMENT:
-                    r = cell_nearest(q, verts, o, nv, best)
-                    if r[1] >= 0.0:
-                        best = r[0]
-                        bo = o
-                        bj = int(r[1])
-                        bnv = nv
-    if bo < 0:
+        hit = scan(blocks, bases, slot * SLOT + l, l, anc, 1, s.pieces[l - 1] + 1, q, keyp, verts, hit)
+    if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
-    a = verts[bo * NV + bj]
-    b = verts[bo * NV + bj + 1]
+    a = verts[hit.o * NV + hit.j]
+    b = verts[hit.o * NV + hit.j + 1]
     rn = wp.vec3(b[0], b[1], 0.0)
-    if bj + 2 < bnv:
-        nx = verts[bo * NV + bj + 2]
+    if hit.j + 1 < s.pieces[hit.l - 1]:
+        nx = verts[hit.o * NV + hit.j + 2]
         rn = wp.vec3(nx[0], nx[1], 1.0)
     return wp.mat33(a[0], a[1], a[2], b[0], b[1], b[2], rn[0], rn[1], rn[2])
 
@@ -424,53 +523,28 @@ def query(
     """(distance in domain units, elevation at the nearest tree point, its level) at ``u``.
 
     The candidates are the segments owned by the (2r+1)^2 cells around ``u`` at every
-    level (r = ``s.r1`` at level 1, else 2), searched finest level first and ring by ring
-    so that far cells are mostly skipped by their bounding circles. Distance is inf and
-    level 0 when there is no candidate.
+    level (r = ``s.r1`` at level 1, else 2), searched finest level first (see :func:`scan`).
+    Distance is inf and level 0 when there is no candidate.
     """
-    best = float(1.0e30)
-    bz = float(0.0)
-    bl = int(0)
+    hit = no_hit()
     for i in range(s.levels):
         l = s.levels - i
-        pc = cell_of(u, l)
         r = 2
         if l == 1:
             r = s.r1
-        bi = slot * SLOT + l
-        nv = s.pieces[l - 1] + 1
-        count = (2 * r + 1) * (2 * r + 1)
-        for k in range(count):
-            off = wp.vec2i(0, 0)
-            if k > 0:
-                ring = int(wp.floor((wp.sqrt(float(k)) + 1.0) * 0.5))  # cells 1..9 ring 1, 10..25 ring 2, ...
-                first = (2 * ring - 1) * (2 * ring - 1)
-                off = ring_offset(ring, k - first)
-            o = block_index(blocks, bases, bi, pc + off)
-            if o >= 0:
-                if keyp[o][3] == STATE_SEGMENT:
-                    rr = cell_nearest(u, verts, o, nv, best)
-                    if rr[1] >= 0.0:
-                        best = rr[0]
-                        j = int(rr[1])
-                        a = verts[o * NV + j]
-                        b = verts[o * NV + j + 1]
-                        bz = a[2] + rr[2] * (b[2] - a[2])
-                        bl = l
-    if bl == 0:
+        hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), r, s.pieces[l - 1] + 1, u, keyp, verts, hit)
+    if hit.o < 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
-    return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
+    a = verts[hit.o * NV + hit.j]
+    b = verts[hit.o * NV + hit.j + 1]
+    return wp.vec3(wp.sqrt(hit.best) / s.resolution, a[2] + hit.t * (b[2] - a[2]), float(hit.l))
 
 
 @wp.func
-def primitive(
-    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    c: wp.vec2i, q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
-) -> wp.vec3:
-    """Terrain primitive of cell ``c`` (level ``levels + steps``) at its key point ``q``:
-    (x, y, height), eq. 4 and 7."""
+def primitive(s: Setup, ctl: Control, c: wp.vec2i, q: wp.vec2, r: wp.vec3) -> wp.vec3:
+    """Terrain primitive of cell ``c`` (level ``levels + steps``) at its key point ``q``, given the
+    query ``r`` = (distance, tree elevation, level) there: (x, y, height), eq. 4 and 7."""
     pl = s.levels + s.steps
-    r = query(s, blocks, bases, slot, q, keyp, verts)
     if r[2] == 0.0:
         return wp.vec3(q[0], q[1], control_value(ctl, to_control(s, q)))
     t = float(0.0)
@@ -483,17 +557,149 @@ def primitive(
 
 
 @wp.func
+def owner_near(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, c: wp.vec2i, u: wp.vec2,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> float:
+    """Squared distance from ``u`` to the polyline through the key point of finest cell ``c``: the
+    segment it owns, or that of the ancestor it inherits its key point from; -1 when there is none.
+
+    That polyline is a candidate of every query whose finest cell is ``c`` (the centre cells of
+    its neighbourhoods), so it bounds their answers.
+    """
+    l = s.levels
+    cc = c
+    while l >= 1:
+        o = block_index(blocks, bases, slot * SLOT + l, cc)
+        if o < 0:
+            return -1.0
+        state = keyp[o][3]
+        if state == STATE_SEGMENT:
+            r = cell_nearest(u, verts, o, s.pieces[l - 1] + 1, 1.0e30, 1.0e15)
+            return r[0]
+        if state != STATE_INHERITED:
+            return -1.0
+        l -= 1
+        cc = wp.vec2i(cc[0] >> 1, cc[1] >> 1)
+    return -1.0
+
+
+@wp.func
+def shortlist(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2, limit: float,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), first: int, nearby_out: wp.array(dtype=wp.vec4i),
+) -> int:
+    """Store every piece of the slot's segments within ``limit`` of ``u``; return how many.
+
+    Entries are (cell index, piece + 8 * level, cell x, cell y), from ``nearby_out[first]`` on.
+    """
+    n = int(0)
+    lim2 = limit * limit
+    for l in range(1, s.levels + 1):
+        bi = slot * SLOT + l
+        b = blocks[bi]
+        nv = s.pieces[l - 1] + 1
+        for k in range(b[2] * b[3]):
+            o = bases[bi] + k
+            if keyp[o][3] == STATE_SEGMENT:
+                if not cell_far(u, verts, o, limit):
+                    for j in range(nv - 1):
+                        if piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0] <= lim2:
+                            nearby_out[first + n] = wp.vec4i(o, j + 8 * l, b[0] + k % b[2], b[1] + k / b[2])
+                            n += 1
+    return n
+
+
+@wp.func
+def ring_rank(d: wp.vec2i) -> int:
+    """Position of offset ``d`` in the search order of a neighbourhood (centre, then ring by ring; see ring_offset)."""
+    k = wp.max(wp.abs(d[0]), wp.abs(d[1]))
+    if k == 0:
+        return 0
+    first = (2 * k - 1) * (2 * k - 1)
+    if d[1] == -k and d[0] < k:
+        return first + d[0] + k
+    if d[0] == k and d[1] < k:
+        return first + 3 * k + d[1]
+    if d[1] == k and d[0] > -k:
+        return first + 5 * k - d[0]
+    return first + 7 * k - d[1]
+
+
+@wp.func
+def query_short(
+    s: Setup, q: wp.vec2, verts: wp.array(dtype=wp.vec3), nearby: wp.array(dtype=wp.vec4i), first: int, n: int,
+) -> wp.vec3:
+    """:func:`query` at ``q`` from a shortlist that holds every candidate piece able to be nearest.
+
+    The query's answer is the first piece in its search order (finest level first, then ring
+    order, then piece) with the least squared distance. Here the pieces of ``q``'s
+    neighbourhoods are taken in any order and ties are settled by that search order, so the
+    answer is the same bit for bit.
+    """
+    top = cell_of(q, s.levels)
+    best = float(1.0e30)
+    brank = int(0)
+    bz = float(0.0)
+    bl = int(0)
+    for e in range(n):
+        ent = nearby[first + e]
+        l = ent[1] >> 3
+        r = 2
+        if l == 1:
+            r = s.r1
+        shift = s.levels - l
+        d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
+        if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
+            j = ent[1] & 7
+            a = verts[ent[0] * NV + j]
+            b = verts[ent[0] * NV + j + 1]
+            pr = piece_near(q, a, b)
+            if pr[0] <= best:
+                rank = (shift * 64 + ring_rank(d)) * 8 + j
+                if pr[0] < best or rank < brank:
+                    best = pr[0]
+                    brank = rank
+                    bz = a[2] + pr[1] * (b[2] - a[2])
+                    bl = l
+    if bl == 0:
+        return wp.vec3(wp.inf, 0.0, 0.0)
+    return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
+
+
+@wp.func
 def elevation(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int, prims: wp.array(dtype=wp.vec3),
+    sfirst: int, nearby: wp.array(dtype=wp.vec4i),
 ) -> float:
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
     The radius is two primitive cells, so every primitive that can weigh lies in the 5 x 5 block.
+    In the per-pixel mode the primitives' queries read a shortlist: each primitive q lies
+    within R (the radius) of ``u``, and its answer is at most its distance to the polyline
+    through its finest cell's key point, itself at most T + R where T is the largest such
+    distance from ``u`` over the finest cells the primitives can fall in. So its nearest piece
+    lies within T + 2R of ``u``; the shortlist keeps those (with a margin against rounding).
     """
     pl = s.levels + s.steps
     pc = cell_of(u, pl)
     radius = 2.0 / level_factor(pl)
+    n = int(-1)
+    if cached == 0:
+        span = 2.02 / level_factor(pl)
+        lo = cell_of(u - wp.vec2(span, span), s.levels)
+        hi = cell_of(u + wp.vec2(span, span), s.levels)
+        t2 = float(0.0)
+        for cy in range(lo[1], hi[1] + 1):
+            for cx in range(lo[0], hi[0] + 1):
+                d2 = owner_near(s, blocks, bases, slot, wp.vec2i(cx, cy), u, keyp, verts)
+                if d2 < 0.0:
+                    t2 = wp.inf
+                t2 = wp.max(t2, d2)
+        if t2 < wp.inf:
+            limit = (wp.sqrt(t2) + 2.0 * radius) * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+            n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby)
     total = float(0.0)
     wsum = float(0.0)
     for dy in range(-2, 3):
@@ -512,7 +718,13 @@ def elevation(
             if r2 < 1.0:
                 if cached == 0:
                     # only primitives that weigh are evaluated
-                    pr = primitive(s, ctl, blocks, bases, slot, c, wp.vec2(pr[0], pr[1]), keyp, verts)
+                    q = wp.vec2(pr[0], pr[1])
+                    r = wp.vec3(0.0, 0.0, 0.0)
+                    if n >= 0:
+                        r = query_short(s, q, verts, nearby, sfirst, n)
+                    else:
+                        r = query(s, blocks, bases, slot, q, keyp, verts)
+                    pr = primitive(s, ctl, c, q, r)
                 g = (1.0 - r2) * (1.0 - r2) * (1.0 - r2)
                 total += g * pr[2]
                 wsum += g
@@ -597,7 +809,7 @@ def evaluate(
     s: Setup, ctl: Control, u: wp.vec2, output: int, cached: int, slot: int, cap: wp.vec3i,
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), overflow_out: wp.array(dtype=int),
 ) -> float:
     """The requested output at ``u``; in the per-pixel mode first plan and build the slot."""
     if cached == 0:
@@ -616,7 +828,7 @@ def evaluate(
             return wp.nan
         build(s, ctl, blocks, bases, slot, pts1, keyp, verts)
     if output == OUT_ELEVATION:
-        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims)
+        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby)
     r = query(s, blocks, bases, slot, u, keyp, verts)
     if output == OUT_LEVEL:
         return r[2]
@@ -671,8 +883,8 @@ def prims_kernel(
     k = wp.tid()
     bi = PRIM
     c = block_cell(blocks, bi, k)
-    pl = s.levels + s.steps
-    prims_out[bases[bi] + k] = primitive(s, ctl, blocks, bases, 0, c, jitter(s, pl, c), keyp, verts)
+    q = jitter(s, s.levels + s.steps, c)
+    prims_out[bases[bi] + k] = primitive(s, ctl, c, q, query(s, blocks, bases, 0, q, keyp, verts))
 
 
 @wp.kernel
@@ -682,7 +894,7 @@ def image_kernel(
     x0: wp.vec2, step: wp.vec2,
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
 ):
     """Pixels ``first + tid`` of a window (row-major, ``width`` wide) at global pixel ``origin``.
 
@@ -704,7 +916,9 @@ def image_kernel(
     slot = 0
     if cached == 0:
         slot = t % nslots
-    image_out[row, col] = evaluate(s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)
+    image_out[row, col] = evaluate(
+        s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, overflow_out
+    )
 
 
 @wp.kernel
@@ -712,9 +926,11 @@ def points_kernel(
     s: Setup, ctl: Control, output: int, cap: wp.vec3i, nslots: int, first: int, points_in: wp.array(dtype=wp.vec2),
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ):
     """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units), slots as in image_kernel."""
     t = wp.tid()
     i = first + t
-    values_out[i] = evaluate(s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, overflow_out)
+    values_out[i] = evaluate(
+        s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, nearby, overflow_out
+    )

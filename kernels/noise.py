@@ -4,6 +4,12 @@ A control function is a :class:`Control` struct: a ``kind`` id, a few numeric
 parameters, the rectangle ``lo``-``hi`` it is defined on, its minimum and
 maximum, and (for images) the sampled array. ``control_value`` evaluates it at
 a point given in its own coordinates.
+
+The noise kinds use our own 2D Perlin gradient noise: a seeded permutation
+table of 256 entries (stored twice, so sums of two entries index it without
+wrapping) hashes each lattice corner to one of 8 gradients, and a quintic fade
+blends the four corner ramps. It is cheaper than ``wp.noise`` (no square roots,
+no per-corner random generator) and is zero at every lattice point.
 """
 
 import warp as wp
@@ -25,7 +31,6 @@ class Control:
     kind: int
     # plane: (c0, gx, gy, -); radial: (cx, cy, radius, -); noise: (frequency, gain, lacunarity, offset)
     a: wp.vec4
-    seed: int
     octaves: int
     lo: wp.vec2
     hi: wp.vec2
@@ -34,18 +39,65 @@ class Control:
     # 1: points outside lo-hi are outside the function's domain (their segments are dropped)
     bounded: int
     image: wp.array2d(dtype=float)
+    perm: wp.array(dtype=int)  # noise kinds: the permutation table, 512 entries (256 twice)
 
 
 @wp.func
-def fbm(seed: int, p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
+def _fade(t: float) -> float:
+    """Perlin's quintic fade 6t^5 - 15t^4 + 10t^3 (zero first and second derivatives at 0 and 1)."""
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+
+
+@wp.func
+def _corner(h: int, x: float, y: float) -> float:
+    """Gradient ``h`` (one of (+-1, +-1), (+-1, 0), (0, +-1)) dotted with the offset (x, y) from its corner."""
+    g = h & 7
+    if g < 4:
+        gx = 1.0 - 2.0 * float(g & 1)
+        gy = 1.0 - float(g & 2)
+        return gx * x + gy * y
+    if g < 6:
+        return (1.0 - 2.0 * float(g & 1)) * x
+    return (1.0 - 2.0 * float(g & 1)) * y
+
+
+@wp.func
+def perlin(perm: wp.array(dtype=int), p: wp.vec2) -> float:
+    """2D Perlin gradient noise at ``p``, in about [-1, 1], zero at integer points."""
+    fx = wp.floor(p[0])
+    fy = wp.floor(p[1])
+    x = p[0] - fx
+    y = p[1] - fy
+    ix = int(fx) & 255
+    iy = int(fy) & 255
+    a = perm[ix] + iy
+    b = perm[ix + 1] + iy
+    n00 = _corner(perm[a], x, y)
+    n10 = _corner(perm[b], x - 1.0, y)
+    n01 = _corner(perm[a + 1], x, y - 1.0)
+    n11 = _corner(perm[b + 1], x - 1.0, y - 1.0)
+    u = _fade(x)
+    v = _fade(y)
+    low = n00 + u * (n10 - n00)
+    high = n01 + u * (n11 - n01)
+    return low + v * (high - low)
+
+
+@wp.func
+def _octave_shift(o: int) -> wp.vec2:
+    """An irrational offset per octave, so the octaves' zero lattices do not line up."""
+    return wp.vec2(float(o) * 0.6180339887, float(o) * 0.4142135624) * 7.0
+
+
+@wp.func
+def fbm(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
     """Fractal sum of Perlin noise, normalised to about [-1, 1]."""
-    state = wp.rand_init(seed)
     total = float(0.0)
     norm = float(0.0)
     amp = float(1.0)
     q = p
-    for _o in range(octaves):
-        total += amp * wp.noise(state, q)
+    for o in range(octaves):
+        total += amp * perlin(perm, q + _octave_shift(o))
         norm += amp
         amp *= gain
         q = q * lacunarity
@@ -53,16 +105,15 @@ def fbm(seed: int, p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> 
 
 
 @wp.func
-def ridged(seed: int, p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
+def ridged(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
     """Ridged multifractal (Musgrave): octaves of (offset - |noise|)^2 weighted by the previous one."""
-    state = wp.rand_init(seed)
     total = float(0.0)
     norm = float(0.0)
     amp = float(1.0)
     weight = float(1.0)
     q = p
-    for _o in range(octaves):
-        s = offset - wp.abs(wp.noise(state, q))
+    for o in range(octaves):
+        s = offset - wp.abs(perlin(perm, q + _octave_shift(o)))
         s = s * s * weight
         weight = wp.clamp(s * 2.0, 0.0, 1.0)
         total += amp * s
@@ -122,9 +173,9 @@ def control_value(ctl: Control, p: wp.vec2) -> float:
     if k == KIND_RADIAL:
         return wp.length(p - wp.vec2(ctl.a[0], ctl.a[1])) / ctl.a[2]
     if k == KIND_FBM:
-        return 0.5 + 0.5 * fbm(ctl.seed, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
+        return 0.5 + 0.5 * fbm(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
     if k == KIND_RIDGED:
-        return ridged(ctl.seed, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
+        return ridged(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
     if k == KIND_LICHTENBERG:
         if wp.abs(p[0]) > 1.0 or wp.abs(p[1]) > 1.0:
             return 16.0

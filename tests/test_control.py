@@ -69,6 +69,46 @@ def test_perlin_is_seeded_and_within_its_extremes(device):
     assert gr.std() > 0.01
 
 
+def _perlin_reference(perm, p):
+    """2D Perlin gradient noise in float64: corner hashes perm[perm[x] + y], 8 gradients, quintic fade."""
+    gradients = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1], [1, 0], [-1, 0], [0, 1], [0, -1]], float)
+    f = np.floor(p)
+    x, y = (p - f).T
+    ix, iy = (f.astype(np.int64) & 255).T
+    fade = lambda t: t**3 * (t * (t * 6 - 15) + 10)  # noqa: E731
+
+    def ramp(cx, cy, ox, oy):
+        g = gradients[perm[perm[ix + cx] + iy + cy] & 7]
+        return g[:, 0] * (x - ox) + g[:, 1] * (y - oy)
+
+    u, v = fade(x), fade(y)
+    low = ramp(0, 0, 0, 0) + u * (ramp(1, 0, 1, 0) - ramp(0, 0, 0, 0))
+    high = ramp(0, 1, 0, 1) + u * (ramp(1, 1, 1, 1) - ramp(0, 1, 0, 1))
+    return low + v * (high - low)
+
+
+def test_perlin_equals_a_numpy_gradient_noise(device):
+    from wdendrite.control import _permutation
+
+    perm = _permutation(5)
+    assert sorted(perm[:256]) == list(range(256)) and (perm[:256] == perm[256:]).all()
+    c = control.perlin(seed=5, frequency=1.0, domain=((-3.0, -2.0), (5.0, 4.0)))
+    pts = np.random.default_rng(0).uniform((-3, -2), (5, 4), (500, 2)).astype(np.float32)
+    np.testing.assert_allclose(c.evaluate(pts, device=device), 0.5 + 0.5 * _perlin_reference(perm, pts.astype(float)),
+                               atol=2e-6)
+    # zero (0.5 once mapped) at every lattice point
+    lattice = np.stack(np.meshgrid(np.arange(-3, 5), np.arange(-2, 4)), -1).reshape(-1, 2).astype(np.float32)
+    np.testing.assert_allclose(c.evaluate(lattice, device=device), 0.5, atol=1e-7)
+
+
+def test_noise_extremes_are_refined_beyond_the_sampling_grid(device):
+    c = control.perlin(seed=2, octaves=2, domain=((0.0, 0.0), (3.0, 2.0)))
+    dense = c.grid((1500, 1000), device=device)
+    # the extremes hold the dense samples (up to float32 rounding) and are nearly reached by them
+    assert c.minimum <= dense.min() + 1e-6 and dense.max() <= c.maximum + 1e-6
+    assert dense.min() - c.minimum < 1e-4 and c.maximum - dense.max() < 1e-4
+
+
 def test_grid_equals_evaluate_at_pixel_centres(device):
     c = control.perlin(seed=3, frequency=2.0, domain=((0, 0), (2, 1)))
     g = c.grid((4, 8), device=device)
@@ -100,7 +140,8 @@ def test_bad_input_raises(make, match):
 def test_drained_control_has_no_interior_minimum(device):
     from scipy.ndimage import minimum_filter
 
-    base = control.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
+    # a bowl whose lowest point lies inside its rectangle
+    base = control.radial((0.6, 0.1), radius=2.0, domain=((-0.2, -0.4), (1.4, 0.7)))
     g = base.grid((65, 65), device=device)
     inner = (g == minimum_filter(g, size=3, mode="nearest"))[1:-1, 1:-1]
     assert inner.any()  # the base field has a pit inside its rectangle

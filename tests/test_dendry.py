@@ -33,8 +33,9 @@ def _hash3(seed, a, b):
 
 
 def _cell_rand(seed, level, ci, cj, stream):
-    key = _hash3(level, ci, cj)
-    return ((_hash3(seed, key, stream) >> 8).astype(np.float64) + 0.5) / 16777216.0
+    # one hash of (seed + level * golden, cell), then a Weyl step and one mix per stream
+    key = _hash3((seed + level * 0x9E3779B9) & _M, ci, cj)
+    return ((_mix32((key + stream * 0x9E3779B9) & _M) >> 9).astype(np.float64) + 0.5) / 8388608.0
 
 
 def _key_points(seed, eps, level, ci, cj):

@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -73,7 +74,6 @@ class Control:
         s = _kn.Control()
         s.kind = _KINDS[self.kind]
         s.a = wp.vec4(*self.params)
-        s.seed = int(self.seed)
         s.octaves = int(self.octaves)
         s.lo = wp.vec2(*self.domain[0])
         s.hi = wp.vec2(*self.domain[1])
@@ -82,6 +82,8 @@ class Control:
         s.bounded = int(self.bounded)
         img = self.values if self.values is not None else np.zeros((1, 1), np.float32)
         s.image = wp.array(img, dtype=float, device=device)
+        noisy = self.kind in ("perlin", "ridged")
+        s.perm = wp.array(_permutation(self.seed) if noisy else np.zeros(1, np.int32), dtype=int, device=device)
         return s
 
     def evaluate(self, points, *, device=None) -> np.ndarray:
@@ -119,6 +121,29 @@ class Control:
         return out.numpy()
 
 
+@functools.lru_cache(maxsize=64)
+def _permutation(seed: int) -> np.ndarray:
+    """The Perlin permutation table of ``seed``: a Fisher-Yates shuffle of 0..255 stored twice (512 int32).
+
+    The shuffle draws from SplitMix64 seeded with ``seed``, so a seed gives the same field on every
+    machine and NumPy version.
+    """
+    state = seed % 2**64
+    mask = 2**64 - 1
+    perm = list(range(256))
+    for i in range(255, 0, -1):
+        state = (state + 0x9E3779B97F4A7C15) & mask
+        z = state
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & mask
+        z ^= z >> 31
+        j = z % (i + 1)
+        perm[i], perm[j] = perm[j], perm[i]
+    table = np.array(perm + perm, dtype=np.int32)
+    table.setflags(write=False)
+    return table
+
+
 def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
@@ -127,22 +152,54 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
-    # the range of a noise sum has no closed form: sample it densely over the domain
     probe = Control(kind, dom, 0.0, 1.0, params, int(seed) % 2**31, int(octaves))
-    vals = probe.grid((257, 257), device="cpu")
-    return Control(kind, dom, float(vals.min()), float(vals.max()), params, int(seed) % 2**31, int(octaves))
+    lo, hi = _extremes(probe)
+    return Control(kind, dom, lo, hi, params, int(seed) % 2**31, int(octaves))
+
+
+def _extremes(probe: Control, samples: int = 257, keep: int = 4, rounds: int = 4) -> tuple[float, float]:
+    """Minimum and maximum of a smooth field over its domain.
+
+    A noise sum has no closed-form range: sample it on a ``samples``^2 grid, then zoom
+    in around the ``keep`` best samples of each kind with finer 17 x 17 grids (each round
+    8 times narrower, clipped to the domain), so the values found lie within rounding
+    of the true extremes instead of a grid step away.
+    """
+    (x0, y0), (x1, y1) = probe.domain
+    vals = probe.grid((samples, samples), device="cpu")
+    step = np.array([(x1 - x0) / samples, (y1 - y0) / samples])
+    found = []
+    for sign in (1.0, -1.0):
+        best = float((sign * vals).min())
+        for k in np.argsort((sign * vals).ravel())[:keep]:
+            r, c = divmod(int(k), samples)
+            centre = np.array([x0 + (c + 0.5) * step[0], y0 + (r + 0.5) * step[1]])
+            half = step.copy()
+            for _ in range(rounds):
+                t = np.linspace(-1.0, 1.0, 17)
+                gx, gy = np.meshgrid(centre[0] + t * half[0], centre[1] + t * half[1])
+                pts = np.stack([np.clip(gx.ravel(), x0, x1), np.clip(gy.ravel(), y0, y1)], 1)
+                v = sign * probe.evaluate(pts, device="cpu")
+                i = int(np.argmin(v))
+                best = min(best, float(v[i]))
+                centre, half = pts[i], half / 8.0
+        found.append(sign * best)
+    return found[0], found[1]
 
 
 def perlin(*, seed: int = 0, frequency: float = 1.0, octaves: int = 1, gain: float = 0.5,
            lacunarity: float = 2.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
-    """Perlin noise (fBm when ``octaves`` > 1) mapped to about [0, 1]: ``0.5 + 0.5 * sum / norm``.
+    """Perlin gradient noise (fBm when ``octaves`` > 1) mapped to about [0, 1]: ``0.5 + 0.5 * sum / norm``.
+
+    The noise is our own 2D Perlin noise on a permutation table shuffled from ``seed``
+    (see :mod:`wdendrite.kernels.noise`); it is 0.5 at every integer point of ``frequency * p``.
 
     Args:
         seed: selects the noise field.
         frequency: features per unit of the control coordinates.
         octaves: number of summed octaves, each ``lacunarity`` times finer and ``gain`` times weaker.
-        domain: the rectangle Dendry's query maps onto; minimum and maximum are sampled there
-            on a 257 x 257 grid.
+        domain: the rectangle Dendry's query maps onto; minimum and maximum are found there
+            by sampling a 257 x 257 grid and zooming in around the best samples.
     """
     return _noise("perlin", seed, frequency, octaves, gain, lacunarity, 0.0, domain)
 
