@@ -173,6 +173,8 @@ def control_value(ctl: Control, p: wp.vec2) -> float:
     if k == KIND_RADIAL:
         return wp.length(p - wp.vec2(ctl.a[0], ctl.a[1])) / ctl.a[2]
     if k == KIND_FBM:
+        if ctl.octaves == 1:
+            return 0.5 + 0.5 * perlin(ctl.perm, p * ctl.a[0])  # the common single octave, without the sum's loop
         return 0.5 + 0.5 * fbm(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
     if k == KIND_RIDGED:
         return ridged(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
