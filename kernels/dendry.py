@@ -547,10 +547,11 @@ def primitive(s: Setup, ctl: Control, c: wp.vec2i, q: wp.vec2, r: wp.vec3) -> wp
     pl = s.levels + s.steps
     if r[2] == 0.0:
         return wp.vec3(q[0], q[1], control_value(ctl, to_control(s, q)))
+    # eq. 7: a smooth step from the control's minimum to its maximum, evaluated at h^beta
+    # (the paper's control takes values in [0, 1]; lower values count as 0)
     t = float(0.0)
     if ctl.vmax > ctl.vmin:
-        t = wp.clamp((r[1] - ctl.vmin) / (ctl.vmax - ctl.vmin), 0.0, 1.0)
-    t = wp.pow(t, s.beta)
+        t = wp.clamp((wp.pow(wp.max(r[1], 0.0), s.beta) - ctl.vmin) / (ctl.vmax - ctl.vmin), 0.0, 1.0)
     tan_theta = t * t * t * (t * (6.0 * t - 15.0) + 10.0)
     wobble = 1.0 + s.noise * (2.0 * cell_rand(s.seed, pl, c, 2) - 1.0)
     return wp.vec3(q[0], q[1], r[1] + tan_theta * r[0] * wobble)

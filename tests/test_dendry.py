@@ -192,7 +192,8 @@ def test_level1_elevation_equals_bruteforce_primitives(device):
         ci, cj = np.meshgrid(np.arange(c[0] - 2, c[0] + 3), np.arange(c[1] - 2, c[1] + 3), indexing="ij")
         q = _key_points(p.seed, p.eps, pl, ci.ravel(), cj.ravel())
         d, z, _ = tree.nearest(q)
-        t = np.clip((z - CTL.minimum) / (CTL.maximum - CTL.minimum), 0, 1) ** p.beta
+        # eq. 7: smooth step from the control's minimum to its maximum at h^beta
+        t = np.clip((np.maximum(z, 0) ** p.beta - CTL.minimum) / (CTL.maximum - CTL.minimum), 0, 1)
         tan = t * t * t * (t * (6 * t - 15) + 10)
         wobble = 1 + p.noise * (2 * _cell_rand(p.seed, pl, ci.ravel(), cj.ravel(), 2) - 1)
         h = z + tan * d * wobble

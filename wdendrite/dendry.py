@@ -86,7 +86,9 @@ class DendryParams:
     subdivision: bool = True
     """Split segments into 4, 3, 2, 1 pieces at levels 1, 2, 3, 4+ (False: straight, no displacement)."""
     beta: float = 0.5
-    """Slope power of the terrain in [0, 2]: ``tan(theta) = smootherstep(((z - min) / (max - min))^beta)``."""
+    """Slope power of the terrain in [0, 2] (eq. 7): around a tree point of elevation z the slope is
+    ``tan(theta) = smootherstep(clamp((z^beta - min) / (max - min), 0, 1))`` with the control's minimum
+    and maximum (the paper's control takes values in [0, 1]; z below 0 counts as 0)."""
     noise: float = 0.0
     """Relative random amplitude of each terrain primitive's slope term, in [0, 1]."""
     primitive_steps: int = 3
