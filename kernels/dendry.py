@@ -589,25 +589,31 @@ def owner_near(
 def shortlist(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2, limit: float,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), first: int, nearby_out: wp.array(dtype=wp.vec4i),
+    gaps_out: wp.array(dtype=float),
 ) -> int:
-    """Store every piece of the slot's segments within ``limit`` of ``u``; return how many.
+    """Store every piece of the slot's segments within ``limit`` of ``u``, finest level first; return how many.
 
-    Entries are (cell index, piece + 8 * level, cell x, cell y), from ``nearby_out[first]`` on.
+    Entries are (cell index, piece + 8 * level, cell x, cell y) in ``nearby_out`` and the
+    piece's distance to ``u`` in ``gaps_out``, from index ``first`` on.
     """
     n = int(0)
     lim2 = limit * limit
-    for l in range(1, s.levels + 1):
+    for i in range(s.levels):
+        l = s.levels - i
         bi = slot * SLOT + l
         b = blocks[bi]
         nv = s.pieces[l - 1] + 1
-        for k in range(b[2] * b[3]):
-            o = bases[bi] + k
-            if keyp[o][3] == STATE_SEGMENT:
-                if not cell_far(u, verts, o, limit):
-                    for j in range(nv - 1):
-                        if piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0] <= lim2:
-                            nearby_out[first + n] = wp.vec4i(o, j + 8 * l, b[0] + k % b[2], b[1] + k / b[2])
-                            n += 1
+        for cy in range(b[3]):
+            for cx in range(b[2]):
+                o = bases[bi] + cy * b[2] + cx
+                if keyp[o][3] == STATE_SEGMENT:
+                    if not cell_far(u, verts, o, limit):
+                        for j in range(nv - 1):
+                            d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
+                            if d2 <= lim2:
+                                nearby_out[first + n] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
+                                gaps_out[first + n] = wp.sqrt(d2)
+                                n += 1
     return n
 
 
@@ -629,40 +635,45 @@ def ring_rank(d: wp.vec2i) -> int:
 
 @wp.func
 def query_short(
-    s: Setup, q: wp.vec2, verts: wp.array(dtype=wp.vec3), nearby: wp.array(dtype=wp.vec4i), first: int, n: int,
+    s: Setup, q: wp.vec2, u: wp.vec2, verts: wp.array(dtype=wp.vec3), nearby: wp.array(dtype=wp.vec4i),
+    gaps: wp.array(dtype=float), first: int, n: int,
 ) -> wp.vec3:
-    """:func:`query` at ``q`` from a shortlist that holds every candidate piece able to be nearest.
+    """:func:`query` at ``q`` from the shortlist of the pieces near ``u`` (see :func:`elevation`).
 
     The query's answer is the first piece in its search order (finest level first, then ring
     order, then piece) with the least squared distance. Here the pieces of ``q``'s
-    neighbourhoods are taken in any order and ties are settled by that search order, so the
-    answer is the same bit for bit.
+    neighbourhoods are taken in the shortlist's order and ties are settled by that search
+    order, so the answer is the same bit for bit. A piece whose distance to ``u``, less
+    ``|q - u|`` and a rounding margin, already exceeds the best distance is skipped.
     """
     top = cell_of(q, s.levels)
+    off = wp.length(q - u) + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
     best = float(1.0e30)
     brank = int(0)
     bz = float(0.0)
     bl = int(0)
     for e in range(n):
-        ent = nearby[first + e]
-        l = ent[1] >> 3
-        r = 2
-        if l == 1:
-            r = s.r1
-        shift = s.levels - l
-        d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
-        if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
-            j = ent[1] & 7
-            a = verts[ent[0] * NV + j]
-            b = verts[ent[0] * NV + j + 1]
-            pr = piece_near(q, a, b)
-            if pr[0] <= best:
-                rank = (shift * 64 + ring_rank(d)) * 8 + j
-                if pr[0] < best or rank < brank:
-                    best = pr[0]
-                    brank = rank
-                    bz = a[2] + pr[1] * (b[2] - a[2])
-                    bl = l
+        lb = gaps[first + e] - off
+        if lb <= 0.0 or lb * lb <= best:
+            ent = nearby[first + e]
+            l = ent[1] >> 3
+            r = 2
+            if l == 1:
+                r = s.r1
+            shift = s.levels - l
+            d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
+            if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
+                j = ent[1] & 7
+                a = verts[ent[0] * NV + j]
+                b = verts[ent[0] * NV + j + 1]
+                pr = piece_near(q, a, b)
+                if pr[0] <= best:
+                    rank = (shift * 64 + ring_rank(d)) * 8 + j
+                    if pr[0] < best or rank < brank:
+                        best = pr[0]
+                        brank = rank
+                        bz = a[2] + pr[1] * (b[2] - a[2])
+                        bl = l
     if bl == 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
     return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
@@ -672,7 +683,7 @@ def query_short(
 def elevation(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int, prims: wp.array(dtype=wp.vec3),
-    sfirst: int, nearby: wp.array(dtype=wp.vec4i),
+    sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
 ) -> float:
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
@@ -700,7 +711,15 @@ def elevation(
                 t2 = wp.max(t2, d2)
         if t2 < wp.inf:
             limit = (wp.sqrt(t2) + 2.0 * radius) * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
-            n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby)
+            n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
+    corner = int(0)
+    width = int(0)
+    if cached != 0:
+        corner = block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] - 2, pc[1] - 2))
+        if corner < 0 or block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] + 2, pc[1] + 2)) < 0:
+            return wp.nan  # the window's primitive block was planned too small (never expected)
+        width = blocks[slot * SLOT + PRIM][2]
+    inv_r2 = 1.0 / (radius * radius)
     total = float(0.0)
     wsum = float(0.0)
     for dy in range(-2, 3):
@@ -708,21 +727,18 @@ def elevation(
             c = wp.vec2i(pc[0] + dx, pc[1] + dy)
             pr = wp.vec3(0.0, 0.0, 0.0)
             if cached != 0:
-                i = block_index(blocks, bases, slot * SLOT + PRIM, c)
-                if i < 0:
-                    return wp.nan  # the window's primitive block was planned too small (never expected)
-                pr = prims[i]
+                pr = prims[corner + (dy + 2) * width + dx + 2]
             else:
                 q = jitter(s, pl, c)
                 pr = wp.vec3(q[0], q[1], 0.0)
-            r2 = wp.length_sq(wp.vec2(pr[0], pr[1]) - u) / (radius * radius)
+            r2 = wp.length_sq(wp.vec2(pr[0], pr[1]) - u) * inv_r2
             if r2 < 1.0:
                 if cached == 0:
                     # only primitives that weigh are evaluated
                     q = wp.vec2(pr[0], pr[1])
                     r = wp.vec3(0.0, 0.0, 0.0)
                     if n >= 0:
-                        r = query_short(s, q, verts, nearby, sfirst, n)
+                        r = query_short(s, q, u, verts, nearby, gaps, sfirst, n)
                     else:
                         r = query(s, blocks, bases, slot, q, keyp, verts)
                     pr = primitive(s, ctl, c, q, r)
@@ -810,7 +826,7 @@ def evaluate(
     s: Setup, ctl: Control, u: wp.vec2, output: int, cached: int, slot: int, cap: wp.vec3i,
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    nearby: wp.array(dtype=wp.vec4i), overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ) -> float:
     """The requested output at ``u``; in the per-pixel mode first plan and build the slot."""
     if cached == 0:
@@ -829,7 +845,7 @@ def evaluate(
             return wp.nan
         build(s, ctl, blocks, bases, slot, pts1, keyp, verts)
     if output == OUT_ELEVATION:
-        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby)
+        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps)
     r = query(s, blocks, bases, slot, u, keyp, verts)
     if output == OUT_LEVEL:
         return r[2]
@@ -895,7 +911,7 @@ def image_kernel(
     x0: wp.vec2, step: wp.vec2,
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    nearby: wp.array(dtype=wp.vec4i), image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), image_out: wp.array2d(dtype=float), overflow_out: wp.array(dtype=int),
 ):
     """Pixels ``first + tid`` of a window (row-major, ``width`` wide) at global pixel ``origin``.
 
@@ -918,7 +934,7 @@ def image_kernel(
     if cached == 0:
         slot = t % nslots
     image_out[row, col] = evaluate(
-        s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, overflow_out
+        s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
     )
 
 
@@ -927,11 +943,11 @@ def points_kernel(
     s: Setup, ctl: Control, output: int, cap: wp.vec3i, nslots: int, first: int, points_in: wp.array(dtype=wp.vec2),
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
-    nearby: wp.array(dtype=wp.vec4i), values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
+    nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ):
     """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units), slots as in image_kernel."""
     t = wp.tid()
     i = first + t
     values_out[i] = evaluate(
-        s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, nearby, overflow_out
+        s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
     )

@@ -233,11 +233,12 @@ class _Slots:
         self.verts = wp.zeros(max(1, slots * cap[1] * _STRIDE), dtype=wp.vec3, device=device)
         self.prims = wp.zeros(max(1, slots * cap[2]), dtype=wp.vec3, device=device)
         # per-pixel elevation: the shortlist of pieces near the pixel (at most 4 per cell)
-        self.short = wp.zeros(max(1, slots * cap[1] * 4), dtype=wp.vec4i, device=device)
+        self.nearby = wp.zeros(max(1, slots * cap[1] * 4), dtype=wp.vec4i, device=device)
+        self.gaps = wp.zeros(max(1, slots * cap[1] * 4), dtype=float, device=device)
         self.overflow = wp.zeros(1, dtype=int, device=device)
 
     def arrays(self):
-        return [self.blocks, self.bases, self.pts1, self.keyp, self.verts, self.prims, self.short]
+        return [self.blocks, self.bases, self.pts1, self.keyp, self.verts, self.prims, self.nearby, self.gaps]
 
     def check(self):
         if int(self.overflow.numpy()[0]):
@@ -251,7 +252,7 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
     slot serves them all and stays in cache; CUDA threads run together and each needs its own.
     """
     cap = _slot_capacity(params, output)
-    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE + 64) + cap[2] * 12 + 8 * 20
+    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE + 80) + cap[2] * 12 + 8 * 20
     if wp.get_device(device).is_cuda:
         slots = max(1, min(count, (256 * 2**20) // per_slot))
     else:
