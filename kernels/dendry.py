@@ -12,7 +12,7 @@ where its cells start in the flat arrays:
 
 - L = 0: level-1 key points (``pts1``: x, y, z, valid), two cells wider than L = 1;
 - L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: per cell, up
-  to 5 polyline vertices x, y, z, upstream first, then a circle holding them);
+  to 5 polyline vertices x, y, z, upstream first, then their bounding box);
 - L = 7: terrain primitives (``prims``: x, y, h).
 
 Per-pixel elevation also keeps, per slot, a shortlist of the polyline pieces near
@@ -33,8 +33,8 @@ from .random import hash3, mix32
 
 wp.set_module_options({"enable_backward": False})
 
-NV = wp.constant(6)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding circle
-BOUND = wp.constant(5)  # position of the bounding circle (centre x, y, radius) in a cell's stride
+NV = wp.constant(7)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding box
+BOUND = wp.constant(5)  # position of the bounding box in a cell's stride: (x0, y0, x1), then (y1, -, -)
 SLOT = wp.constant(8)  # blocks per slot
 PRIM = wp.constant(7)  # block id of the terrain primitives
 STATE_NONE = wp.constant(0.0)  # no usable key point (outside the domain, or no segment to join)
@@ -49,6 +49,22 @@ GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # Weyl increment between a cell's r
 
 vec6 = wp.types.vector(length=6, dtype=float)
 vec6i = wp.types.vector(length=6, dtype=int)
+vec49i = wp.types.vector(length=49, dtype=int)
+
+
+def _search_order(r: int) -> list[tuple[int, int]]:
+    """The search order of a (2r+1)^2 neighbourhood: its centre, then the rings at Chebyshev
+    distance 1..r, each from its (-ring, -ring) corner round through (ring, -ring), (ring, ring)
+    and (-ring, ring)."""
+    order = [(0, 0)]
+    for ring in range(1, r + 1):
+        order += [(-ring + i, -ring) for i in range(2 * ring)] + [(ring, -ring + i) for i in range(2 * ring)]
+        order += [(ring - i, ring) for i in range(2 * ring)] + [(-ring, ring - i) for i in range(2 * ring)]
+    return order
+
+
+ORDER_X = wp.constant(vec49i(*(x for x, _ in _search_order(3))))
+ORDER_Y = wp.constant(vec49i(*(y for _, y in _search_order(3))))
 
 
 @wp.struct
@@ -217,17 +233,12 @@ def write_polyline(
         verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
-    for j in range(pieces, BOUND):
-        verts_out[vi * NV + j] = b
-    # a circle around the polyline, inflated against rounding (relative to the radius and to the
+    verts_out[vi * NV + pieces] = b
+    # the polyline's bounding box, widened against rounding (relative to its size and to the
     # coordinates), lets searches skip the cell exactly
-    centre = 0.5 * (lo + hi)
-    r2 = float(0.0)
-    for j in range(pieces + 1):
-        v = verts_out[vi * NV + j]
-        r2 = wp.max(r2, wp.length_sq(wp.vec2(v[0], v[1]) - centre))
-    pad = 1.0e-6 * (1.0 + wp.abs(centre[0]) + wp.abs(centre[1]))
-    verts_out[vi * NV + BOUND] = wp.vec3(centre[0], centre[1], wp.sqrt(r2) * 1.0001 + pad)
+    pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
+    verts_out[vi * NV + BOUND] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
+    verts_out[vi * NV + BOUND + 1] = wp.vec3(hi[1] + pad, 0.0, 0.0)
 
 
 @wp.func
@@ -317,16 +328,18 @@ def piece_near(q: wp.vec2, a: wp.vec3, b: wp.vec3) -> wp.vec2:
 
 @wp.func
 def reach_of(best: float) -> float:
-    """A distance a little above ``sqrt(best)``: cells whose circle lies farther cannot hold a piece nearer than best."""
+    """A distance a little above ``sqrt(best)``: cells whose box lies farther cannot hold a piece nearer than best."""
     return wp.sqrt(best) * 1.00001
 
 
 @wp.func
 def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
-    """True when cell ``o``'s bounding circle lies at least ``sb`` away from ``q`` (no sqrt)."""
-    bd = verts[o * NV + BOUND]
-    gap = bd[2] + sb
-    return wp.length_sq(q - wp.vec2(bd[0], bd[1])) >= gap * gap
+    """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
+    lo = verts[o * NV + BOUND]
+    hi = verts[o * NV + BOUND + 1]
+    dx = wp.max(wp.max(lo[0] - q[0], q[0] - lo[2]), 0.0)
+    dy = wp.max(wp.max(lo[1] - q[1], q[1] - hi[0]), 0.0)
+    return dx * dx + dy * dy >= sb * sb
 
 
 @wp.func
@@ -373,58 +386,36 @@ def no_hit() -> Hit:
 
 
 @wp.func
-def ring_cell(ring: int, side: int, pos: int) -> wp.vec2i:
-    """Offset ``pos`` (0 .. 2 ring - 1) along side ``side`` (0..3) of the square ring at Chebyshev
-    distance ``ring`` >= 1: the search order goes round the ring from its (-ring, -ring) corner."""
-    if side == 0:
-        return wp.vec2i(-ring + pos, -ring)
-    if side == 1:
-        return wp.vec2i(ring, -ring + pos)
-    if side == 2:
-        return wp.vec2i(ring - pos, ring)
-    return wp.vec2i(-ring, ring - pos)
-
-
-@wp.func
 def scan(
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int, nv: int,
     q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
 ) -> Hit:
     """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
     for a piece nearer to ``q`` than ``hit``: centre first, then ring by ring, so far cells are
-    mostly skipped by their bounding circles."""
+    mostly skipped by their bounding boxes."""
     b = blocks[bi]
     dx = c[0] - b[0]
     dy = c[1] - b[1]
     # the plans make blocks hold every neighbourhood asked for; cells are then at fixed offsets
     whole = dx >= r and dy >= r and dx + r < b[2] and dy + r < b[3]
     centre = bases[bi] + dy * b[2] + dx
-    for ring in range(r + 1):
-        sides = 4
-        steps = 2 * ring
-        if ring == 0:
-            sides = 1
-            steps = 1
-        for side in range(sides):
-            for pos in range(steps):
-                off = wp.vec2i(0, 0)
-                if ring > 0:
-                    off = ring_cell(ring, side, pos)
-                o = int(-1)
-                if whole:
-                    o = centre + off[1] * b[2] + off[0]
-                else:
-                    o = block_index(blocks, bases, bi, c + off)
-                if o >= 0:
-                    if keyp[o][3] == STATE_SEGMENT:
-                        rr = cell_nearest(q, verts, o, nv, hit.best, hit.sb)
-                        if rr[1] >= 0.0:
-                            hit.best = rr[0]
-                            hit.sb = reach_of(rr[0])
-                            hit.o = o
-                            hit.j = int(rr[1])
-                            hit.t = rr[2]
-                            hit.l = l
+    for k in range((2 * r + 1) * (2 * r + 1)):
+        off = wp.vec2i(ORDER_X[k], ORDER_Y[k])
+        o = int(-1)
+        if whole:
+            o = centre + off[1] * b[2] + off[0]
+        else:
+            o = block_index(blocks, bases, bi, c + off)
+        if o >= 0:
+            if keyp[o][3] == STATE_SEGMENT:
+                rr = cell_nearest(q, verts, o, nv, hit.best, hit.sb)
+                if rr[1] >= 0.0:
+                    hit.best = rr[0]
+                    hit.sb = reach_of(rr[0])
+                    hit.o = o
+                    hit.j = int(rr[1])
+                    hit.t = rr[2]
+                    hit.l = l
     return hit
 
 
@@ -619,7 +610,7 @@ def shortlist(
 
 @wp.func
 def ring_rank(d: wp.vec2i) -> int:
-    """Position of offset ``d`` in the search order of a neighbourhood (centre, then ring by ring; see ring_offset)."""
+    """Position of offset ``d`` in the search order of a neighbourhood (``ORDER_X``, ``ORDER_Y``)."""
     k = wp.max(wp.abs(d[0]), wp.abs(d[1]))
     if k == 0:
         return 0

@@ -7,9 +7,11 @@ subdivision), and measures distances to all of them.
 
 import numpy as np
 import pytest
+import warp as wp
 
 from wdendrite import control
 from wdendrite.dendry import DendryParams, dendry, dendry_points
+from wdendrite.kernels import dendry as _kd
 
 # ------------------------------------------------------------------ NumPy reference
 
@@ -201,6 +203,26 @@ def test_level1_elevation_equals_bruteforce_primitives(device):
         g = np.where(r2 < 1, (1 - r2) ** 3, 0)
         want.append((g * h).sum() / g.sum())
     np.testing.assert_allclose(got, want, atol=5e-5)
+
+
+@wp.kernel
+def _rank_kernel(ranks_out: wp.array(dtype=int)):
+    k = wp.tid()
+    ranks_out[k] = _kd.ring_rank(wp.vec2i(_kd.ORDER_X[k], _kd.ORDER_Y[k]))
+
+
+def test_search_order_covers_each_ring_once_and_ranks_invert_it(device):
+    order = [(int(x), int(y)) for x, y in zip(_kd.ORDER_X, _kd.ORDER_Y)]
+    # a ring-by-ring walk: every cell of the 7 x 7 once, rings in increasing Chebyshev distance,
+    # each step to an 8-neighbour within its ring
+    assert sorted(order) == sorted((x, y) for x in range(-3, 4) for y in range(-3, 4))
+    rings = [max(abs(x), abs(y)) for x, y in order]
+    assert rings == sorted(rings)
+    for (x0, y0), (x1, y1), r0, r1 in zip(order, order[1:], rings, rings[1:]):
+        assert r0 != r1 or max(abs(x1 - x0), abs(y1 - y0)) == 1
+    ranks = wp.zeros(49, dtype=int, device=device)
+    wp.launch(_rank_kernel, dim=49, outputs=[ranks], device=device)
+    assert ranks.numpy().tolist() == list(range(49))
 
 
 @pytest.mark.parametrize("output", ["distance", "elevation", "level"])
