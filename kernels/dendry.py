@@ -34,6 +34,7 @@ from .random import hash3, mix32
 wp.set_module_options({"enable_backward": False})
 
 NV = wp.constant(7)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding box
+PIECES = wp.constant(4)  # pieces searched per cell: shorter polylines are padded with copies of their last vertex
 BOUND = wp.constant(5)  # position of the bounding box in a cell's stride: (x0, y0, x1), then (y1, -, -)
 SLOT = wp.constant(8)  # blocks per slot
 PRIM = wp.constant(7)  # block id of the terrain primitives
@@ -233,7 +234,8 @@ def write_polyline(
         verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
-    verts_out[vi * NV + pieces] = b
+    for j in range(pieces, PIECES + 1):
+        verts_out[vi * NV + j] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
     # the polyline's bounding box, widened against rounding (relative to its size and to the
     # coordinates), lets searches skip the cell exactly
     pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
@@ -343,7 +345,7 @@ def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> b
 
 
 @wp.func
-def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, nv: int, best: float, sb: float) -> wp.vec3:
+def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, best: float, sb: float) -> wp.vec3:
     """Closest piece of cell ``o``'s polyline to ``q`` if nearer than ``best`` (squared; ``sb`` its reach).
 
     Returns (squared distance, piece, fraction along it); piece -1 when none beats ``best``.
@@ -352,7 +354,7 @@ def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, nv: int, be
         return wp.vec3(best, -1.0, 0.0)
     bj = int(-1)
     bt = float(0.0)
-    for j in range(nv - 1):
+    for j in range(PIECES):
         r = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
         if r[0] < best:
             best = r[0]
@@ -387,7 +389,7 @@ def no_hit() -> Hit:
 
 @wp.func
 def scan(
-    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int, nv: int,
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int,
     q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
 ) -> Hit:
     """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
@@ -408,7 +410,7 @@ def scan(
             o = block_index(blocks, bases, bi, c + off)
         if o >= 0:
             if keyp[o][3] == STATE_SEGMENT:
-                rr = cell_nearest(q, verts, o, nv, hit.best, hit.sb)
+                rr = cell_nearest(q, verts, o, hit.best, hit.sb)
                 if rr[1] >= 0.0:
                     hit.best = rr[0]
                     hit.sb = reach_of(rr[0])
@@ -435,7 +437,7 @@ def nearest_on_tree(
     for i in range(1, level):
         l = level - i
         anc = wp.vec2i(c[0] >> i, c[1] >> i)
-        hit = scan(blocks, bases, slot * SLOT + l, l, anc, 1, s.pieces[l - 1] + 1, q, keyp, verts, hit)
+        hit = scan(blocks, bases, slot * SLOT + l, l, anc, 1, q, keyp, verts, hit)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
     a = verts[hit.o * NV + hit.j]
@@ -523,7 +525,7 @@ def query(
         r = 2
         if l == 1:
             r = s.r1
-        hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), r, s.pieces[l - 1] + 1, u, keyp, verts, hit)
+        hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), r, u, keyp, verts, hit)
     if hit.o < 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
     a = verts[hit.o * NV + hit.j]
@@ -567,7 +569,7 @@ def owner_near(
             return -1.0
         state = keyp[o][3]
         if state == STATE_SEGMENT:
-            r = cell_nearest(u, verts, o, s.pieces[l - 1] + 1, 1.0e30, 1.0e15)
+            r = cell_nearest(u, verts, o, 1.0e30, 1.0e15)
             return r[0]
         if state != STATE_INHERITED:
             return -1.0
@@ -593,13 +595,12 @@ def shortlist(
         l = s.levels - i
         bi = slot * SLOT + l
         b = blocks[bi]
-        nv = s.pieces[l - 1] + 1
         for cy in range(b[3]):
             for cx in range(b[2]):
                 o = bases[bi] + cy * b[2] + cx
                 if keyp[o][3] == STATE_SEGMENT:
                     if not cell_far(u, verts, o, limit):
-                        for j in range(nv - 1):
+                        for j in range(PIECES):
                             d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
                             if d2 <= lim2:
                                 nearby_out[first + n] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
