@@ -603,8 +603,15 @@ def shortlist(
                         for j in range(PIECES):
                             d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
                             if d2 <= lim2:
-                                nearby_out[first + n] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
-                                gaps_out[first + n] = wp.sqrt(d2)
+                                # insertion by distance, so that queries can stop at the first piece too far
+                                gap = wp.sqrt(d2)
+                                k = first + n
+                                while k > first and gaps_out[k - 1] > gap:
+                                    nearby_out[k] = nearby_out[k - 1]
+                                    gaps_out[k] = gaps_out[k - 1]
+                                    k -= 1
+                                nearby_out[k] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
+                                gaps_out[k] = gap
                                 n += 1
     return n
 
@@ -635,8 +642,9 @@ def query_short(
     The query's answer is the first piece in its search order (finest level first, then ring
     order, then piece) with the least squared distance. Here the pieces of ``q``'s
     neighbourhoods are taken in the shortlist's order and ties are settled by that search
-    order, so the answer is the same bit for bit. A piece whose distance to ``u``, less
-    ``|q - u|`` and a rounding margin, already exceeds the best distance is skipped.
+    order, so the answer is the same bit for bit. The shortlist is sorted by distance to
+    ``u``: once that distance, less ``|q - u|`` and a rounding margin, exceeds the best
+    distance, no later piece can be nearer.
     """
     top = cell_of(q, s.levels)
     off = wp.length(q - u) + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
@@ -646,26 +654,27 @@ def query_short(
     bl = int(0)
     for e in range(n):
         lb = gaps[first + e] - off
-        if lb <= 0.0 or lb * lb <= best:
-            ent = nearby[first + e]
-            l = ent[1] >> 3
-            r = 2
-            if l == 1:
-                r = s.r1
-            shift = s.levels - l
-            d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
-            if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
-                j = ent[1] & 7
-                a = verts[ent[0] * NV + j]
-                b = verts[ent[0] * NV + j + 1]
-                pr = piece_near(q, a, b)
-                if pr[0] <= best:
-                    rank = (shift * 64 + ring_rank(d)) * 8 + j
-                    if pr[0] < best or rank < brank:
-                        best = pr[0]
-                        brank = rank
-                        bz = a[2] + pr[1] * (b[2] - a[2])
-                        bl = l
+        if lb > 0.0 and lb * lb > best:
+            break  # this piece and all later ones (sorted by distance to u) lie farther than the best
+        ent = nearby[first + e]
+        l = ent[1] >> 3
+        r = 2
+        if l == 1:
+            r = s.r1
+        shift = s.levels - l
+        d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
+        if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
+            j = ent[1] & 7
+            a = verts[ent[0] * NV + j]
+            b = verts[ent[0] * NV + j + 1]
+            pr = piece_near(q, a, b)
+            if pr[0] <= best:
+                rank = (shift * 64 + ring_rank(d)) * 8 + j
+                if pr[0] < best or rank < brank:
+                    best = pr[0]
+                    brank = rank
+                    bz = a[2] + pr[1] * (b[2] - a[2])
+                    bl = l
     if bl == 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
     return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
