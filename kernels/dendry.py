@@ -544,7 +544,13 @@ def primitive(s: Setup, ctl: Control, c: wp.vec2i, q: wp.vec2, r: wp.vec3) -> wp
     # (the paper's control takes values in [0, 1]; lower values count as 0)
     t = float(0.0)
     if ctl.vmax > ctl.vmin:
-        t = wp.clamp((wp.pow(wp.max(r[1], 0.0), s.beta) - ctl.vmin) / (ctl.vmax - ctl.vmin), 0.0, 1.0)
+        h = wp.max(r[1], 0.0)
+        hb = float(0.0)
+        if s.beta == 0.5:
+            hb = wp.sqrt(h)  # the usual beta of the paper (Table 2): a square root is cheaper than a power
+        else:
+            hb = wp.pow(h, s.beta)
+        t = wp.clamp((hb - ctl.vmin) / (ctl.vmax - ctl.vmin), 0.0, 1.0)
     tan_theta = t * t * t * (t * (6.0 * t - 15.0) + 10.0)
     wobble = 1.0 + s.noise * (2.0 * cell_rand(s.seed, pl, c, 2) - 1.0)
     return wp.vec3(q[0], q[1], r[1] + tan_theta * r[0] * wobble)
