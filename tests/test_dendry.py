@@ -180,8 +180,9 @@ def test_level2_distance_matches_global_tree(device):
     assert set(np.unique(got_l)) <= {1.0, 2.0}
 
 
-def test_level1_elevation_equals_bruteforce_primitives(device):
-    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=0.7, noise=0.2, primitive_steps=2)
+@pytest.mark.parametrize("beta", [0.7, 0.5])
+def test_level1_elevation_equals_bruteforce_primitives(device, beta):
+    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=beta, noise=0.2, primitive_steps=2)
     tree = _tree(p)
     rng = np.random.default_rng(1)
     pts = rng.uniform(0.3, 1.7, (25, 2))
