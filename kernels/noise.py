@@ -7,9 +7,10 @@ a point given in its own coordinates.
 
 The noise kinds use our own 2D Perlin gradient noise: a seeded permutation
 table of 256 entries (stored twice, so sums of two entries index it without
-wrapping) hashes each lattice corner to one of 8 gradients, and a quintic fade
-blends the four corner ramps. It is cheaper than ``wp.noise`` (no square roots,
-no per-corner random generator) and is zero at every lattice point.
+wrapping) hashes each lattice corner to one of 8 gradients (the diagonals and
+the axes), and a quintic fade blends the four corner ramps. It is cheaper than
+``wp.noise`` (no square roots, no per-corner random generator) and is zero at
+every lattice point.
 """
 
 import warp as wp
@@ -23,9 +24,6 @@ KIND_LICHTENBERG = wp.constant(3)
 KIND_IMAGE = wp.constant(4)
 KIND_RIDGED = wp.constant(5)
 
-# the 8 gradients of the Perlin noise: the diagonals, then along x, then along y
-GRAD_X = wp.constant(wp.types.vector(length=8, dtype=float)(1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 0.0, 0.0))
-GRAD_Y = wp.constant(wp.types.vector(length=8, dtype=float)(1.0, 1.0, -1.0, -1.0, 0.0, 0.0, 1.0, -1.0))
 
 
 @wp.struct
@@ -44,6 +42,7 @@ class Control:
     bounded: int
     image: wp.array2d(dtype=float)
     perm: wp.array(dtype=int)  # noise kinds: the permutation table, 512 entries (256 twice)
+    grad: wp.array(dtype=wp.vec2)  # noise kinds: the gradient of each permutation entry (one of 8)
 
 
 @wp.func
@@ -53,18 +52,12 @@ def _fade(t: float) -> float:
 
 
 @wp.func
-def _corner(h: int, x: float, y: float) -> float:
-    """Gradient ``h`` (one of (+-1, +-1), (+-1, 0), (0, +-1)) dotted with the offset (x, y) from its corner.
+def perlin(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2) -> float:
+    """2D Perlin gradient noise at ``p``, in about [-1, 1], zero at integer points.
 
-    Read from a table, not chosen by branches: the gradient index is random, so branches mispredict.
+    Corner (i, j) takes the gradient ``grad[perm[i & 255] + (j & 255)]``; ``grad`` holds each
+    permutation entry's gradient, so a corner costs one load and a dot product.
     """
-    g = h & 7
-    return GRAD_X[g] * x + GRAD_Y[g] * y
-
-
-@wp.func
-def perlin(perm: wp.array(dtype=int), p: wp.vec2) -> float:
-    """2D Perlin gradient noise at ``p``, in about [-1, 1], zero at integer points."""
     fx = wp.floor(p[0])
     fy = wp.floor(p[1])
     x = p[0] - fx
@@ -73,10 +66,10 @@ def perlin(perm: wp.array(dtype=int), p: wp.vec2) -> float:
     iy = int(fy) & 255
     a = perm[ix] + iy
     b = perm[ix + 1] + iy
-    n00 = _corner(perm[a], x, y)
-    n10 = _corner(perm[b], x - 1.0, y)
-    n01 = _corner(perm[a + 1], x, y - 1.0)
-    n11 = _corner(perm[b + 1], x - 1.0, y - 1.0)
+    n00 = wp.dot(grad[a], wp.vec2(x, y))
+    n10 = wp.dot(grad[b], wp.vec2(x - 1.0, y))
+    n01 = wp.dot(grad[a + 1], wp.vec2(x, y - 1.0))
+    n11 = wp.dot(grad[b + 1], wp.vec2(x - 1.0, y - 1.0))
     u = _fade(x)
     v = _fade(y)
     low = n00 + u * (n10 - n00)
@@ -91,14 +84,14 @@ def _octave_shift(o: int) -> wp.vec2:
 
 
 @wp.func
-def fbm(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
+def fbm(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
     """Fractal sum of Perlin noise, normalised to about [-1, 1]."""
     total = float(0.0)
     norm = float(0.0)
     amp = float(1.0)
     q = p
     for o in range(octaves):
-        total += amp * perlin(perm, q + _octave_shift(o))
+        total += amp * perlin(perm, grad, q + _octave_shift(o))
         norm += amp
         amp *= gain
         q = q * lacunarity
@@ -106,7 +99,7 @@ def fbm(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lacuna
 
 
 @wp.func
-def ridged(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
+def ridged(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
     """Ridged multifractal (Musgrave): octaves of (offset - |noise|)^2 weighted by the previous one."""
     total = float(0.0)
     norm = float(0.0)
@@ -114,7 +107,7 @@ def ridged(perm: wp.array(dtype=int), p: wp.vec2, octaves: int, gain: float, lac
     weight = float(1.0)
     q = p
     for o in range(octaves):
-        s = offset - wp.abs(perlin(perm, q + _octave_shift(o)))
+        s = offset - wp.abs(perlin(perm, grad, q + _octave_shift(o)))
         s = s * s * weight
         weight = wp.clamp(s * 2.0, 0.0, 1.0)
         total += amp * s
@@ -175,10 +168,10 @@ def control_value(ctl: Control, p: wp.vec2) -> float:
         return wp.length(p - wp.vec2(ctl.a[0], ctl.a[1])) / ctl.a[2]
     if k == KIND_FBM:
         if ctl.octaves == 1:
-            return 0.5 + 0.5 * perlin(ctl.perm, p * ctl.a[0])  # the common single octave, without the sum's loop
-        return 0.5 + 0.5 * fbm(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
+            return 0.5 + 0.5 * perlin(ctl.perm, ctl.grad, p * ctl.a[0])  # the common single octave, without the sum's loop
+        return 0.5 + 0.5 * fbm(ctl.perm, ctl.grad, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
     if k == KIND_RIDGED:
-        return ridged(ctl.perm, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
+        return ridged(ctl.perm, ctl.grad, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
     if k == KIND_LICHTENBERG:
         if wp.abs(p[0]) > 1.0 or wp.abs(p[1]) > 1.0:
             return 16.0

@@ -83,7 +83,9 @@ class Control:
         img = self.values if self.values is not None else np.zeros((1, 1), np.float32)
         s.image = wp.array(img, dtype=float, device=device)
         noisy = self.kind in ("perlin", "ridged")
-        s.perm = wp.array(_permutation(self.seed) if noisy else np.zeros(1, np.int32), dtype=int, device=device)
+        perm = _permutation(self.seed) if noisy else np.zeros(1, np.int32)
+        s.perm = wp.array(perm, dtype=int, device=device)
+        s.grad = wp.array(_GRADIENTS[perm & 7], dtype=wp.vec2, device=device)
         return s
 
     def evaluate(self, points, *, device=None) -> np.ndarray:
@@ -119,6 +121,10 @@ class Control:
             device=device,
         )
         return out.numpy()
+
+
+# the 8 gradients of the Perlin noise: the diagonals, then along x, then along y
+_GRADIENTS = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1], [1, 0], [-1, 0], [0, 1], [0, -1]], np.float32)
 
 
 @functools.lru_cache(maxsize=64)
