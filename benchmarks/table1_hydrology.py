@@ -5,9 +5,11 @@ Setup (the authors' Table 1 configuration): 512^2 pixels over the noise domain
 function on the rectangle (-0.2, -0.4)-(1.4, 0.7), seeds 0-9. Depressions are
 the cells a priority-flood fill raises, counted as 8-connected components.
 
-Our Perlin noise (Warp's) is not the authors', so which field the control shows
-matters: ``--control-seed matched`` (default) gives seed s's terrain the control
-``perlin(seed=s)``; ``--control-seed N`` uses one control field for all seeds.
+Our Perlin noise is not the authors', so which field the control shows matters
+(a field with a minimum inside the rectangle gives the terrain a closed basin
+there): ``--control-seed matched`` (default) gives seed s's terrain the control
+``perlin(seed=s)``, ten fields in all; ``--control-seed N`` uses one control
+field for all seeds, as the paper's table varies only the Dendry seed.
 The baselines (fBm and ridged multifractal, 8 octaves, frequency 4) use the same
 seeds and size.
 
