@@ -224,7 +224,7 @@ def _window(window, shape) -> tuple[int, int, int, int]:
 class _Slots:
     """Flat per-slot storage for the kernels."""
 
-    def __init__(self, slots: int, cap: tuple[int, int, int], device):
+    def __init__(self, slots: int, cap: tuple[int, int, int], device, *, shortlist: bool = False):
         self.cap = wp.vec3i(*cap)
         self.blocks = wp.zeros(slots * 8, dtype=wp.vec4i, device=device)
         self.bases = wp.zeros(slots * 8, dtype=int, device=device)
@@ -233,8 +233,9 @@ class _Slots:
         self.verts = wp.zeros(max(1, slots * cap[1] * _STRIDE), dtype=wp.vec3, device=device)
         self.prims = wp.zeros(max(1, slots * cap[2]), dtype=wp.vec3, device=device)
         # per-pixel elevation: the shortlist of pieces near the pixel (at most 4 per cell)
-        self.nearby = wp.zeros(max(1, slots * cap[1] * 4), dtype=wp.vec4i, device=device)
-        self.gaps = wp.zeros(max(1, slots * cap[1] * 4), dtype=float, device=device)
+        entries = max(1, slots * cap[1] * 4) if shortlist else 1
+        self.nearby = wp.zeros(entries, dtype=wp.vec4i, device=device)
+        self.gaps = wp.zeros(entries, dtype=float, device=device)
         self.overflow = wp.zeros(1, dtype=int, device=device)
 
     def arrays(self):
@@ -252,13 +253,13 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
     slot serves them all and stays in cache; CUDA threads run together and each needs its own.
     """
     cap = _slot_capacity(params, output)
-    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE + 80) + cap[2] * 12 + 8 * 20
+    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE + 4 * 20) + cap[2] * 12 + 8 * 20
     if wp.get_device(device).is_cuda:
         slots = max(1, min(count, (256 * 2**20) // per_slot))
     else:
         slots = 1
     fits_in_memory(slots * per_slot, device, "Dendry per-pixel scratch")
-    return _Slots(slots, cap, device)
+    return _Slots(slots, cap, device, shortlist=output == "elevation")
 
 
 def _launch_chunks(count: int, slots: _Slots, device):
