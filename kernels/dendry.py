@@ -377,6 +377,7 @@ class Hit:
 
 @wp.func
 def no_hit() -> Hit:
+    """A search result before any piece is found."""
     h = Hit()
     h.best = 1.0e30
     h.sb = 1.0e15

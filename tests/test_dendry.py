@@ -236,6 +236,18 @@ def test_cached_equals_per_pixel_bit_for_bit(device, output):
         assert np.array_equal(a, b, equal_nan=True), (levels, np.abs(a - b).max())
 
 
+def test_cached_equals_per_pixel_where_cells_have_no_segment(device):
+    # a bounded control: cells outside the bowl own no segment, so some pixels cannot bound
+    # their primitives' answers and query them in full, next to pixels that use the shortlist
+    p = DendryParams(levels=2, eps=0.25, delta=0.05, beta=0.5, noise=0.05, resolution=2.0, seed=3)
+    kw = dict(domain=((-1.4, -1.4), (1.4, 1.4)), control_domain=((-1.4, -1.4), (1.4, 1.4)), params=p,
+              control=control.lichtenberg(), output="elevation", device=device)
+    a = dendry((48, 48), **kw)
+    b = dendry((48, 48), mode="pixel", **kw)
+    assert np.array_equal(a, b, equal_nan=True), np.nanmax(np.abs(a - b))
+    assert np.isfinite(a).all()
+
+
 @pytest.mark.parametrize("mode", ["cached", "pixel"])
 @pytest.mark.parametrize("output", ["distance", "elevation", "level"])
 def test_windows_equal_the_whole_image_at_tile_borders(device, output, mode):
