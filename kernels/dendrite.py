@@ -1,5 +1,8 @@
 """Greedy backtracking from endpoints to generators on a packed cost field.
 
+The packed states are those a search leaves in the lattice's node records
+(``state``, see :mod:`wdendrite.kernels.sssp`).
+
 A node's predecessor is the first neighbour ``u`` (half-offset order, the
 ``+offset`` neighbour before the ``-offset`` one) whose packed word, extended
 by the edge ``u -> node``, reproduces the node's packed word exactly:
@@ -12,7 +15,7 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
-from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label
+from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, state_at
 
 wp.set_module_options({"enable_backward": False})
 
@@ -29,7 +32,7 @@ def predecessor(
     stride: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
 ) -> int:
     """The neighbour a least-cost path to ``node`` comes from (-1 if none).
 
@@ -39,7 +42,7 @@ def predecessor(
     qualifies too, and to keep walks from circling such neighbours are taken
     only after strictly smaller ones, and only toward a lower node index.
     """
-    word = packed[node]
+    word = state_at(state, stride, node)
     level_match = int(-1)
     for k in range(flat_offsets.shape[0]):
         for side in range(2):
@@ -49,7 +52,7 @@ def predecessor(
                 other = node - flat_offsets[k]
                 lower = other
             if mask[other] != wp.uint8(0):
-                src = packed[other]
+                src = state_at(state, stride, other)
                 if src != UNREACHED:
                     if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
                         if src < word:
@@ -67,7 +70,7 @@ def trace_kernel(
     stride: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     is_root: wp.array(dtype=wp.int32),
     max_steps: int,
     visited: wp.array(dtype=wp.int32),
@@ -91,11 +94,11 @@ def trace_kernel(
         if is_root[node] != 0:
             pred_out[node] = -1
             return
-        if packed[node] == UNREACHED:
+        if state_at(state, stride, node) == UNREACHED:
             pred_out[node] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
-        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, packed)
+        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, state)
         pred_out[node] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK

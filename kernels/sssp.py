@@ -12,17 +12,25 @@ x, y and, for 3D, z), so a neighbour is always ``node + flat_offsets[k]``. The
 border and masked-out nodes hold the packed word 0, which no candidate can
 undercut, so they are never entered and need no test.
 
-Each padded node owns a record of ``stride`` int32 words in the lattice's
-``aux`` array, so relaxing an edge touches few cache lines: the float32 bits
-of its ``nw`` stored edge weights (direction ``k`` at word ``k``; ``nw`` is 0
-when weights are recomputed from their hash), then its near-list stamp
-(word ``nw``) and its far-pile stamp (word ``nw + 1``).
+Each padded node owns a record of ``stride`` int32 words (an even number) in
+the lattice's ``aux`` array, so relaxing an edge touches one cache line per
+neighbour: words 0-1 hold the node's packed state (read through ``state``, a
+``uint64`` view of the same memory, at ``state[p * stride / 2]``), words
+``2 .. nw + 1`` the float32 bits of its ``nw`` stored edge weights (direction
+``k`` at word ``2 + k``; ``nw`` is 0 when weights are recomputed from their
+hash), then its queue stamp (word ``nw + 2``). A lattice's records hold the
+state of one search at a time; searches on a lattice take turns.
 
 Frontiers are flat ``int32`` node lists with their lengths kept in a small
-``counts`` array; a node enters a "near" list at most once per generation
+``counts`` array. A node enters a "near" list at most once per generation
 (its stamp equals the generation while it waits) and the "far" pile at most
-once per search (its far stamp equals the search's ``far_id``). Generations
-and search ids only grow, so stamps never need clearing between searches.
+once per search (its stamp equals ``-far_id``, the negated search id, while
+it waits there). One stamp serves both: a node's cost only falls and the
+threshold only rises, so once a node has been queued near it never needs the
+far pile again in that search, and a far node that drops below the threshold
+is queued near at once (its far entry is dropped when the pile is next
+split). Generations and search ids only grow, so stamps never need clearing
+between searches.
 """
 
 import warp as wp
@@ -34,6 +42,21 @@ wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
 UNREACHED = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 """Packed state of a node no path has reached."""
+
+WEIGHT0 = wp.constant(2)
+"""Record word of a node's first stored weight (words 0-1 are its packed state)."""
+
+
+@wp.func
+def state_at(state: wp.array(dtype=wp.uint64), stride: int, node: int) -> wp.uint64:
+    """Packed state of padded node ``node`` (``state`` is the uint64 view of the records)."""
+    return state[node * (stride >> 1)]
+
+
+@wp.func
+def state_min(state: wp.array(dtype=wp.uint64), stride: int, node: int, word: wp.uint64) -> wp.uint64:
+    """``atomic_min`` of ``node``'s packed state with ``word``; returns the previous state."""
+    return wp.atomic_min(state, node * (stride >> 1), word)
 
 
 @wp.struct
@@ -58,7 +81,7 @@ class HashedWeights:
 def edge_cost(aux: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
     """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
     if hashed.use == 0:
-        return wp.cast(aux[lower * stride + k], wp.float32)
+        return wp.cast(aux[lower * stride + WEIGHT0 + k], wp.float32)
     padded = hashed.shape3 + hashed.pad3 + hashed.pad3
     coords = node_coords(lower, padded) - hashed.pad3
     return edge_weight_at(hashed.params, hashed.shape3, coords, k, hashed.offsets[k], hashed.lengths[k])
@@ -97,7 +120,7 @@ def push_far(
     far_min: wp.array(dtype=float),
 ):
     """Add ``node`` to the far pile once, and keep the pile's least cost."""
-    if wp.atomic_exch(aux, node * stride + nw + 1, far_id) != far_id:
+    if wp.atomic_exch(aux, node * stride + nw + 2, -far_id) != -far_id:
         far_out[wp.atomic_add(counts, far_slot, 1)] = node
     wp.atomic_min(far_min, 0, cost)
 
@@ -114,19 +137,48 @@ def push_near(
     near_slot: int,
 ):
     """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
-    if wp.atomic_exch(aux, node * stride + nw, generation) != generation:
+    if wp.atomic_exch(aux, node * stride + nw + 2, generation) != generation:
         near_out[wp.atomic_add(counts, near_slot, 1) % near_out.shape[0]] = node
 
 
 @wp.kernel
-def init_state_kernel(mask: wp.array(dtype=wp.uint8), chunk: int, packed_out: wp.array(dtype=wp.uint64)):
-    """Unreached usable nodes, blocked (word 0) masked and border nodes; ``chunk`` nodes per thread."""
+def init_state_kernel(mask: wp.array(dtype=wp.uint8), stride: int, chunk: int, state: wp.array(dtype=wp.uint64)):
+    """Mark every usable node unreached; ``chunk`` nodes per thread.
+
+    Masked and border nodes keep the word 0 the records were built with.
+    """
     start = wp.tid() * chunk
     for i in range(start, wp.min(start + chunk, mask.shape[0])):
         if mask[i] != wp.uint8(0):
-            packed_out[i] = UNREACHED
-        else:
-            packed_out[i] = wp.uint64(0)
+            state[i * (stride >> 1)] = UNREACHED
+
+
+@wp.kernel
+def load_state_kernel(
+    dist: wp.array(dtype=float),
+    label: wp.array(dtype=wp.int32),
+    shape: wp.vec3i,
+    pad: wp.vec3i,
+    stride: int,
+    chunk: int,
+    mask: wp.array(dtype=wp.uint8),
+    state: wp.array(dtype=wp.uint64),
+):
+    """Write an earlier search's ``dist``/``label`` (unpadded) back into the records' states.
+
+    The inverse of :func:`unpack_kernel`: a finite cost becomes the word
+    ``pack(dist, label)`` the search had left, an infinite one ``UNREACHED``;
+    masked nodes keep their word 0. ``chunk`` nodes per thread.
+    """
+    start = wp.tid() * chunk
+    stop = wp.min(start + chunk, dist.shape[0])
+    for i in range(start, stop):
+        p = padded_index(i, shape, pad)
+        if mask[p] != wp.uint8(0):
+            word = UNREACHED
+            if dist[i] < wp.inf:
+                word = pack_cost(dist[i], label[i])
+            state[p * (stride >> 1)] = word
 
 
 @wp.kernel
@@ -137,7 +189,7 @@ def seed_kernel(
     nw: int,
     far_id: int,
     far_slot: int,
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
@@ -147,7 +199,7 @@ def seed_kernel(
     i = wp.tid()
     node = nodes_in[i]
     word = pack_cost(0.0, labels_in[i])
-    if word < wp.atomic_min(packed, node, word):
+    if word < state_min(state, stride, node, word):
         push_far(node, 0.0, far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
@@ -160,25 +212,28 @@ def mark_lowered_kernel(
     nw: int,
     far_id: int,
     far_slot: int,
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
 ):
-    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``aux`` (warm start)."""
+    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``aux`` (warm start).
+
+    Both record arrays have the same layout (the same lattice shape and connectivity).
+    """
     node = wp.tid()
     if mask[node] == wp.uint8(0):
         return
     for k in range(flat_offsets.shape[0]):
-        e = node * stride + k
+        e = node * stride + WEIGHT0 + k
         other = node + flat_offsets[k]
         if wp.cast(aux[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
             for end in range(2):
                 n = node
                 if end == 1:
                     n = other
-                word = packed[n]
+                word = state_at(state, stride, n)
                 if word != UNREACHED:
                     push_far(n, packed_cost(word), far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
@@ -196,7 +251,7 @@ def relax_edge(
     nw: int,
     near_slot: int,
     far_slot: int,
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
@@ -210,8 +265,8 @@ def relax_edge(
     """
     if new_cost <= limit:
         candidate = pack_cost(new_cost, label)
-        if candidate < packed[other]:
-            if candidate < wp.atomic_min(packed, other, candidate):
+        if candidate < state_at(state, stride, other):
+            if candidate < state_min(state, stride, other, candidate):
                 if new_cost < threshold:
                     push_near(other, generation, aux, stride, nw, near_out, counts, near_slot)
                 else:
@@ -234,7 +289,7 @@ def relax_kernel(
     generation: int,
     near_slot: int,
     far_slot: int,
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
@@ -250,17 +305,17 @@ def relax_kernel(
     may be queued again once it has been taken out. A neighbour whose
     packed state drops is queued in the next near list when its cost is below
     ``threshold`` and in the far pile otherwise; costs above ``limit`` are
-    never written. Record word ``p * stride + k`` of ``aux`` holds the weight
-    of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use`` asks for
-    weights recomputed from their hash.
+    never written. Record word ``p * stride + 2 + k`` of ``aux`` holds the
+    weight of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use``
+    asks for weights recomputed from their hash.
     """
     capacity = near_in.shape[0]
     i = wp.tid()
     while i < counts[in_slot]:
         node = near_in[i % capacity]
         if fifo != 0:
-            aux[node * stride + nw] = 0  # out of the work queue: it may be queued again
-        word = packed[node]
+            aux[node * stride + nw + 2] = 0  # out of the work queue: it may be queued again
+        word = state_at(state, stride, node)
         cost = packed_cost(word)
         label = packed_label(word)
         for k in range(flat_offsets.shape[0]):
@@ -269,18 +324,18 @@ def relax_kernel(
             w_fwd = float(0.0)
             w_bwd = float(0.0)
             if hashed.use == 0:
-                w_fwd = wp.cast(aux[node * stride + k], wp.float32)
-                w_bwd = wp.cast(aux[(node - step) * stride + k], wp.float32)
+                w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
+                w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
             else:
                 # only for neighbours that could improve: border nodes have no weights to compute
-                if packed[node + step] != wp.uint64(0):
+                if state_at(state, stride, node + step) != wp.uint64(0):
                     w_fwd = edge_cost(aux, stride, hashed, node, k)
-                if packed[node - step] != wp.uint64(0):
+                if state_at(state, stride, node - step) != wp.uint64(0):
                     w_bwd = edge_cost(aux, stride, hashed, node - step, k)
             relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, packed, aux, counts, far_min, near_out, far_out)
+                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
             relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, packed, aux, counts, far_min, near_out, far_out)
+                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
         i += threads
 
 
@@ -296,7 +351,7 @@ def split_far_kernel(
     nw: int,
     near_slot: int,
     far_slot: int,
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     aux: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
@@ -312,9 +367,8 @@ def split_far_kernel(
     n = counts[in_slot]
     while i < n:
         node = far_in[i]
-        cost = packed_cost(packed[node])
+        cost = packed_cost(state_at(state, stride, node))
         if cost < threshold:
-            aux[node * stride + nw + 1] = 0
             if cost >= previous_threshold:
                 push_near(node, generation, aux, stride, nw, near_out, counts, near_slot)
         else:
@@ -324,47 +378,15 @@ def split_far_kernel(
 
 
 @wp.kernel
-def build_records_kernel(
-    weights: wp.array(dtype=float),
-    shape: wp.vec3i,
-    pad: wp.vec3i,
-    stride: int,
-    nw: int,
-    aux_out: wp.array(dtype=wp.int32),
-):
-    """Write every padded node's record: its stored weights (0 on the border) and zero stamps.
-
-    ``weights`` is the lattice's ``(K, *shape)`` array, flattened; one thread
-    writes one padded row ``(z, y)``, so the records are written in order.
-    """
-    row = wp.tid()
-    padded = shape + pad + pad
-    z = row / padded[1]
-    y = row - z * padded[1]
-    count = shape[0] * shape[1] * shape[2]
-    inner_row = z >= pad[0] and z < pad[0] + shape[0] and y >= 1 and y <= shape[1]
-    base = row * padded[2] * stride
-    for x in range(padded[2]):
-        inner = inner_row and x >= 1 and x <= shape[2]
-        i = 0
-        if inner:
-            i = ((z - pad[0]) * shape[1] + (y - 1)) * shape[2] + (x - 1)
-        for k in range(nw):
-            word = 0
-            if inner:
-                word = wp.cast(weights[k * count + i], wp.int32)
-            aux_out[base + x * stride + k] = word
-        aux_out[base + x * stride + nw] = 0
-        aux_out[base + x * stride + nw + 1] = 0
-
-
-@wp.kernel
-def clear_stamps_kernel(stride: int, nw: int, chunk: int, aux: wp.array(dtype=wp.int32)):
-    """Zero every record's two stamps (before the stamp ids would wrap); ``chunk`` records per thread."""
+def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux: wp.array(dtype=wp.int32)):
+    """Zero every record's stamp (before the stamp ids would wrap), and with ``with_state``
+    its state words too (records copied from another device); ``chunk`` records per thread."""
     start = wp.tid() * chunk
     for p in range(start, wp.min(start + chunk, aux.shape[0] / stride)):
-        aux[p * stride + nw] = 0
-        aux[p * stride + nw + 1] = 0
+        if with_state != 0:
+            aux[p * stride] = 0
+            aux[p * stride + 1] = 0
+        aux[p * stride + nw + 2] = 0
 
 
 @wp.kernel
@@ -375,16 +397,17 @@ def set_count_kernel(slot: int, value: int, counts: wp.array(dtype=wp.int32)):
 
 @wp.kernel
 def unpack_kernel(
-    packed: wp.array(dtype=wp.uint64),
+    state: wp.array(dtype=wp.uint64),
     mask: wp.array(dtype=wp.uint8),
     shape: wp.vec3i,
     pad: wp.vec3i,
+    stride: int,
     limit: float,
     chunk: int,
     dist_out: wp.array(dtype=float),
     label_out: wp.array(dtype=wp.int32),
 ):
-    """Split the padded packed states into costs (inf when unreached or above ``limit``) and labels (-1).
+    """Split the records' packed states into costs (inf when unreached or above ``limit``) and labels (-1).
 
     Each thread handles ``chunk`` consecutive nodes, walking the padded index
     alongside (skipping the border at row and plane ends) instead of dividing.
@@ -397,8 +420,9 @@ def unpack_kernel(
     c = node_coords(start, shape)
     x = c[2]
     y = c[1]
+    sstride = stride >> 1
     for i in range(start, stop):
-        word = packed[p]
+        word = state[p * sstride]
         if word == UNREACHED or mask[p] == wp.uint8(0) or packed_cost(word) > limit:
             dist_out[i] = wp.inf
             label_out[i] = -1

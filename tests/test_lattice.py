@@ -4,6 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
+import warp as wp
 
 import wdendrite as wd
 from wdendrite.lattice import half_offsets
@@ -112,3 +113,34 @@ def test_zero_weights_on_usable_edges_are_refused_but_allowed_next_to_masked_nod
     mask = np.ones((4, 4), bool)
     mask[1, 2] = False  # the zero edge (1, 1) -> (1, 2) now touches a masked node
     wd.Lattice((4, 4), weights=w, mask=mask)
+
+
+def test_lattice_keeps_its_own_copy_of_the_weights():
+    w = np.random.default_rng(2).uniform(1, 3, size=(2, 9, 11)).astype(np.float32)
+    lat = wd.Lattice((9, 11), 4, weights=w)
+    before = wd.shortest_paths(lat, [[4, 5]]).dist.copy()
+    w[:] = 100.0  # the caller's array changes afterwards; the lattice does not
+    assert (lat.weights < 3).all() and not lat.weights.flags.writeable
+    np.testing.assert_array_equal(wd.shortest_paths(lat, [[4, 5]]).dist, before)
+    with pytest.raises(ValueError):
+        lat.weights[0, 0, 0] = 1.0
+
+
+@pytest.mark.parametrize("shape,conn", [((7, 10), 8), ((5, 6, 7), 26)])
+def test_records_copied_for_another_device_search_the_same(shape, conn):
+    # other devices get a copy of the host records with the search state cleared;
+    # the copy is made here on the CPU, after searches left state and stamps behind
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Uniform(r=5, seed=1))
+    gens = [[0] * len(shape), [n - 1 for n in shape]]
+    ref = wd.shortest_paths(lat, gens)
+    wd.shortest_paths(lat, gens[:1])
+    host = lat.device_arrays("cpu")
+    copy = lat._copied_arrays(wp.get_device("cpu"))
+    rec_h = host.aux.numpy().reshape(-1, host.stride)
+    rec_c = copy.aux.numpy().reshape(-1, copy.stride)
+    weights = slice(2, 2 + host.nw)
+    np.testing.assert_array_equal(rec_c[:, weights], rec_h[:, weights])
+    assert not rec_c[:, :2].any() and not rec_c[:, 2 + host.nw:].any()
+    lat._device_arrays["cpu"] = copy
+    again = wd.shortest_paths(lat, gens)
+    assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()

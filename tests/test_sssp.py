@@ -297,3 +297,20 @@ def test_unstored_map_weights_pick_their_own_bucket_width():
     stored = wd.Lattice((40, 30), 8, weights=dist)
     a, b = wd.shortest_paths(hashed, [[5, 5]]), wd.shortest_paths(stored, [[5, 5]])
     assert a.dist.tobytes() == b.dist.tobytes()
+
+
+def test_warm_start_and_trace_from_a_field_whose_records_were_reused():
+    # a lattice's records hold one search's state at a time: an older cost field
+    # is packed back into them from its dist and label when it is used again
+    lat = wd.Lattice((40, 50), 8, weights=wd.weights.Uniform(r=10, seed=4))
+    first = wd.shortest_paths(lat, [[3, 4]], limit=60.0)
+    ends = np.argwhere(np.isfinite(first.dist))[::7]
+    fresh = wd.trace(first, ends)
+    other = wd.shortest_paths(lat, [[30, 40], [10, 45]])  # overwrites the records' state
+    again = wd.trace(first, ends)
+    np.testing.assert_array_equal(again.nodes, fresh.nodes)
+    np.testing.assert_array_equal(again.parent, fresh.parent)
+    wd.trace(other, [[0, 0]])
+    warm = wd.shortest_paths(lat, [[3, 4], [30, 40]], limit=50.0, warm_start=first)
+    cold = wd.shortest_paths(lat, [[3, 4], [30, 40]], limit=50.0)
+    assert warm.dist.tobytes() == cold.dist.tobytes() and warm.label.tobytes() == cold.label.tobytes()

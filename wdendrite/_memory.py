@@ -3,7 +3,8 @@
 Lattice-sized arrays are read at random by the shortest-path kernels; with
 4 KiB pages a 3D search spends much of its time on TLB misses. Where the
 kernel allows it (transparent huge pages in ``madvise`` or ``always`` mode),
-asking for 2 MiB pages before an array is first touched removes most of them.
+asking for 2 MiB pages before an array is first touched removes most of them
+(and for lattice-sized outputs, most of the page faults of their first touch).
 This is advice only: where it is not available nothing changes.
 """
 

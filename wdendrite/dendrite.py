@@ -12,7 +12,7 @@ import warp as wp
 from . import _checks
 from .kernels import dendrite as _kd
 from .lattice import coords_of_padded, padded_index_of
-from .sssp import CostField
+from .sssp import CostField, load_state
 
 __all__ = ["Dendrite", "trace"]
 
@@ -237,7 +237,8 @@ def trace(
     size = arrays.mask.shape[0]
     starts = lattice.padded_indices(pts)
     old = np.zeros(0, np.int64) if extend is None else extend._padded
-    with wp.ScopedDevice(device):
+    with wp.ScopedDevice(device), arrays.stamps.lock:
+        load_state(costfield, arrays)
         is_root = wp.zeros(size, dtype=wp.int32)
         roots = lattice.padded_indices(costfield.generators)
         wp.launch(_kd.mark_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), 1],
@@ -254,8 +255,7 @@ def trace(
             _kd.trace_kernel,
             dim=len(starts),
             inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.aux, arrays.stride, arrays.hashed,
-                    arrays.mask,
-                    costfield.packed, is_root, size],
+                    arrays.mask, arrays.state, is_root, size],
             outputs=[visited, pred, new_nodes, new_count, status],
         )
         n_new = int(new_count.numpy()[0])

@@ -75,32 +75,40 @@ def fill_outside(weights: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return weights
 
 
-def _checked_weights(weights: np.ndarray, offsets: np.ndarray, mask) -> np.ndarray:
-    """Fill the outside entries, then require finite weights, positive on every usable edge."""
-    fill_outside(weights, offsets)
-    if weights.size and 0 < float(weights.min()) and np.isfinite(float(weights.max())):
-        return weights  # the common case: two reductions
-    bad = ~np.isfinite(weights)
-    if bad.any():
-        where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries (first at {where})")
-    low = weights <= 0
-    if mask is not None:
-        # an edge touching a masked-out node is never used, whatever it costs
-        for k, off in enumerate(offsets):
-            shape = mask.shape
-            src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(off, shape))
-            dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(off, shape))
-            usable = np.zeros(shape, bool)
-            usable[src] = mask[src] & mask[dst]
-            low[k] &= usable
-    if low.any():
-        where = tuple(int(i) for i in np.argwhere(low)[0])
-        raise ValueError(
-            f"'weights' must be positive on usable edges, but has value {weights[where]} at index {where} "
-            f"({int(low.sum())} such entries)"
-        )
-    return weights
+def edge_slices(offset, shape: tuple) -> tuple[tuple, tuple]:
+    """Index slices ``(src, dst)`` pairing each node with its neighbour at ``offset``, both inside ``shape``."""
+    src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(offset, shape))
+    dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(offset, shape))
+    return src, dst
+
+
+def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None:
+    """Require finite weights, positive on every usable edge; entries whose neighbour lies outside are ignored."""
+    shape = weights.shape[1:]
+    inside = [weights[k][edge_slices(off, shape)[0]] for k, off in enumerate(offsets)]
+    # the common case: two reductions per direction over views
+    if all(v.size == 0 or (0 < float(v.min()) and np.isfinite(float(v.max()))) for v in inside):
+        return
+    for k, (v, off) in enumerate(zip(inside, offsets)):
+        src, dst = edge_slices(off, shape)
+        bad = ~np.isfinite(v)
+        if bad.any():
+            where = (k, *(int(i) + s.start for i, s in zip(np.argwhere(bad)[0], src)))
+            raise ValueError(
+                f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries in direction {k} (first at {where})"
+            )
+    for k, (v, off) in enumerate(zip(inside, offsets)):
+        src, dst = edge_slices(off, shape)
+        low = v <= 0
+        if mask is not None:
+            # an edge touching a masked-out node is never used, whatever it costs
+            low &= mask[src] & mask[dst]
+        if low.any():
+            where = (k, *(int(i) + s.start for i, s in zip(np.argwhere(low)[0], src)))
+            raise ValueError(
+                f"'weights' must be positive on usable edges, but has value {weights[where]} at index {where} "
+                f"({int(low.sum())} such entries in direction {k})"
+            )
 
 
 @dataclass(frozen=True)
@@ -124,11 +132,15 @@ class LatticeArrays:
     flat_offsets: wp.array
     """int32 flat index step of each half-offset in the padded lattice, shape (K,)."""
     aux: wp.array
-    """int32 node records, shape (P * stride,): record ``p`` holds the float32 bits of
-    the ``nw`` stored weights (word ``k``: the edge ``p <-> p + flat_offsets[k]``), then
-    the search stamps (see :mod:`wdendrite.kernels.sssp`)."""
+    """int32 node records, shape (P * stride,): record ``p`` holds the packed search
+    state (words 0-1), the float32 bits of the ``nw`` stored weights (word ``2 + k``: the
+    edge ``p <-> p + flat_offsets[k]``), then the search stamp (see
+    :mod:`wdendrite.kernels.sssp`)."""
+    state: wp.array
+    """uint64 view of ``aux``, shape (P * stride / 2,): node ``p``'s packed state is
+    ``state[p * stride / 2]``."""
     stride: int
-    """Words per record: ``nw + 2``."""
+    """Words per record: ``nw + 3`` rounded up to an even number."""
     nw: int
     """Stored weights per record: K, or 0 when weights are recomputed in kernels."""
     mask: wp.array
@@ -140,15 +152,31 @@ class LatticeArrays:
     """Issues the ever-growing generation and search ids the record stamps use."""
 
 
+def _record_weights(aux: wp.array, padded: tuple, stride: int, nw: int) -> np.ndarray:
+    """Writable ``(K, *shape)`` float32 view of the weights in host records ``aux``."""
+    records = aux.numpy().view(np.float32).reshape(tuple(padded) + (stride,))
+    inner = records[1:-1, 1:-1, 1:-1] if padded[0] > 1 else records[0, 1:-1, 1:-1]
+    return np.moveaxis(inner[..., _ks.WEIGHT0 : _ks.WEIGHT0 + nw], -1, 0)
+
+
+def record_stride(nw: int) -> int:
+    """int32 words per node record with ``nw`` stored weights: a 64-bit state, the
+    weights and a stamp, rounded up to an even count so that states stay aligned."""
+    return (nw + 4) // 2 * 2
+
+
 class _Stamps:
-    """Ids for the stamps in a lattice's records, never repeated, and a lock so that
-    one search at a time uses the records."""
+    """Ids for the stamps in a lattice's records, never repeated, a lock so that
+    one search at a time uses the records, and which cost field's states the
+    records hold."""
 
     LIMIT = 2**31 - 2**24
 
     def __init__(self):
         self.last = 0
         self.lock = threading.Lock()
+        self.owner = None
+        """Weak reference to the CostField whose packed states the records hold (or None)."""
 
     def next(self) -> int:
         self.last += 1
@@ -194,7 +222,6 @@ class Lattice:
 
     def __init__(
         self, shape, connectivity: int | None = None, weights=None, mask=None, *, store_weights: bool = True,
-        _adopt: bool = False,
     ):
         self.shape = _checks.lattice_shape(shape)
         self.ndim = len(self.shape)
@@ -212,6 +239,10 @@ class Lattice:
         self.distribution = weights if hasattr(weights, "kernel_params") else None
         """The weight distribution when weights came from one, else None."""
         self._weights = None
+        self._device_arrays: dict[str, LatticeArrays] = {}
+        self._default_delta: float | None = None  # bucket width cached by shortest_paths
+        self._num_usable: int | None = None
+        source = None
         if not store_weights:
             if self.distribution is None:
                 raise ValueError(
@@ -220,29 +251,28 @@ class Lattice:
                 )
             self.distribution.kernel_params(self.shape, "cpu")  # validates the distribution for this shape
         elif weights is None:
-            self._weights = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape).copy()
+            source = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape)
         elif hasattr(weights, "sample"):
             _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
-            sampled = np.asarray(weights.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
-            self._weights = fill_outside(sampled, self.offsets)
+            source = weights.sample(self.shape, self.lengths, offsets=self.offsets)
         else:
-            checked = _checks.float_array("weights", weights, wshape, check_values=False)
-            # own the array: copy unless float_array already made a private one
-            # (``_adopt``: the caller hands over an array nobody else holds)
-            own = checked.copy() if np.may_share_memory(checked, weights) and not _adopt else checked
-            self._weights = _checked_weights(own, self.offsets, self.mask)
-        if self._weights is not None:
-            self._weights.flags.writeable = False
-        words = int(np.prod([n + 2 for n in self.shape])) * ((len(self.offsets) if self._weights is not None else 0) + 2)
+            source = _checks.float_array("weights", weights, wshape, check_values=False)
+            _check_weight_values(source, self.offsets, self.mask)
+        nw = 0 if source is None else len(self.offsets)
+        words = int(np.prod([n + 2 for n in self.shape])) * record_stride(nw)
         if words >= 2**31:
             raise ValueError(
                 f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
                 "beyond the kernels' int32 indices (2**31)"
-                + ("; store_weights=False needs fewer" if self._weights is not None else "")
+                + ("; store_weights=False needs fewer" if source is not None else "")
             )
-        self._device_arrays: dict[str, LatticeArrays] = {}
-        self._default_delta: float | None = None  # bucket width cached by shortest_paths
-        self._num_usable: int | None = None
+        if source is not None:
+            # the host records are the lattice's own copy of the weights (see ``weights``)
+            _checks.fits_in_memory(4 * words, "cpu", f"node records of a lattice of shape {self.shape}")
+            arrays = self._make_arrays(wp.get_device("cpu"), np.asarray(source, dtype=np.float32))
+            self._device_arrays["cpu"] = arrays
+            self._weights = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, nw)
+            self._weights.flags.writeable = False
 
     @property
     def stores_weights(self) -> bool:
@@ -283,54 +313,85 @@ class Lattice:
 
     def nbytes_per_node(self) -> int:
         """Bytes of device memory a shortest-path search needs per lattice node (estimate)."""
-        return 41 + (4 * len(self.offsets) if self.stores_weights else 0)
+        # records, mask, dist and label, four frontier lists
+        return 4 * record_stride(len(self.offsets) if self.stores_weights else 0) + 1 + 8 + 16
 
     def device_arrays(self, device=None) -> LatticeArrays:
-        """The lattice's padded arrays on ``device`` (uploaded once, then reused)."""
+        """The lattice's padded arrays on ``device`` (built once, then reused).
+
+        With stored weights, the host records made with the lattice are copied
+        (with cleared search state); otherwise records without weights are built.
+        """
         device = wp.get_device(device)
         key = str(device)
         if key not in self._device_arrays:
-            pad3 = (0, 1, 1) if self.ndim == 2 else (1, 1, 1)
-            shape3 = (1,) * (3 - self.ndim) + self.shape
-            padded = tuple(n + 2 * p for n, p in zip(shape3, pad3))
-            inner = tuple(slice(p, p + n) for n, p in zip(shape3, pad3))
-            off3 = np.zeros((len(self.offsets), 3), dtype=np.int32)
-            off3[:, 3 - self.ndim :] = self.offsets
-            flat = (off3 * np.array([padded[1] * padded[2], padded[2], 1])).sum(axis=1).astype(np.int32)
-            hashed = _ks.HashedWeights()
-            hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
-            hashed.offsets = wp.array(off3, dtype=wp.vec3i, device=device)
-            hashed.lengths = wp.array(self.lengths, dtype=float, device=device)
-            nw = len(self.offsets) if self.stores_weights else 0
             if self.stores_weights:
-                hashed.use = 0
-                hashed.params = _kw.WeightParams()
-                # on the CPU the kernel reads the weight array in place
-                source = wp.array(self._weights.reshape(-1), dtype=float, device=device, copy=not device.is_cpu)
+                self._device_arrays[key] = self._copied_arrays(device)
             else:
-                hashed.use = 1
-                hashed.params = self.distribution.kernel_params(self.shape, device)
-                source = wp.zeros(1, dtype=float, device=device)
-            # node-major records: a node's weights and stamps share its cache line
-            aux = _memory.empty(int(np.prod(padded)) * (nw + 2), wp.int32, device)
-            wp.launch(_ks.build_records_kernel, dim=padded[0] * padded[1],
-                      inputs=[source, wp.vec3i(*shape3), wp.vec3i(*pad3), nw + 2, nw], outputs=[aux], device=device)
-            mask = np.zeros(padded, np.uint8)
-            mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
-            self._device_arrays[key] = LatticeArrays(
-                shape3=wp.vec3i(*shape3),
-                pad3=wp.vec3i(*pad3),
-                padded_shape=padded,
-                offsets=wp.array(off3, dtype=wp.vec3i, device=device),
-                flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
-                aux=aux,
-                stride=nw + 2,
-                nw=nw,
-                mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
-                hashed=hashed,
-                stamps=_Stamps(),
-            )
+                self._device_arrays[key] = self._make_arrays(device, None)
         return self._device_arrays[key]
+
+    def _copied_arrays(self, device) -> LatticeArrays:
+        """Arrays on ``device`` whose records copy the host records, search state and stamps cleared."""
+        host = self._device_arrays["cpu"]
+        with host.stamps.lock:
+            aux = _memory.empty(host.aux.shape[0], wp.int32, device)
+            wp.copy(aux, host.aux)
+        chunk = 4096 if device.is_cpu else 1
+        records = host.aux.shape[0] // host.stride
+        wp.launch(_ks.clear_records_kernel, dim=-(-records // chunk), inputs=[host.stride, host.nw, 1, chunk],
+                  outputs=[aux], device=device)
+        return self._make_arrays(device, None, aux=aux)
+
+    def _make_arrays(self, device, weights: np.ndarray | None, aux: wp.array | None = None) -> LatticeArrays:
+        """Padded arrays on ``device``; records built from ``weights`` ((K, *shape) float32 on the host),
+        taken from ``aux`` (already filled), or built without weights (hashed lattices)."""
+        pad3 = (0, 1, 1) if self.ndim == 2 else (1, 1, 1)
+        shape3 = (1,) * (3 - self.ndim) + self.shape
+        padded = tuple(n + 2 * p for n, p in zip(shape3, pad3))
+        inner = tuple(slice(p, p + n) for n, p in zip(shape3, pad3))
+        off3 = np.zeros((len(self.offsets), 3), dtype=np.int32)
+        off3[:, 3 - self.ndim :] = self.offsets
+        flat = (off3 * np.array([padded[1] * padded[2], padded[2], 1])).sum(axis=1).astype(np.int32)
+        offsets = wp.array(off3, dtype=wp.vec3i, device=device)
+        hashed = _ks.HashedWeights()
+        hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
+        hashed.offsets = offsets
+        hashed.lengths = wp.array(self.lengths, dtype=float, device=device)
+        stored = weights is not None or aux is not None
+        nw = len(self.offsets) if stored else 0
+        if stored:
+            hashed.use = 0
+            hashed.params = _kw.WeightParams()
+        else:
+            hashed.use = 1
+            hashed.params = self.distribution.kernel_params(self.shape, device)
+        stride = record_stride(nw)
+        if aux is None:
+            # node-major records: a node's state, weights and stamp share its cache line;
+            # state 0 blocks border and masked nodes until a search marks the usable ones
+            aux = _memory.empty(int(np.prod(padded)) * stride, wp.int32, device)
+            aux.zero_()
+            if weights is not None:  # host records (other devices copy them)
+                view = _record_weights(aux, padded, stride, nw)
+                view[...] = weights
+                fill_outside(view, self.offsets)
+        mask = np.zeros(padded, np.uint8)
+        mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
+        return LatticeArrays(
+            shape3=wp.vec3i(*shape3),
+            pad3=wp.vec3i(*pad3),
+            padded_shape=padded,
+            offsets=offsets,
+            flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
+            aux=aux,
+            state=wp.array(ptr=aux.ptr, dtype=wp.uint64, shape=(aux.shape[0] // 2,), device=device),
+            stride=stride,
+            nw=nw,
+            mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
+            hashed=hashed,
+            stamps=_Stamps(),
+        )
 
     def padded_indices(self, coords: np.ndarray) -> np.ndarray:
         """Flat indices in the kernels' padded lattice of ``(G, ndim)`` node coordinates (int32)."""
@@ -346,15 +407,14 @@ class Lattice:
         index = np.arange(self.num_nodes, dtype=np.int64).reshape(self.shape)
         mask = np.ones(self.shape, bool) if self.mask is None else self.mask
         for k, off in enumerate(self.offsets):
-            src = tuple(slice(max(0, -o), n - max(0, o)) for o, n in zip(off, self.shape))
-            dst = tuple(slice(max(0, o), n - max(0, -o)) for o, n in zip(off, self.shape))
+            src, dst = edge_slices(off, self.shape)
             ok = mask[src] & mask[dst]
             us.append(index[src][ok])
             vs.append(index[dst][ok])
             ks.append(np.full(len(us[-1]), k, np.int64))
         u, v, k = np.concatenate(us), np.concatenate(vs), np.concatenate(ks)
         if self.stores_weights:
-            w = self.weights.reshape(len(self.offsets), -1)[k, u]
+            w = self.weights[(k, *np.unravel_index(u, self.shape))]
         else:
             w = self.distribution.evaluate(self.shape, self.lengths, u, k, offsets=self.offsets)
         return u, v, w

@@ -13,6 +13,7 @@ node takes the lowest generator row (see :class:`CostField`).
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,8 +46,6 @@ class CostField:
     """``(G, ndim)`` int64 generator coordinates; ``label`` indexes its rows."""
     limit: float
     """Costs above this bound were not searched (inf: no bound)."""
-    packed: wp.array = field(repr=False)
-    """``(N,)`` uint64 packed ``(cost, row)`` words, for warm starts."""
     dist_array: wp.array = field(repr=False)
     """float32 device array of the lattice shape."""
     label_array: wp.array = field(repr=False)
@@ -59,7 +58,7 @@ class CostField:
     @property
     def device(self):
         """The Warp device holding the arrays."""
-        return self.packed.device
+        return self.dist_array.device
 
     @property
     def dist(self) -> np.ndarray:
@@ -260,17 +259,19 @@ def shortest_paths(
         chunk = _chunk(device)
         size = arrays.mask.shape[0]
         if not arrays.stamps.room(2**24):
-            wp.launch(_k.clear_stamps_kernel, dim=_threads(size, chunk), inputs=[arrays.stride, arrays.nw, chunk],
+            wp.launch(_k.clear_records_kernel, dim=_threads(size, chunk), inputs=[arrays.stride, arrays.nw, 0, chunk],
                       outputs=[arrays.aux])
             arrays.stamps.last = 0
         far_id = arrays.stamps.next()
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
-            packed = _memory.empty(size, wp.uint64, device)
-            wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, chunk], outputs=[packed])
+            arrays.stamps.owner = None
+            wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, arrays.stride, chunk],
+                      outputs=[arrays.state])
             new_rows = np.arange(len(gens))
         else:
-            packed = wp.clone(warm_start.packed.to(device))
+            load_state(warm_start, arrays)
+            arrays.stamps.owner = None
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
             if lattice.stores_weights and old_arrays.aux is not arrays.aux:
@@ -278,7 +279,7 @@ def shortest_paths(
                     _k.mark_lowered_kernel,
                     dim=size,
                     inputs=[arrays.flat_offsets, arrays.mask, old_arrays.aux, arrays.stride, arrays.nw, far_id, 2],
-                    outputs=[packed, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                    outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
                 )
         if len(new_rows):
             flat = lattice.padded_indices(gens[new_rows])
@@ -287,22 +288,49 @@ def shortest_paths(
                 dim=len(flat),
                 inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32),
                         arrays.stride, arrays.nw, far_id, 2],
-                outputs=[packed, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
         fr.max_threads = _max_threads
         # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
         kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
-        rounds, relaxed = _run(arrays, packed, fr, kernel_limit, delta_f, fifo, far_id)
-        dist = wp.empty(lattice.shape, dtype=float)
-        label = wp.empty(lattice.shape, dtype=wp.int32)
+        rounds, relaxed = _run(arrays, fr, kernel_limit, delta_f, fifo, far_id)
+        dist = _memory.empty(lattice.shape, float, device)
+        label = _memory.empty(lattice.shape, wp.int32, device)
         wp.launch(
             _k.unpack_kernel,
             dim=_threads(n, chunk),
-            inputs=[packed, arrays.mask, arrays.shape3, arrays.pad3, limit_f, chunk],
+            inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, limit_f, chunk],
             outputs=[dist.flatten(), label.flatten()],
         )
-    return CostField(lattice, gens, limit_f, packed, dist, label, rounds, relaxed)
+        result = CostField(lattice, gens, limit_f, dist, label, rounds, relaxed)
+        arrays.stamps.owner = weakref.ref(result)
+    return result
+
+
+def load_state(costfield: CostField, arrays) -> None:
+    """Make ``arrays``' records hold ``costfield``'s packed states (the caller holds their lock).
+
+    Nothing to do when the last search on these records made ``costfield``;
+    otherwise its ``dist`` and ``label`` are packed back into the records, which
+    gives exactly the words its search left (costs above its limit read as
+    unreached, as a search with that limit leaves them).
+    """
+    owner = arrays.stamps.owner
+    if owner is not None and owner() is costfield:
+        return
+    device = arrays.aux.device
+    chunk = _chunk(device)
+    n = costfield.lattice.num_nodes
+    wp.launch(
+        _k.load_state_kernel,
+        dim=_threads(n, chunk),
+        inputs=[costfield.dist_array.to(device).flatten(), costfield.label_array.to(device).flatten(),
+                arrays.shape3, arrays.pad3, arrays.stride, chunk, arrays.mask],
+        outputs=[arrays.state],
+        device=device,
+    )
+    arrays.stamps.owner = weakref.ref(costfield)
 
 
 class _Launches:
@@ -312,8 +340,8 @@ class _Launches:
     twenty for a fresh ``wp.launch``, which matters over thousands of rounds.
     """
 
-    def __init__(self, arrays, packed: wp.array, fr: _Frontiers, limit: float, fifo: bool, far_id: int):
-        self._arrays, self._packed, self._fr, self._limit = arrays, packed, fr, limit
+    def __init__(self, arrays, fr: _Frontiers, limit: float, fifo: bool, far_id: int):
+        self._arrays, self._fr, self._limit = arrays, fr, limit
         self.fifo, self._far_id = fifo, far_id
         self._relax: dict[tuple[int, int], wp.Launch] = {}
         self._split: dict[tuple[int, int], wp.Launch] = {}
@@ -328,7 +356,7 @@ class _Launches:
                 dim=threads,
                 inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[near], near, threads,
                         int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
-                outputs=[self._packed, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
+                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
                 record_cmd=True,
             )
         self._replay(cmd, threads, threshold, generation)
@@ -342,7 +370,8 @@ class _Launches:
                 dim=threads,
                 inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation,
                         self._arrays.stride, self._arrays.nw, near, 2 + other],
-                outputs=[self._packed, self._arrays.aux, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
+                outputs=[self._arrays.state, self._arrays.aux, fr.counts, fr.far_min, fr.lists[near],
+                         fr.lists[2 + other]],
                 record_cmd=True,
             )
         cmd.set_param_by_name("previous_threshold", previous)
@@ -371,8 +400,7 @@ def _next_threshold(threshold: float, far_min: float, delta: float) -> float:
     return float(t)
 
 
-def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, fifo: bool,
-         far_id: int) -> tuple[int, int]:
+def _run(arrays, fr: _Frontiers, limit: float, delta: float, fifo: bool, far_id: int) -> tuple[int, int]:
     """Drive near-far rounds until both the near list and the far pile are empty.
 
     With ``fifo`` (single-threaded devices), one launch empties the near list
@@ -385,7 +413,7 @@ def _run(arrays, packed: wp.array, fr: _Frontiers, limit: float, delta: float, f
     holds more than the usable nodes; generation rounds number each list they
     fill. Generations come from the lattice's ever-growing stamp ids.
     """
-    launches = _Launches(arrays, packed, fr, limit, fifo, far_id)
+    launches = _Launches(arrays, fr, limit, fifo, far_id)
     queue_generation = arrays.stamps.next() if fifo else 0
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
     threshold = -math.inf
