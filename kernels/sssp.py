@@ -35,7 +35,7 @@ between searches.
 
 import warp as wp
 
-from .lattice import node_coords, padded_index
+from .lattice import in_bounds, node_coords, node_index, padded_index
 from .weights import WeightParams, edge_weight_at
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
@@ -151,6 +151,12 @@ def init_state_kernel(mask: wp.array(dtype=wp.uint8), stride: int, chunk: int, s
     for i in range(start, wp.min(start + chunk, mask.shape[0])):
         if mask[i] != wp.uint8(0):
             state[i * (stride >> 1)] = UNREACHED
+
+
+@wp.kernel
+def init_listed_kernel(usable: wp.array(dtype=wp.int32), stride: int, state: wp.array(dtype=wp.uint64)):
+    """Mark the listed (usable) padded nodes unreached: :func:`init_state_kernel` for sparse lattices."""
+    state[usable[wp.tid()] * (stride >> 1)] = UNREACHED
 
 
 @wp.kernel
@@ -377,6 +383,62 @@ def split_far_kernel(
         i += threads
 
 
+@wp.func
+def nearest_edge_source(c: wp.vec3i, offset: wp.vec3i, shape: wp.vec3i) -> wp.vec3i:
+    """The node whose edge along ``offset`` stands in for ``c``'s: ``c`` itself when the
+    neighbour ``c + offset`` is inside, else the nearest node whose neighbour is (edges
+    leaving the lattice are never used, but interpolating weights reads them)."""
+    out = c
+    for a in range(3):
+        if shape[a] >= 2:
+            if offset[a] > 0:
+                out[a] = wp.min(out[a], shape[a] - 2)
+            elif offset[a] < 0:
+                out[a] = wp.max(out[a], 1)
+    return out
+
+
+@wp.kernel
+def fill_records_kernel(
+    usable: wp.array(dtype=wp.int32),
+    listed: int,
+    mask: wp.array(dtype=wp.uint8),
+    params: WeightParams,
+    shape: wp.vec3i,
+    pad: wp.vec3i,
+    offsets: wp.array(dtype=wp.vec3i),
+    lengths: wp.array(dtype=float),
+    stride: int,
+    aux: wp.array(dtype=wp.int32),
+):
+    """Write the weights of every usable padded node's record from a distribution.
+
+    Launch dim: P (every padded node), or with ``listed`` the length of
+    ``usable``, the padded indices of the usable nodes (sparse lattices).
+
+    An edge into a masked node gets no weight (no search relaxes it), and
+    records of masked and border nodes stay untouched, so a sparse lattice
+    only touches the memory of its usable nodes. An edge leaving the lattice
+    takes the weight of the nearest edge inside, as
+    :func:`wdendrite.lattice.fill_outside` gives the stored arrays.
+    """
+    p = wp.tid()
+    if listed != 0:
+        p = usable[p]
+    elif mask[p] == wp.uint8(0):
+        return
+    padded = shape + pad + pad
+    c = node_coords(p, padded) - pad
+    for k in range(offsets.shape[0]):
+        o = offsets[k]
+        # an edge into a masked node is never relaxed: its weight is not needed (edges
+        # leaving the lattice are kept, for the ``weights`` view of complete records)
+        if not in_bounds(c + o, shape) or mask[p + (o[0] * padded[1] + o[1]) * padded[2] + o[2]] != wp.uint8(0):
+            src = nearest_edge_source(c, o, shape)
+            w = edge_weight_at(params, shape, src, k, o, lengths[k])
+            aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
+
+
 @wp.kernel
 def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux: wp.array(dtype=wp.int32)):
     """Zero every record's stamp (before the stamp ids would wrap), and with ``with_state``
@@ -393,6 +455,18 @@ def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux:
 def set_count_kernel(slot: int, value: int, counts: wp.array(dtype=wp.int32)):
     """Set one frontier length (a one-thread launch)."""
     counts[slot] = value
+
+
+@wp.func
+def unpack_one(word: wp.uint64, limit: float, i: int, dist_out: wp.array(dtype=float), label_out: wp.array(dtype=wp.int32)):
+    """Write output ``i`` from a packed state: cost and label, or inf and -1 when
+    unreached or above ``limit``."""
+    if word != UNREACHED and packed_cost(word) <= limit:
+        dist_out[i] = packed_cost(word)
+        label_out[i] = packed_label(word)
+    else:
+        dist_out[i] = wp.inf
+        label_out[i] = -1
 
 
 @wp.kernel
@@ -422,13 +496,11 @@ def unpack_kernel(
     y = c[1]
     sstride = stride >> 1
     for i in range(start, stop):
-        word = state[p * sstride]
-        if word == UNREACHED or mask[p] == wp.uint8(0) or packed_cost(word) > limit:
-            dist_out[i] = wp.inf
-            label_out[i] = -1
-        else:
-            dist_out[i] = packed_cost(word)
-            label_out[i] = packed_label(word)
+        # masked nodes' records are not read: a sparse lattice never touches them
+        word = UNREACHED
+        if mask[p] != wp.uint8(0):
+            word = state[p * sstride]
+        unpack_one(word, limit, i, dist_out, label_out)
         p += 1
         x += 1
         if x == shape[2]:
@@ -438,3 +510,21 @@ def unpack_kernel(
             if y == shape[1]:
                 y = 0
                 p += 2 * (shape[2] + 2) * pad[0]
+
+
+@wp.kernel
+def unpack_listed_kernel(
+    usable: wp.array(dtype=wp.int32),
+    state: wp.array(dtype=wp.uint64),
+    shape: wp.vec3i,
+    pad: wp.vec3i,
+    stride: int,
+    limit: float,
+    dist_out: wp.array(dtype=float),
+    label_out: wp.array(dtype=wp.int32),
+):
+    """:func:`unpack_kernel` for the listed (usable) padded nodes of a sparse lattice; the
+    outputs already hold inf and -1 everywhere else."""
+    p = usable[wp.tid()]
+    unpack_one(state[p * (stride >> 1)], limit, node_index(node_coords(p, shape + pad + pad) - pad, shape),
+               dist_out, label_out)

@@ -86,11 +86,13 @@ class WeightParams:
     """Bias terms, applied in order (at least one entry, so the array is never empty)."""
     maps: wp.array(dtype=float)
     """Concatenated per-node map values in [0, 1] (at least one entry); REFINED: the
-    coarse weights per unit length, ``K`` blocks of the coarse lattice in C order."""
+    coarse weights per unit length, node-major: ``(D, H, W, K)`` in C order."""
     grid: wp.vec3i
     """REFINED: coarse lattice shape ``(D, H, W)``."""
     grid_start: wp.vec3i
     """REFINED: fine index of the window's first node in the whole fine lattice."""
+    grid_k: int
+    """REFINED: directions per coarse node in ``maps``."""
 
 
 @wp.func
@@ -108,47 +110,62 @@ def base_weight(params: WeightParams, node: int, k: int) -> float:
 
 
 @wp.func
-def refined_base(params: WeightParams, shape3: wp.vec3i, node: int, k: int) -> float:
-    """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4).
+def cell_of(c: int, half: float, inv_n: float, g: int) -> wp.vec3:
+    """Interpolation cell along one axis of the fine index ``c``: lower coarse index,
+    upper coarse index (clamped to the grid) and the fraction between them, as floats."""
+    x = wp.clamp((float(c) - half) * inv_n, 0.0, float(g - 1))
+    i = wp.min(int(wp.floor(x)), wp.max(g - 2, 0))
+    return wp.vec3(float(i), float(wp.min(i + 1, g - 1)), wp.min(x - float(i), 1.0))
+
+
+@wp.func
+def refined_base(params: WeightParams, node: int, coords: wp.vec3i, k: int) -> float:
+    """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4) of the edge
+    from ``node`` at ``coords``.
 
     ``W_int`` interpolates the coarse weights per unit length linearly at the
     fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``), and
     ``W_ran`` is uniform between 1 and ``W_int``.
     """
     n = params.b
+    inv_n = 1.0 / n
     half = float(int(n) / 2)
-    c = node_coords(node, shape3) + params.grid_start
-    count = params.grid[0] * params.grid[1] * params.grid[2]
-    # corner of the interpolation cell and the weights along each axis
-    lo = wp.vec3i(0, 0, 0)
-    t = wp.vec3(0.0, 0.0, 0.0)
-    for a in range(3):
-        x = wp.clamp((float(c[a]) - half) / n, 0.0, float(params.grid[a] - 1))
-        i = wp.min(int(wp.floor(x)), wp.max(params.grid[a] - 2, 0))
-        lo[a] = i
-        t[a] = wp.min(x - float(i), 1.0)
-    w_int = float(0.0)
-    for corner in range(8):
-        q = wp.vec3i(lo[0] + (corner >> 2) % 2, lo[1] + (corner >> 1) % 2, lo[2] + corner % 2)
-        f = float(1.0)
-        for a in range(3):
-            q[a] = wp.min(q[a], params.grid[a] - 1)
-            if (corner >> (2 - a)) % 2 == 1:
-                f = f * t[a]
-            else:
-                f = f * (1.0 - t[a])
-        w_int = w_int + f * params.maps[k * count + node_index(q, params.grid)]
+    c = coords + params.grid_start
+    g = params.grid
+    cz = cell_of(c[0], half, inv_n, g[0])
+    cy = cell_of(c[1], half, inv_n, g[1])
+    cx = cell_of(c[2], half, inv_n, g[2])
+    # node-major coarse weights: the K directions of a coarse node sit side by side
+    nk = params.grid_k
+    base = k
+    z0 = (int(cz[0]) * g[1]) * g[2] * nk
+    z1 = (int(cz[1]) * g[1]) * g[2] * nk
+    y0 = int(cy[0]) * g[2] * nk
+    y1 = int(cy[1]) * g[2] * nk
+    x0 = int(cx[0]) * nk
+    x1 = int(cx[1]) * nk
+    m = params.maps
+    tx = cx[2]
+    ty = cy[2]
+    tz = cz[2]
+    w0 = (1.0 - ty) * ((1.0 - tx) * m[base + z0 + y0 + x0] + tx * m[base + z0 + y0 + x1]) + ty * (
+        (1.0 - tx) * m[base + z0 + y1 + x0] + tx * m[base + z0 + y1 + x1]
+    )
+    w1 = (1.0 - ty) * ((1.0 - tx) * m[base + z1 + y0 + x0] + tx * m[base + z1 + y0 + x1]) + ty * (
+        (1.0 - tx) * m[base + z1 + y1 + x0] + tx * m[base + z1 + y1 + x1]
+    )
+    w_int = (1.0 - tz) * w0 + tz * w1
     u = hash_unit(params.seed, wp.uint32(node), wp.uint32(k))
     w_ran = 1.0 + (wp.max(w_int, 1.0) - 1.0) * u
-    return (params.a * w_int + (1.0 - params.a) * w_ran) / n
+    return (params.a * w_int + (1.0 - params.a) * w_ran) * inv_n
 
 
 @wp.func
 def bias_field(
-    term: BiasTerm, maps: wp.array(dtype=float), shape3: wp.vec3i, node: int, offset: wp.vec3i
+    term: BiasTerm, maps: wp.array(dtype=float), shape3: wp.vec3i, node: int, c: wp.vec3i, offset: wp.vec3i
 ) -> float:
-    """The field value ``g ** exponent`` in [0, 1] of one bias term on edge ``node <-> node + offset``."""
-    c = node_coords(node, shape3)
+    """The field value ``g ** exponent`` in [0, 1] of one bias term on edge ``node <-> node + offset``
+    (``c``: the coordinates of ``node``)."""
     g = float(0.0)
     if term.kind == MAP:
         # mean of the two end nodes; an end outside the lattice counts as the inside end
@@ -175,13 +192,16 @@ def bias_field(
 
 
 @wp.func
-def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offset: wp.vec3i, length: float) -> float:
+def edge_weight_of(
+    params: WeightParams, shape3: wp.vec3i, node: int, coords: wp.vec3i, k: int, offset: wp.vec3i, length: float
+) -> float:
     """The cost of edge ``node <-> node + offset`` (direction ``k``, Euclidean ``length``).
 
     Args:
         params: from ``distribution.kernel_params(shape, device)``.
         shape3: lattice shape ``(D, H, W)`` (D = 1 in 2D).
         node: flat index of the edge's first end (the one the half-offset starts from).
+        coords: the same node as ``(z, y, x)``.
         k: direction index into the lattice's half-offsets.
         offset: the half-offset of direction ``k``, ``(dz, dy, dx)``.
         length: ``|offset|`` as float32 (1, sqrt(2) or sqrt(3)).
@@ -190,30 +210,36 @@ def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offse
     scale = float(1.0)
     for i in range(params.num_terms):
         term = params.terms[i]
-        s = term.strength * bias_field(term, params.maps, shape3, node, offset)
+        s = term.strength * bias_field(term, params.maps, shape3, node, coords, offset)
         if term.op == ADD:
             add = add + s
         else:
             scale = scale * (1.0 + s)
     base = float(0.0)
     if params.kind == REFINED:
-        base = refined_base(params, shape3, node, k)
+        base = refined_base(params, node, coords, k)
     else:
         base = base_weight(params, node, k)
     return length * (base + add) * scale
 
 
 @wp.func
+def edge_weight(params: WeightParams, shape3: wp.vec3i, node: int, k: int, offset: wp.vec3i, length: float) -> float:
+    """:func:`edge_weight_of` for the edge starting at flat index ``node``."""
+    return edge_weight_of(params, shape3, node, node_coords(node, shape3), k, offset, length)
+
+
+@wp.func
 def edge_weight_at(
     params: WeightParams, shape3: wp.vec3i, coords: wp.vec3i, k: int, offset: wp.vec3i, length: float
 ) -> float:
-    """:func:`edge_weight` for the edge starting at node ``coords`` ``(z, y, x)``.
+    """:func:`edge_weight_of` for the edge starting at node ``coords`` ``(z, y, x)``.
 
     For kernels whose own node numbering differs from the lattice's C order
     (a padded layout, a sublattice): the hash always uses the lattice's flat
     index, so the weight does not depend on how the caller stores nodes.
     """
-    return edge_weight(params, shape3, node_index(coords, shape3), k, offset, length)
+    return edge_weight_of(params, shape3, node_index(coords, shape3), coords, k, offset, length)
 
 
 @wp.kernel

@@ -112,7 +112,6 @@ def test_weight_distributions_n0_gives_straight_runs():
     steps = {}
     for n, den in dens.items():
         child = np.flatnonzero(den.parent >= 0)
-        step = den.nodes[den.parent[child]] - den.nodes[child]
         # direction changes along paths: none but a few corners for n = 0, many for erratic weights
         turns = 0
         for p in den.paths():

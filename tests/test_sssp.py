@@ -314,3 +314,27 @@ def test_warm_start_and_trace_from_a_field_whose_records_were_reused():
     warm = wd.shortest_paths(lat, [[3, 4], [30, 40]], limit=50.0, warm_start=first)
     cold = wd.shortest_paths(lat, [[3, 4], [30, 40]], limit=50.0)
     assert warm.dist.tobytes() == cold.dist.tobytes() and warm.label.tobytes() == cold.label.tobytes()
+
+
+@pytest.mark.parametrize("shape,conn", [((60, 70), 8), ((20, 24, 22), 26), ((18, 20, 16), 6)])
+@pytest.mark.parametrize("source", ["array", "distribution"])
+def test_sparse_lattices_match_scipy(shape, conn, source):
+    # fewer than a quarter of the nodes usable: records filled for usable nodes only and
+    # passes over the usable list (as refinement's lattices are); limits and warm starts too
+    rng = np.random.default_rng(len(shape) * conn)
+    mask = rng.random(shape) < 0.2
+    k = len(half_offsets(len(shape), conn))
+    weights = (wd.weights.Uniform(r=10, seed=6) if source == "distribution"
+               else rng.uniform(1, 11, size=(k, *shape)).astype(np.float32))
+    lat = wd.Lattice(shape, conn, weights=weights, mask=mask)
+    assert lat.device_arrays("cpu").usable is not None
+    gens = np.argwhere(mask)[rng.choice(int(mask.sum()), 3, replace=False)]
+    cf = wd.shortest_paths(lat, gens)
+    _check_against_scipy(lat, gens, cf)
+    capped = wd.shortest_paths(lat, gens[:1], limit=15.0)
+    _check_against_scipy(lat, gens[:1], capped, limit=15.0)
+    warm = wd.shortest_paths(lat, gens, warm_start=capped, limit=15.0)
+    cold = wd.shortest_paths(lat, gens, limit=15.0)
+    assert warm.dist.tobytes() == cold.dist.tobytes() and warm.label.tobytes() == cold.label.tobytes()
+    # a masked distribution's weights are computed on access: the same values the records hold
+    np.testing.assert_array_equal(lat.weights, wd.Lattice(shape, conn, weights=weights).weights)

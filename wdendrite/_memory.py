@@ -11,6 +11,7 @@ This is advice only: where it is not available nothing changes.
 from __future__ import annotations
 
 import ctypes
+import mmap
 import ctypes.util
 import sys
 
@@ -57,4 +58,27 @@ def empty(shape, dtype, device) -> wp.array:
     """``wp.empty`` with huge-page advice for large CPU arrays (contents undefined)."""
     arr = wp.empty(shape, dtype=dtype, device=device)
     advise_huge_pages(arr)
+    return arr
+
+
+def zeros(count: int, dtype, device, *, huge: bool = True) -> wp.array:
+    """A zero-filled 1D array of ``count`` elements whose zeros cost nothing until touched.
+
+    On the CPU the memory is a fresh anonymous mapping: the system hands out
+    zero pages on first touch, so a large array of which a kernel touches a
+    small part (a sparse lattice's records) costs only the pages it touches.
+    ``huge`` asks for 2 MiB pages (for arrays that will be touched throughout).
+    Small arrays (under 4 MiB, where a mapping of their own gains nothing) and
+    other devices get ``wp.zeros``.
+    """
+    device = wp.get_device(device)
+    nbytes = max(1, count * wp.types.type_size_in_bytes(dtype))
+    if not device.is_cpu or nbytes < 2 * _HUGE:
+        return wp.zeros(count, dtype=dtype, device=device)
+    block = mmap.mmap(-1, nbytes)
+    ptr = ctypes.addressof(ctypes.c_char.from_buffer(block))
+    arr = wp.array(ptr=ptr, dtype=dtype, shape=(count,), device=device)
+    arr._anonymous_mapping = block  # the array keeps its memory alive
+    if huge:
+        advise_huge_pages(arr)
     return arr

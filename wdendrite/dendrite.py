@@ -9,7 +9,7 @@ from typing import Iterator
 import numpy as np
 import warp as wp
 
-from . import _checks
+from . import _checks, _memory
 from .kernels import dendrite as _kd
 from .lattice import coords_of_padded, padded_index_of
 from .sssp import CostField, load_state
@@ -239,11 +239,12 @@ def trace(
     old = np.zeros(0, np.int64) if extend is None else extend._padded
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
-        is_root = wp.zeros(size, dtype=wp.int32)
+        # walks touch few nodes: zero pages that cost nothing until touched
+        is_root = _memory.zeros(size, wp.int32, device, huge=False)
         roots = lattice.padded_indices(costfield.generators)
         wp.launch(_kd.mark_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), 1],
                   outputs=[is_root])
-        visited = wp.zeros(size, dtype=wp.int32)
+        visited = _memory.zeros(size, wp.int32, device, huge=False)
         if len(old):
             wp.launch(_kd.mark_kernel, dim=len(old), inputs=[wp.array(old.astype(np.int32), dtype=wp.int32), 1],
                       outputs=[visited])

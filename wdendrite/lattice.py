@@ -145,6 +145,9 @@ class LatticeArrays:
     """Stored weights per record: K, or 0 when weights are recomputed in kernels."""
     mask: wp.array
     """uint8 usable-node flags of the padded lattice, shape (P,) (0 on the border)."""
+    usable: object
+    """For sparse lattices (fewer than a quarter of the nodes usable): int32 padded
+    indices of the usable nodes, so that passes over the lattice visit those only; else None."""
     hashed: object
     """:class:`~wdendrite.kernels.sssp.HashedWeights`: ``use == 1`` when weights are
     recomputed in kernels."""
@@ -242,6 +245,7 @@ class Lattice:
         self._device_arrays: dict[str, LatticeArrays] = {}
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
         self._num_usable: int | None = None
+        self._stored = bool(store_weights)
         source = None
         if not store_weights:
             if self.distribution is None:
@@ -252,39 +256,42 @@ class Lattice:
             self.distribution.kernel_params(self.shape, "cpu")  # validates the distribution for this shape
         elif weights is None:
             source = np.broadcast_to(self.lengths.reshape((-1,) + (1,) * self.ndim), wshape)
-        elif hasattr(weights, "sample"):
-            _checks.fits_in_memory(4 * int(np.prod(wshape)), "cpu", f"weights of shape {wshape}")
-            source = weights.sample(self.shape, self.lengths, offsets=self.offsets)
+        elif self.distribution is not None:
+            self.distribution.kernel_params(self.shape, "cpu")  # validates it before any work
         else:
             source = _checks.float_array("weights", weights, wshape, check_values=False)
             _check_weight_values(source, self.offsets, self.mask)
-        nw = 0 if source is None else len(self.offsets)
-        words = int(np.prod([n + 2 for n in self.shape])) * record_stride(nw)
+        words = int(np.prod([n + 2 for n in self.shape])) * record_stride(len(self.offsets) if self._stored else 0)
         if words >= 2**31:
             raise ValueError(
                 f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
                 "beyond the kernels' int32 indices (2**31)"
-                + ("; store_weights=False needs fewer" if source is not None else "")
+                + ("; store_weights=False needs fewer" if self._stored else "")
             )
-        if source is not None:
-            # the host records are the lattice's own copy of the weights (see ``weights``)
+        if self._stored:
             _checks.fits_in_memory(4 * words, "cpu", f"node records of a lattice of shape {self.shape}")
-            arrays = self._make_arrays(wp.get_device("cpu"), np.asarray(source, dtype=np.float32))
+            # the host records are the lattice's own copy of the weights (see ``weights``)
+            arrays = self._make_arrays(wp.get_device("cpu"), None if source is None else np.asarray(source, np.float32))
             self._device_arrays["cpu"] = arrays
-            self._weights = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, nw)
-            self._weights.flags.writeable = False
+            if source is not None or self.mask is None:
+                # complete records: ``weights`` is a view of them (a masked distribution
+                # fills usable nodes only, so its ``weights`` are computed on access)
+                self._weights = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, len(self.offsets))
+                self._weights.flags.writeable = False
 
     @property
     def stores_weights(self) -> bool:
         """False when kernels recompute every weight from the distribution's hash."""
-        return self._weights is not None
+        return self._stored
 
     @property
     def weights(self) -> np.ndarray:
         """``(K, *shape)`` float32 edge weights, read-only.
 
-        For a lattice made with ``store_weights=False`` the array is computed
-        on each access (the same values the kernels compute).
+        For a lattice made with ``store_weights=False``, and for a masked one
+        whose weights come from a distribution (its records hold the usable
+        nodes' weights only), the array is computed on each access (the same
+        values the kernels use).
         """
         if self._weights is not None:
             return self._weights
@@ -319,13 +326,14 @@ class Lattice:
     def device_arrays(self, device=None) -> LatticeArrays:
         """The lattice's padded arrays on ``device`` (built once, then reused).
 
-        With stored weights, the host records made with the lattice are copied
-        (with cleared search state); otherwise records without weights are built.
+        Weights from an array: the host records made with the lattice are
+        copied (with cleared search state). Weights from a distribution: a
+        kernel fills the records on the device (or, unstored, leaves them out).
         """
         device = wp.get_device(device)
         key = str(device)
         if key not in self._device_arrays:
-            if self.stores_weights:
+            if self.stores_weights and self.distribution is None:
                 self._device_arrays[key] = self._copied_arrays(device)
             else:
                 self._device_arrays[key] = self._make_arrays(device, None)
@@ -344,8 +352,9 @@ class Lattice:
         return self._make_arrays(device, None, aux=aux)
 
     def _make_arrays(self, device, weights: np.ndarray | None, aux: wp.array | None = None) -> LatticeArrays:
-        """Padded arrays on ``device``; records built from ``weights`` ((K, *shape) float32 on the host),
-        taken from ``aux`` (already filled), or built without weights (hashed lattices)."""
+        """Padded arrays on ``device``, with records built from ``weights`` ((K, *shape) float32
+        on the host), taken from ``aux`` (already filled), filled from the distribution
+        (stored weights), or without weights (unstored)."""
         pad3 = (0, 1, 1) if self.ndim == 2 else (1, 1, 1)
         shape3 = (1,) * (3 - self.ndim) + self.shape
         padded = tuple(n + 2 * p for n, p in zip(shape3, pad3))
@@ -354,30 +363,39 @@ class Lattice:
         off3[:, 3 - self.ndim :] = self.offsets
         flat = (off3 * np.array([padded[1] * padded[2], padded[2], 1])).sum(axis=1).astype(np.int32)
         offsets = wp.array(off3, dtype=wp.vec3i, device=device)
+        lengths = wp.array(self.lengths, dtype=float, device=device)
         hashed = _ks.HashedWeights()
         hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
         hashed.offsets = offsets
-        hashed.lengths = wp.array(self.lengths, dtype=float, device=device)
-        stored = weights is not None or aux is not None
-        nw = len(self.offsets) if stored else 0
-        if stored:
-            hashed.use = 0
-            hashed.params = _kw.WeightParams()
-        else:
-            hashed.use = 1
+        hashed.lengths = lengths
+        nw = len(self.offsets) if self.stores_weights else 0
+        hashed.use = 0 if self.stores_weights else 1
+        if self.distribution is not None:
             hashed.params = self.distribution.kernel_params(self.shape, device)
+        else:
+            hashed.params = _kw.WeightParams()
+        mask = np.zeros(padded, np.uint8)
+        mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
+        mask_wp = wp.array(mask.ravel(), dtype=wp.uint8, device=device)
+        sparse = self.num_usable * 4 < self.num_nodes
+        usable = wp.array(np.flatnonzero(mask.ravel()).astype(np.int32), dtype=wp.int32, device=device) if sparse else None
         stride = record_stride(nw)
         if aux is None:
             # node-major records: a node's state, weights and stamp share its cache line;
-            # state 0 blocks border and masked nodes until a search marks the usable ones
-            aux = _memory.empty(int(np.prod(padded)) * stride, wp.int32, device)
-            aux.zero_()
+            # state 0 blocks border and masked nodes until a search marks the usable ones.
+            # Zero pages cost nothing until touched, so a sparse lattice (few usable nodes
+            # in its box, as refinement makes) pays for the records it uses only.
+            aux = _memory.zeros(int(np.prod(padded)) * stride, wp.int32, device, huge=not sparse)
             if weights is not None:  # host records (other devices copy them)
                 view = _record_weights(aux, padded, stride, nw)
                 view[...] = weights
                 fill_outside(view, self.offsets)
-        mask = np.zeros(padded, np.uint8)
-        mask[inner] = 1 if self.mask is None else self.mask.reshape(shape3)
+            elif self.stores_weights:
+                listed = usable if sparse else wp.zeros(1, dtype=wp.int32, device=device)
+                wp.launch(_ks.fill_records_kernel, dim=usable.shape[0] if sparse else mask.size,
+                          inputs=[listed, int(sparse), mask_wp, hashed.params, hashed.shape3, hashed.pad3, offsets,
+                                  lengths, stride],
+                          outputs=[aux], device=device)
         return LatticeArrays(
             shape3=wp.vec3i(*shape3),
             pad3=wp.vec3i(*pad3),
@@ -388,7 +406,8 @@ class Lattice:
             state=wp.array(ptr=aux.ptr, dtype=wp.uint64, shape=(aux.shape[0] // 2,), device=device),
             stride=stride,
             nw=nw,
-            mask=wp.array(mask.ravel(), dtype=wp.uint8, device=device),
+            mask=mask_wp,
+            usable=usable,
             hashed=hashed,
             stamps=_Stamps(),
         )
@@ -401,7 +420,8 @@ class Lattice:
         """Every usable undirected edge as flat node indices ``(u, v)`` int64 and weights float32.
 
         An edge is usable when both ends are inside the lattice and unmasked.
-        Unstored weights are evaluated for these edges only.
+        Weights the host records do not hold (unstored, or a masked
+        distribution) are evaluated for these edges only.
         """
         us, vs, ks = [], [], []
         index = np.arange(self.num_nodes, dtype=np.int64).reshape(self.shape)
@@ -413,8 +433,8 @@ class Lattice:
             vs.append(index[dst][ok])
             ks.append(np.full(len(us[-1]), k, np.int64))
         u, v, k = np.concatenate(us), np.concatenate(vs), np.concatenate(ks)
-        if self.stores_weights:
-            w = self.weights[(k, *np.unravel_index(u, self.shape))]
+        if self._weights is not None:
+            w = self._weights[(k, *np.unravel_index(u, self.shape))]
         else:
             w = self.distribution.evaluate(self.shape, self.lengths, u, k, offsets=self.offsets)
         return u, v, w

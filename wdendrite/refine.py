@@ -8,7 +8,8 @@ backtracking kernels run on it. Fine edge weights are
 ``W_sub = e * W_int + (1 - e) * W_ran`` (see :class:`Refined`): ``W_int``
 interpolates the coarse weights linearly, ``W_ran`` is uniform between 1 and
 ``W_int``; ``0.5 < e < 1`` keeps the coarse path's shape while adding detail.
-The kernels compute fine weights on the fly, so only the mask is stored.
+A kernel computes the fine weights of the usable nodes only, straight into
+the fine lattice's records; the rest of the bounding box is never touched.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ class Refined(Distribution):
     ``W_int`` interpolates the coarse weights per unit length linearly at each
     fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``);
     ``W_ran`` is uniform between 1 and ``W_int``, from the hash of ``seed``.
-    Computed in the kernels, so a refined lattice stores no weight array.
+    Computed in the kernels, so a refined lattice holds no ``(K, *shape)`` weight array.
     """
 
     coarse: np.ndarray
@@ -59,9 +60,11 @@ class Refined(Distribution):
     def kernel_params(self, shape, device=None):
         params = super().kernel_params(shape, device)
         ndim = self.coarse.ndim - 1
-        params.maps = wp.array(np.ascontiguousarray(self.coarse, np.float32).ravel(), dtype=float,
+        # node-major, so that one fine node's directions read neighbouring words
+        params.maps = wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(), dtype=float,
                                device=wp.get_device(device))
         params.grid = wp.vec3i(*((1,) * (3 - ndim) + self.coarse.shape[1:]))
+        params.grid_k = int(self.coarse.shape[0])
         params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in self.start)))
         return params
 
@@ -107,9 +110,9 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
         fine_mask = np.repeat(fine_mask, n, axis=axis)
     start = lo * n
     per_length = (lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
-    # the kernels compute each fine weight when they need it: no (K, *fine_shape) array
+    # a kernel writes the usable nodes' fine weights into the records: no (K, *fine_shape) array
     dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)))
-    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=False)
+    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask)
 
     centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
     roots = np.unique(centre(dendrite.roots), axis=0)

@@ -132,22 +132,19 @@ def _default_delta(lattice: Lattice) -> float:
     # cheap end of the weights: 16 times their 10th percentile was the best
     # width, within 10 %, on the CPU for both uniform (1 + 10 R) and heavily
     # skewed power weights (R^3); the mean misleads for the latter by 20x.
-    if lattice.stores_weights:
-        flat = lattice.weights.reshape(-1)
+    if lattice._weights is not None:
+        # whole rows (along x) spread over the weights held in the host records, read in place: cheap, and they
+        # still see weights that vary across the lattice (tropisms, maps)
+        w = lattice.weights
+        rows = int(np.prod(w.shape[:-1]))
+        picks = np.linspace(0, rows - 1, min(rows, max(32, 65536 // w.shape[-1]))).astype(np.int64)
+        sample = w[np.unravel_index(picks, w.shape[:-1])][:, :2048].reshape(-1)
     else:
         # weights of edges spread over the real lattice (fields such as maps need its shape)
         k = len(lattice.offsets)
-        nodes = np.linspace(0, lattice.num_nodes - 1, min(lattice.num_nodes, 8192)).astype(np.int64)
-        flat = lattice.distribution.evaluate(lattice.shape, lattice.lengths, np.repeat(nodes, k),
-                                             np.tile(np.arange(k), len(nodes)), offsets=lattice.offsets)
-    # 32 contiguous runs spread over the array: cheap to read, and they still see
-    # weights that vary across the lattice (tropisms, maps)
-    run = 2048
-    if flat.size > 32 * run:
-        starts = np.linspace(0, flat.size - run, 32).astype(np.int64)
-        sample = np.concatenate([flat[s:s + run] for s in starts])
-    else:
-        sample = flat
+        nodes = np.linspace(0, lattice.num_nodes - 1, min(lattice.num_nodes, 2048)).astype(np.int64)
+        sample = lattice.distribution.evaluate(lattice.shape, lattice.lengths, np.repeat(nodes, k),
+                                               np.tile(np.arange(k), len(nodes)), offsets=lattice.offsets)
     sample = sample[sample > 0]
     if not sample.size:
         return 1.0
@@ -169,7 +166,7 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
         not lattice.stores_weights and old.distribution != lattice.distribution
     ):
         raise ValueError("'warm_start' was computed with other unstored weights; a warm start needs the same weights")
-    if lattice.stores_weights and old.weights is not lattice.weights:
+    if lattice.stores_weights and old is not lattice and old.weights is not lattice.weights:
         raised = int(np.count_nonzero(lattice.weights > old.weights))
         if raised:
             raise ValueError(
@@ -266,8 +263,12 @@ def shortest_paths(
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
             arrays.stamps.owner = None
-            wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, arrays.stride, chunk],
-                      outputs=[arrays.state])
+            if arrays.usable is not None:
+                wp.launch(_k.init_listed_kernel, dim=arrays.usable.shape[0], inputs=[arrays.usable, arrays.stride],
+                          outputs=[arrays.state])
+            else:
+                wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, arrays.stride, chunk],
+                          outputs=[arrays.state])
             new_rows = np.arange(len(gens))
         else:
             load_state(warm_start, arrays)
@@ -297,12 +298,20 @@ def shortest_paths(
         rounds, relaxed = _run(arrays, fr, kernel_limit, delta_f, fifo, far_id)
         dist = _memory.empty(lattice.shape, float, device)
         label = _memory.empty(lattice.shape, wp.int32, device)
-        wp.launch(
-            _k.unpack_kernel,
-            dim=_threads(n, chunk),
-            inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, limit_f, chunk],
-            outputs=[dist.flatten(), label.flatten()],
-        )
+        if arrays.usable is not None:
+            # sparse: fill the outputs, then visit the usable nodes only
+            dist.fill_(math.inf)
+            label.fill_(-1)
+            wp.launch(_k.unpack_listed_kernel, dim=arrays.usable.shape[0],
+                      inputs=[arrays.usable, arrays.state, arrays.shape3, arrays.pad3, arrays.stride, limit_f],
+                      outputs=[dist.flatten(), label.flatten()])
+        else:
+            wp.launch(
+                _k.unpack_kernel,
+                dim=_threads(n, chunk),
+                inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, limit_f, chunk],
+                outputs=[dist.flatten(), label.flatten()],
+            )
         result = CostField(lattice, gens, limit_f, dist, label, rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
     return result
