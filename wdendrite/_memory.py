@@ -75,7 +75,7 @@ def zeros(count: int, dtype, device, *, huge: bool = True) -> wp.array:
     nbytes = max(1, count * wp.types.type_size_in_bytes(dtype))
     if not device.is_cpu or nbytes < 2 * _HUGE:
         return wp.zeros(count, dtype=dtype, device=device)
-    block = mmap.mmap(-1, nbytes)
+    block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)  # private: eligible for huge pages
     ptr = ctypes.addressof(ctypes.c_char.from_buffer(block))
     arr = wp.array(ptr=ptr, dtype=dtype, shape=(count,), device=device)
     arr._anonymous_mapping = block  # the array keeps its memory alive
