@@ -144,3 +144,23 @@ def test_records_copied_for_another_device_search_the_same(shape, conn):
     lat._device_arrays["cpu"] = copy
     again = wd.shortest_paths(lat, gens)
     assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()
+
+
+@pytest.mark.parametrize("kind", ["array", "distribution", "unstored", "masked"])
+def test_lattices_pickle(kind):
+    import pickle
+
+    mask = None
+    if kind == "array":
+        w = np.random.default_rng(5).uniform(1, 4, size=(4, 12, 13)).astype(np.float32)
+    else:
+        w = wd.weights.Uniform(r=4, seed=5)
+    if kind == "masked":
+        mask = np.random.default_rng(1).random((12, 13)) < 0.15
+        mask[6, 6] = True
+    lat = wd.Lattice((12, 13), 8, weights=w, mask=mask, store_weights=kind != "unstored")
+    wd.shortest_paths(lat, [[6, 6]])  # the original holds device arrays by now
+    copy = pickle.loads(pickle.dumps(lat))
+    assert copy.stores_weights == lat.stores_weights and repr(copy) == repr(lat)
+    a, b = wd.shortest_paths(lat, [[6, 6]]), wd.shortest_paths(copy, [[6, 6]])
+    assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()

@@ -190,6 +190,11 @@ class _Stamps:
         return self.last + needed < self.LIMIT
 
 
+def _rebuild(shape, connectivity, weights, mask, store_weights) -> "Lattice":
+    """Unpickle a :class:`Lattice`."""
+    return Lattice(shape, connectivity, weights=weights, mask=mask, store_weights=store_weights)
+
+
 class Lattice:
     """A 2D or 3D lattice of nodes joined by weighted, undirected edges.
 
@@ -317,6 +322,11 @@ class Lattice:
     def with_weights(self, weights) -> Lattice:
         """A lattice of the same shape, connectivity and mask with other ``weights``."""
         return Lattice(self.shape, self.connectivity, weights=weights, mask=self.mask)
+
+    def __reduce__(self):
+        # device arrays do not pickle: a copy is rebuilt from the definition
+        weights = self.distribution if self.distribution is not None else np.array(self.weights)
+        return _rebuild, (self.shape, self.connectivity, weights, self.mask, self.stores_weights)
 
     def nbytes_per_node(self) -> int:
         """Bytes of device memory a shortest-path search needs per lattice node (estimate)."""
