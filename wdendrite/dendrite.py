@@ -173,12 +173,15 @@ class Dendrite:
             yield self.path(e)
 
 
-def _rows_of(all_padded: np.ndarray, wanted: np.ndarray) -> np.ndarray:
-    """Rows of ``all_padded`` holding each value of ``wanted`` (-1 stays -1)."""
+def _rows_of(all_padded: np.ndarray, *wanted: np.ndarray) -> list[np.ndarray]:
+    """For each array in ``wanted``, the rows of ``all_padded`` holding its values (-1 stays -1)."""
     order = np.argsort(all_padded, kind="stable")
-    pos = np.searchsorted(all_padded[order], wanted)
-    rows = order[np.minimum(pos, len(order) - 1)]
-    return np.where(wanted >= 0, rows, -1)
+    ordered = all_padded[order]
+    out = []
+    for values in wanted:
+        rows = order[np.minimum(np.searchsorted(ordered, values), len(order) - 1)]
+        out.append(np.where(values >= 0, rows, -1))
+    return out
 
 
 def trace(
@@ -272,8 +275,8 @@ def trace(
         )
     all_padded = np.concatenate([old, fresh])
     coords = coords_of_padded(fresh, lattice.shape)
-    new_parent = _rows_of(all_padded, fresh_pred)
-    end_rows = np.unique(_rows_of(all_padded, starts.astype(np.int64)))
+    new_parent, end_rows = _rows_of(all_padded, fresh_pred, starts.astype(np.int64))
+    end_rows = np.unique(end_rows)
     def _cat(name, new, dtype):
         return np.concatenate([getattr(extend, name), new]).astype(dtype) if extend is not None else new.astype(dtype)
     return Dendrite(
