@@ -344,25 +344,6 @@ def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> b
     return dx * dx + dy * dy >= sb * sb
 
 
-@wp.func
-def cell_nearest(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, best: float, sb: float) -> wp.vec3:
-    """Closest piece of cell ``o``'s polyline to ``q`` if nearer than ``best`` (squared; ``sb`` its reach).
-
-    Returns (squared distance, piece, fraction along it); piece -1 when none beats ``best``.
-    """
-    if cell_far(q, verts, o, sb):
-        return wp.vec3(best, -1.0, 0.0)
-    bj = int(-1)
-    bt = float(0.0)
-    for j in range(PIECES):
-        r = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
-        if r[0] < best:
-            best = r[0]
-            bj = j
-            bt = r[1]
-    return wp.vec3(best, float(bj), bt)
-
-
 @wp.struct
 class Hit:
     """The best piece found so far by a search (``o`` -1 while none)."""
@@ -411,14 +392,18 @@ def scan(
             o = block_index(blocks, bases, bi, c + off)
         if o >= 0:
             if keyp[o][3] == STATE_SEGMENT:
-                rr = cell_nearest(q, verts, o, hit.best, hit.sb)
-                if rr[1] >= 0.0:
-                    hit.best = rr[0]
-                    hit.sb = reach_of(rr[0])
-                    hit.o = o
-                    hit.j = int(rr[1])
-                    hit.t = rr[2]
-                    hit.l = l
+                # the pieces update the hit in place: returning them as one vector assembled lane
+                # by lane and read back whole stalled the CPU's store forwarding on every cell
+                if not cell_far(q, verts, o, hit.sb):
+                    for j in range(PIECES):
+                        pr = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
+                        if pr[0] < hit.best:
+                            hit.best = pr[0]
+                            hit.sb = reach_of(pr[0])
+                            hit.o = o
+                            hit.j = j
+                            hit.t = pr[1]
+                            hit.l = l
     return hit
 
 
@@ -576,8 +561,10 @@ def owner_near(
             return -1.0
         state = keyp[o][3]
         if state == STATE_SEGMENT:
-            r = cell_nearest(u, verts, o, 1.0e30, 1.0e15)
-            return r[0]
+            d2 = float(1.0e30)
+            for j in range(PIECES):
+                d2 = wp.min(d2, piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0])
+            return d2
         if state != STATE_INHERITED:
             return -1.0
         l -= 1
