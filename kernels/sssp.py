@@ -29,8 +29,10 @@ it waits there). One stamp serves both: a node's cost only falls and the
 threshold only rises, so once a node has been queued near it never needs the
 far pile again in that search, and a far node that drops below the threshold
 is queued near at once (its far entry is dropped when the pile is next
-split). Generations and search ids only grow, so stamps never need clearing
-between searches.
+split). With many threads, a far push racing a near push of the same node
+must not undo it: :func:`push_far` changes the stamp by compare-and-swap and
+leaves a node stamped with the current generation alone. Generations and
+search ids only grow, so stamps never need clearing between searches.
 """
 
 import warp as wp
@@ -111,6 +113,7 @@ def push_far(
     node: int,
     cost: float,
     far_id: int,
+    generation: int,
     aux: wp.array(dtype=wp.int32),
     stride: int,
     nw: int,
@@ -119,9 +122,24 @@ def push_far(
     far_slot: int,
     far_min: wp.array(dtype=float),
 ):
-    """Add ``node`` to the far pile once, and keep the pile's least cost."""
-    if wp.atomic_exch(aux, node * stride + nw + 2, -far_id) != -far_id:
-        far_out[wp.atomic_add(counts, far_slot, 1)] = node
+    """Add ``node`` to the far pile once, and keep the pile's least cost.
+
+    The stamp only changes to ``-far_id`` from a value other than
+    ``generation``: a node another thread has meanwhile queued in the near
+    list being filled now costs less than the threshold, and a far entry
+    would only be dropped later (and could let a later improvement queue it
+    near a second time). A compare-and-swap loop makes the test and the
+    change one step. Callers with no near list pass ``generation = -far_id``.
+    """
+    word = node * stride + nw + 2
+    stamp = aux[word]
+    while stamp != -far_id and stamp != generation:
+        seen = wp.atomic_cas(aux, word, stamp, -far_id)
+        if seen == stamp:
+            far_out[wp.atomic_add(counts, far_slot, 1)] = node
+            stamp = -far_id
+        else:
+            stamp = seen
     wp.atomic_min(far_min, 0, cost)
 
 
@@ -206,7 +224,7 @@ def seed_kernel(
     node = nodes_in[i]
     word = pack_cost(0.0, labels_in[i])
     if word < state_min(state, stride, node, word):
-        push_far(node, 0.0, far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+        push_far(node, 0.0, far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
 @wp.kernel
@@ -241,7 +259,8 @@ def mark_lowered_kernel(
                     n = other
                 word = state_at(state, stride, n)
                 if word != UNREACHED:
-                    push_far(n, packed_cost(word), far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+                    push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot,
+                             far_min)
 
 
 @wp.func
@@ -276,7 +295,8 @@ def relax_edge(
                 if new_cost < threshold:
                     push_near(other, generation, aux, stride, nw, near_out, counts, near_slot)
                 else:
-                    push_far(other, new_cost, far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+                    push_far(other, new_cost, far_id, generation, aux, stride, nw, far_out, counts, far_slot,
+                             far_min)
 
 
 @wp.kernel

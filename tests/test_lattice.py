@@ -164,3 +164,14 @@ def test_lattices_pickle(kind):
     assert copy.stores_weights == lat.stores_weights and repr(copy) == repr(lat)
     a, b = wd.shortest_paths(lat, [[6, 6]]), wd.shortest_paths(copy, [[6, 6]])
     assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 0.0, -1.0])
+def test_weights_along_an_axis_of_size_one_are_checked(bad):
+    # such entries have no edge inside to stand in for them, and refinement interpolates them
+    w = np.ones((4, 1, 8), np.float32)
+    w[1] = bad  # direction (1, 0) leaves the single row everywhere
+    with pytest.raises(ValueError, match="direction 1"):
+        wd.Lattice((1, 8), 8, weights=w)
+    w[1] = 2.0
+    np.testing.assert_array_equal(wd.Lattice((1, 8), 8, weights=w).weights[1], 2.0)

@@ -80,3 +80,15 @@ def test_refined_weights_follow_the_thesis_formula():
         w_ran = 1 + (np.maximum(w_int, 1) - 1) * u[k]
         want = (e * w_int + (1 - e) * w_ran) * lat.lengths[k] / n
         np.testing.assert_allclose(got[k], want, rtol=2e-5)
+
+
+def test_boxes_too_large_for_stored_records_recompute_weights_in_the_kernels():
+    # a corner-to-corner path refined 13 times: a 520^3 box, 26-connected, whose stored
+    # records would pass int32 indices; its weights are then computed when relaxed
+    lat = wd.Lattice((40, 40, 40), 26, weights=wd.weights.Uniform(r=10, seed=1))
+    den = wd.trace(wd.shortest_paths(lat, [[0, 0, 0]]), [[39, 39, 39]])
+    fine, fine_lat = wd.refine(den, lat, n=13, e=0.75)
+    assert fine_lat.shape == (520, 520, 520) and not fine_lat.stores_weights
+    assert len(fine.endpoints) == 1 and len(fine.roots) == 1
+    steps = np.abs(fine.nodes[fine.parent[fine.parent >= 0]] - fine.nodes[fine.parent >= 0]).max(axis=1)
+    assert steps.max() == 1

@@ -83,28 +83,39 @@ def edge_slices(offset, shape: tuple) -> tuple[tuple, tuple]:
 
 
 def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None:
-    """Require finite weights, positive on every usable edge; entries whose neighbour lies outside are ignored."""
+    """Require finite weights, positive on every usable edge.
+
+    Entries whose neighbour lies outside the lattice are ignored (the records
+    take the nearest edge inside instead), except along an axis of size 1,
+    where there is no edge inside to take: those entries are kept (refinement
+    interpolates them), so they must be finite and positive on usable nodes.
+    """
     shape = weights.shape[1:]
-    inside = [weights[k][edge_slices(off, shape)[0]] for k, off in enumerate(offsets)]
+
+    def checked(k, off):
+        if any(o != 0 and n < 2 for o, n in zip(off, shape)):
+            return tuple(slice(None) for _ in shape), None
+        return edge_slices(off, shape)
+
+    slices = [checked(k, off) for k, off in enumerate(offsets)]
+    inside = [weights[k][src] for k, (src, _) in enumerate(slices)]
     # the common case: two reductions per direction over views
     if all(v.size == 0 or (0 < float(v.min()) and np.isfinite(float(v.max()))) for v in inside):
         return
-    for k, (v, off) in enumerate(zip(inside, offsets)):
-        src, dst = edge_slices(off, shape)
+    for k, (v, (src, _)) in enumerate(zip(inside, slices)):
         bad = ~np.isfinite(v)
         if bad.any():
-            where = (k, *(int(i) + s.start for i, s in zip(np.argwhere(bad)[0], src)))
+            where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(bad)[0], src)))
             raise ValueError(
                 f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries in direction {k} (first at {where})"
             )
-    for k, (v, off) in enumerate(zip(inside, offsets)):
-        src, dst = edge_slices(off, shape)
+    for k, (v, (src, dst)) in enumerate(zip(inside, slices)):
         low = v <= 0
         if mask is not None:
             # an edge touching a masked-out node is never used, whatever it costs
-            low &= mask[src] & mask[dst]
+            low &= mask[src] & (mask[dst] if dst is not None else True)
         if low.any():
-            where = (k, *(int(i) + s.start for i, s in zip(np.argwhere(low)[0], src)))
+            where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(low)[0], src)))
             raise ValueError(
                 f"'weights' must be positive on usable edges, but has value {weights[where]} at index {where} "
                 f"({int(low.sum())} such entries in direction {k})"
@@ -160,6 +171,11 @@ def _record_weights(aux: wp.array, padded: tuple, stride: int, nw: int) -> np.nd
     records = aux.numpy().view(np.float32).reshape(tuple(padded) + (stride,))
     inner = records[1:-1, 1:-1, 1:-1] if padded[0] > 1 else records[0, 1:-1, 1:-1]
     return np.moveaxis(inner[..., _ks.WEIGHT0 : _ks.WEIGHT0 + nw], -1, 0)
+
+
+def record_words(shape: tuple, nw: int) -> int:
+    """int32 words of the padded node records of a lattice of ``shape`` with ``nw`` stored weights."""
+    return int(np.prod([n + 2 for n in shape])) * record_stride(nw)
 
 
 def record_stride(nw: int) -> int:
@@ -266,7 +282,7 @@ class Lattice:
         else:
             source = _checks.float_array("weights", weights, wshape, check_values=False)
             _check_weight_values(source, self.offsets, self.mask)
-        words = int(np.prod([n + 2 for n in self.shape])) * record_stride(len(self.offsets) if self._stored else 0)
+        words = record_words(self.shape, len(self.offsets) if self._stored else 0)
         if words >= 2**31:
             raise ValueError(
                 f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
@@ -274,7 +290,8 @@ class Lattice:
                 + ("; store_weights=False needs fewer" if self._stored else "")
             )
         if self._stored:
-            _checks.fits_in_memory(4 * words, "cpu", f"node records of a lattice of shape {self.shape}")
+            _checks.fits_in_memory(self._records_bytes(wp.get_device("cpu")), "cpu",
+                                   f"node records of a lattice of shape {self.shape}")
             # the host records are the lattice's own copy of the weights (see ``weights``)
             arrays = self._make_arrays(wp.get_device("cpu"), None if source is None else np.asarray(source, np.float32))
             self._device_arrays["cpu"] = arrays
@@ -301,7 +318,11 @@ class Lattice:
         if self._weights is not None:
             return self._weights
         sampled = np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
-        return fill_outside(sampled, self.offsets)
+        sampled = fill_outside(sampled, self.offsets)
+        sampled.flags.writeable = False
+        if self.stores_weights:
+            self._weights = sampled  # a masked distribution: computed once asked for, then kept
+        return sampled
 
     @property
     def num_nodes(self) -> int:
@@ -329,21 +350,38 @@ class Lattice:
         return _rebuild, (self.shape, self.connectivity, weights, self.mask, self.stores_weights)
 
     def nbytes_per_node(self) -> int:
-        """Bytes of device memory a shortest-path search needs per lattice node (estimate)."""
-        # records, mask, dist and label, four frontier lists
+        """Bytes per lattice node of a dense lattice's records, mask, outputs and frontier lists (estimate)."""
         return 4 * record_stride(len(self.offsets) if self.stores_weights else 0) + 1 + 8 + 16
+
+    def _records_bytes(self, device) -> int:
+        """Bytes the node records occupy on ``device`` (estimate). On the CPU a sparse
+        lattice's records are zero pages touched near its usable nodes only: counted
+        as 16 times the usable share of the box (the refinement boxes measured touch
+        4 to 8 times that share), at most the whole box."""
+        dense = 4 * record_words(self.shape, len(self.offsets) if self.stores_weights else 0)
+        if not wp.get_device(device).is_cpu:
+            return dense
+        return int(dense * min(1.0, 16.0 * self.num_usable / self.num_nodes))
+
+    def search_bytes(self, device) -> int:
+        """Bytes a shortest-path search allocates on ``device`` beyond the arrays it already has
+        (outputs, frontier lists, and the records and mask the first time on a device)."""
+        need = 8 * self.num_nodes + 16 * self.num_usable
+        if str(wp.get_device(device)) not in self._device_arrays:
+            need += self._records_bytes(device) + int(np.prod([n + 2 for n in self.shape]))
+        return need
 
     def device_arrays(self, device=None) -> LatticeArrays:
         """The lattice's padded arrays on ``device`` (built once, then reused).
 
-        Weights from an array: the host records made with the lattice are
-        copied (with cleared search state). Weights from a distribution: a
-        kernel fills the records on the device (or, unstored, leaves them out).
+        Stored weights: the host records made with the lattice are copied
+        (with cleared search state), so every device uses the same float32
+        values. Unstored: records without weights are built.
         """
         device = wp.get_device(device)
         key = str(device)
         if key not in self._device_arrays:
-            if self.stores_weights and self.distribution is None:
+            if self.stores_weights:
                 self._device_arrays[key] = self._copied_arrays(device)
             else:
                 self._device_arrays[key] = self._make_arrays(device, None)

@@ -9,7 +9,8 @@ backtracking kernels run on it. Fine edge weights are
 interpolates the coarse weights linearly, ``W_ran`` is uniform between 1 and
 ``W_int``; ``0.5 < e < 1`` keeps the coarse path's shape while adding detail.
 A kernel computes the fine weights of the usable nodes only, straight into
-the fine lattice's records; the rest of the bounding box is never touched.
+the fine lattice's records; the rest of the bounding box is never touched
+(boxes too large for stored records recompute weights in the kernels).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import warp as wp
 from . import _checks
 from .dendrite import Dendrite, trace
 from .kernels import weights as _kw
-from .lattice import Lattice
+from .lattice import Lattice, record_words
 from .sssp import shortest_paths
 from .weights import Distribution
 
@@ -110,9 +111,12 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
         fine_mask = np.repeat(fine_mask, n, axis=axis)
     start = lo * n
     per_length = (lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
-    # a kernel writes the usable nodes' fine weights into the records: no (K, *fine_shape) array
+    # a kernel writes the usable nodes' fine weights into the records: no (K, *fine_shape) array.
+    # Boxes whose stored records would pass the kernels' int32 indices recompute the weights
+    # in the kernels instead (smaller records, each weight computed when relaxed)
     dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)))
-    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask)
+    store = record_words(fine_shape, len(lattice.offsets)) < 2**31
+    fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=store)
 
     centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
     roots = np.unique(centre(dendrite.roots), axis=0)

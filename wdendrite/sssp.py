@@ -248,7 +248,7 @@ def shortest_paths(
             device = warm_start.device
     device = wp.get_device(device)
     n = lattice.num_nodes
-    need = n * lattice.nbytes_per_node()
+    need = lattice.search_bytes(device)
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
     arrays = lattice.device_arrays(device)
@@ -321,9 +321,10 @@ def load_state(costfield: CostField, arrays) -> None:
     """Make ``arrays``' records hold ``costfield``'s packed states (the caller holds their lock).
 
     Nothing to do when the last search on these records made ``costfield``;
-    otherwise its ``dist`` and ``label`` are packed back into the records, which
-    gives exactly the words its search left (costs above its limit read as
-    unreached, as a search with that limit leaves them).
+    otherwise its ``dist`` and ``label`` are packed back into the records: the
+    words a cold search with its limit leaves (a warm start that lowered the
+    limit may have left words above it, which no search or walk within the
+    limit can use).
     """
     owner = arrays.stamps.owner
     if owner is not None and owner() is costfield:
