@@ -236,6 +236,23 @@ def test_cached_equals_per_pixel_bit_for_bit(device, output):
         assert np.array_equal(a, b, equal_nan=True), (levels, np.abs(a - b).max())
 
 
+@pytest.mark.parametrize("levels", [1, 2, 3, 4, 5, 6])
+def test_cached_equals_per_pixel_in_adversarial_setups(device, levels):
+    # the extremes where the searches' exact skipping of cells (bounding boxes against the best
+    # distance so far) is most delicate: key points on a regular grid (eps 0.5: equal distances
+    # everywhere, so ties decide), key points anywhere in their cells (eps 0), the largest
+    # sideways displacement (delta 1), both connection rules; windows must match the image too
+    cases = ((0.5, 0.0, "terrain"), (0.0, 1.0, "terrain"), (0.5, 0.3, "lichtenberg"), (0.0, 1.0, "lichtenberg"))
+    for eps, delta, rule in cases:
+        p = DendryParams(levels=levels, eps=eps, delta=delta, beta=0.5, noise=0.05, rule=rule, seed=11)
+        for output in ("distance", "elevation", "level"):
+            kw = dict(domain=((0.3, 0.2), (1.9, 1.8)), params=p, control=CTL, output=output, device=device)
+            a = dendry((18, 18), **kw)
+            b = dendry((18, 18), mode="pixel", **kw)
+            assert np.array_equal(a, b, equal_nan=True), (eps, delta, rule, output)
+            assert np.array_equal(dendry((18, 18), window=(5, 9, 7, 6), mode="pixel", **kw), a[5:12, 9:15])
+
+
 def test_cached_equals_per_pixel_where_cells_have_no_segment(device):
     # a bounded control: cells outside the bowl own no segment, so some pixels cannot bound
     # their primitives' answers and query them in full, next to pixels that use the shortlist
