@@ -76,6 +76,7 @@ class Setup:
     seed: wp.uint32
     eps: float
     resolution: float
+    inv_resolution: float  # 1 / resolution: kernels multiply (a division costs several multiplications)
     delta: vec6  # sideways displacement per level, times the segment length
     pieces: vec6i  # polyline pieces per level (1..4)
     slope: vec6  # minimum slope per level (elevation per domain unit)
@@ -96,6 +97,12 @@ class Setup:
 def level_factor(level: int) -> float:
     """Cells per grid unit at ``level`` (an exact power of two)."""
     return float(1 << (level - 1))
+
+
+@wp.func
+def cell_size(level: int) -> float:
+    """Width of a cell of ``level`` in grid units, ``1 / level_factor`` without a division (exact)."""
+    return float(1 << (21 - level)) * (1.0 / 1048576.0)
 
 
 @wp.func
@@ -130,7 +137,7 @@ def cell_rand(seed: wp.uint32, level: int, c: wp.vec2i, stream: int) -> float:
 @wp.func
 def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
     """The jittered key point of cell ``c``: uniform in the cell shrunk by ``eps`` on each side."""
-    h = 1.0 / level_factor(level)
+    h = cell_size(level)
     span = 1.0 - 2.0 * s.eps
     key = cell_key(s.seed, level, c)
     return wp.vec2(
@@ -142,7 +149,7 @@ def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
 @wp.func
 def to_control(s: Setup, u: wp.vec2) -> wp.vec2:
     """Grid units -> control-function coordinates."""
-    x = u / s.resolution - s.d_lo
+    x = u * s.inv_resolution - s.d_lo
     return s.c_lo + wp.cw_mul(x, s.scale)
 
 
@@ -172,15 +179,16 @@ def spline_tangents(p0: wp.vec2, p1: wp.vec2, p2: wp.vec2, p3: wp.vec2) -> wp.ve
     derivatives follow from the knot spacings d1, L, d3 (the chord lengths):
     ``m1 = (p1 - p0) / d1 - (p2 - p0) / (d1 + L) + (p2 - p1) / L`` and likewise at p2;
     this is the Barry-Goldman pyramid of the spline written out once per segment.
-    Returns (L * m1, L * m2).
+    Returns (L * m1, L * m2), with the factor L taken into each term's ratio of lengths
+    (four divisions instead of ten).
     """
     d1 = wp.length(p1 - p0) + 1.0e-6
     span = wp.length(p2 - p1) + 1.0e-6
     d3 = wp.length(p3 - p2) + 1.0e-6
-    e12 = (p2 - p1) / span
-    m1 = (p1 - p0) / d1 - (p2 - p0) / (d1 + span) + e12
-    m2 = e12 - (p3 - p1) / (span + d3) + (p3 - p2) / d3
-    return wp.vec4(m1[0] * span, m1[1] * span, m2[0] * span, m2[1] * span)
+    e12 = p2 - p1
+    t1 = (span / d1) * (p1 - p0) - (span / (d1 + span)) * (p2 - p0) + e12
+    t2 = e12 - (span / (span + d3)) * (p3 - p1) + (span / d3) * (p3 - p2)
+    return wp.vec4(t1[0], t1[1], t2[0], t2[1])
 
 
 @wp.func
@@ -216,7 +224,7 @@ def write_polyline(
     length = wp.length(d)
     side = wp.vec2(0.0, 0.0)
     if length > 0.0:
-        side = wp.vec2(-d[1], d[0]) / length
+        side = wp.vec2(-d[1], d[0]) * (1.0 / length)
     tan = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if s.smoothing != 0 and pieces > 1:
         tan = spline_tangents(p0, pa, pb, p3)
@@ -225,8 +233,9 @@ def write_polyline(
     verts_out[vi * NV] = a
     lo = wp.min(pa, pb)
     hi = wp.max(pa, pb)
+    step = 1.0 / float(pieces)
     for j in range(1, pieces):
-        t = float(j) / float(pieces)
+        t = float(j) * step
         pos = pa + t * d
         if s.smoothing != 0:
             pos = hermite(pa, pb, tan, t)
@@ -482,7 +491,7 @@ def fill_levelk(
             tc = wp.min(tp + h / wp.sqrt(den), 1.0)
     x = pa + tc * ab
     zx = m[0, 2] + tc * (m[1, 2] - m[0, 2])
-    zq = zx + s.slope[level - 1] * wp.length(q - x) / s.resolution
+    zq = zx + s.slope[level - 1] * wp.length(q - x) * s.inv_resolution
     if s.need_z != 0:
         zq = wp.max(control_value(ctl, cp), zq)
     keyp[vi] = wp.vec4(q[0], q[1], zq, STATE_SEGMENT)
@@ -516,7 +525,7 @@ def query(
         return wp.vec3(wp.inf, 0.0, 0.0)
     a = verts[hit.o * NV + hit.j]
     b = verts[hit.o * NV + hit.j + 1]
-    return wp.vec3(wp.sqrt(hit.best) / s.resolution, a[2] + hit.t * (b[2] - a[2]), float(hit.l))
+    return wp.vec3(wp.sqrt(hit.best) * s.inv_resolution, a[2] + hit.t * (b[2] - a[2]), float(hit.l))
 
 
 @wp.func
@@ -671,7 +680,7 @@ def query_short(
                     bl = l
     if bl == 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
-    return wp.vec3(wp.sqrt(best) / s.resolution, bz, float(bl))
+    return wp.vec3(wp.sqrt(best) * s.inv_resolution, bz, float(bl))
 
 
 @wp.func

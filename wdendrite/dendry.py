@@ -140,6 +140,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.seed = wp.uint32(p.seed % 2**32)
     s.eps = p.eps
     s.resolution = p.resolution
+    s.inv_resolution = 1.0 / p.resolution
     s.delta = _kd.vec6(*p.deltas())
     s.pieces = _kd.vec6i(*(_PIECES if p.subdivision else (1,) * 6))
     s.slope = _kd.vec6(*p.min_slopes())
