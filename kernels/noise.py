@@ -6,9 +6,12 @@ maximum, and (for images) the sampled array. ``control_value`` evaluates it at
 a point given in its own coordinates.
 
 The noise kinds use our own 2D Perlin gradient noise: a seeded permutation
-table of 256 entries (stored twice, so sums of two entries index it without
+table P of 256 entries (stored twice, so sums of two entries index it without
 wrapping) hashes each lattice corner to one of 8 gradients (the diagonals and
-the axes), and a quintic fade blends the four corner ramps. It is cheaper than
+the axes), and a quintic fade blends the four corner ramps. The tables are laid
+out for the lookups a sample makes: ``cols[i] = (P[i], P[i + 1])`` and
+``grads[k]`` = the gradients of entries k and k + 1, so a sample costs three
+loads. It is cheaper than
 ``wp.noise`` (no square roots, no per-corner random generator) and is zero at
 every lattice point.
 """
@@ -41,8 +44,8 @@ class Control:
     # 1: points outside lo-hi are outside the function's domain (their segments are dropped)
     bounded: int
     image: wp.array2d(dtype=float)
-    perm: wp.array(dtype=int)  # noise kinds: the permutation table, 512 entries (256 twice)
-    grad: wp.array(dtype=wp.vec2)  # noise kinds: the gradient of each permutation entry (one of 8)
+    cols: wp.array(dtype=wp.vec2i)  # noise kinds: (P[i], P[i + 1]) for i in 0..255 (P the permutation)
+    grads: wp.array(dtype=wp.vec4)  # noise kinds: gradients of entries k and k + 1 of P, k in 0..510
 
 
 @wp.func
@@ -52,11 +55,12 @@ def _fade(t: float) -> float:
 
 
 @wp.func
-def perlin(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2) -> float:
+def perlin(cols: wp.array(dtype=wp.vec2i), grads: wp.array(dtype=wp.vec4), p: wp.vec2) -> float:
     """2D Perlin gradient noise at ``p``, in about [-1, 1], zero at integer points.
 
-    Corner (i, j) takes the gradient ``grad[perm[i & 255] + (j & 255)]``; ``grad`` holds each
-    permutation entry's gradient, so a corner costs one load and a dot product.
+    Corner (i, j) takes the gradient of entry ``P[i & 255] + (j & 255)`` of the permutation
+    P; one load of ``cols`` gives both columns' entries, one load of ``grads`` per column
+    the gradients of rows j and j + 1.
     """
     fx = wp.floor(p[0])
     fy = wp.floor(p[1])
@@ -64,12 +68,13 @@ def perlin(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2)
     y = p[1] - fy
     ix = int(fx) & 255
     iy = int(fy) & 255
-    a = perm[ix] + iy
-    b = perm[ix + 1] + iy
-    n00 = wp.dot(grad[a], wp.vec2(x, y))
-    n10 = wp.dot(grad[b], wp.vec2(x - 1.0, y))
-    n01 = wp.dot(grad[a + 1], wp.vec2(x, y - 1.0))
-    n11 = wp.dot(grad[b + 1], wp.vec2(x - 1.0, y - 1.0))
+    col = cols[ix]
+    ga = grads[col[0] + iy]
+    gb = grads[col[1] + iy]
+    n00 = ga[0] * x + ga[1] * y
+    n10 = gb[0] * (x - 1.0) + gb[1] * y
+    n01 = ga[2] * x + ga[3] * (y - 1.0)
+    n11 = gb[2] * (x - 1.0) + gb[3] * (y - 1.0)
     u = _fade(x)
     v = _fade(y)
     low = n00 + u * (n10 - n00)
@@ -84,14 +89,14 @@ def _octave_shift(o: int) -> wp.vec2:
 
 
 @wp.func
-def fbm(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
+def fbm(cols: wp.array(dtype=wp.vec2i), grads: wp.array(dtype=wp.vec4), p: wp.vec2, octaves: int, gain: float, lacunarity: float) -> float:
     """Fractal sum of Perlin noise, normalised to about [-1, 1]."""
     total = float(0.0)
     norm = float(0.0)
     amp = float(1.0)
     q = p
     for o in range(octaves):
-        total += amp * perlin(perm, grad, q + _octave_shift(o))
+        total += amp * perlin(cols, grads, q + _octave_shift(o))
         norm += amp
         amp *= gain
         q = q * lacunarity
@@ -99,7 +104,7 @@ def fbm(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2, oc
 
 
 @wp.func
-def ridged(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
+def ridged(cols: wp.array(dtype=wp.vec2i), grads: wp.array(dtype=wp.vec4), p: wp.vec2, octaves: int, gain: float, lacunarity: float, offset: float) -> float:
     """Ridged multifractal (Musgrave): octaves of (offset - |noise|)^2 weighted by the previous one."""
     total = float(0.0)
     norm = float(0.0)
@@ -107,7 +112,7 @@ def ridged(perm: wp.array(dtype=int), grad: wp.array(dtype=wp.vec2), p: wp.vec2,
     weight = float(1.0)
     q = p
     for o in range(octaves):
-        s = offset - wp.abs(perlin(perm, grad, q + _octave_shift(o)))
+        s = offset - wp.abs(perlin(cols, grads, q + _octave_shift(o)))
         s = s * s * weight
         weight = wp.clamp(s * 2.0, 0.0, 1.0)
         total += amp * s
@@ -168,10 +173,10 @@ def control_value(ctl: Control, p: wp.vec2) -> float:
         return wp.length(p - wp.vec2(ctl.a[0], ctl.a[1])) / ctl.a[2]
     if k == KIND_FBM:
         if ctl.octaves == 1:
-            return 0.5 + 0.5 * perlin(ctl.perm, ctl.grad, p * ctl.a[0])  # the common single octave, without the sum's loop
-        return 0.5 + 0.5 * fbm(ctl.perm, ctl.grad, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
+            return 0.5 + 0.5 * perlin(ctl.cols, ctl.grads, p * ctl.a[0])  # the common single octave, without the sum's loop
+        return 0.5 + 0.5 * fbm(ctl.cols, ctl.grads, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2])
     if k == KIND_RIDGED:
-        return ridged(ctl.perm, ctl.grad, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
+        return ridged(ctl.cols, ctl.grads, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
     if k == KIND_LICHTENBERG:
         if wp.abs(p[0]) > 1.0 or wp.abs(p[1]) > 1.0:
             return 16.0

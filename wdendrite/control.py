@@ -83,9 +83,10 @@ class Control:
         img = self.values if self.values is not None else np.zeros((1, 1), np.float32)
         s.image = wp.array(img, dtype=float, device=device)
         noisy = self.kind in ("perlin", "ridged")
-        perm = _permutation(self.seed) if noisy else np.zeros(1, np.int32)
-        s.perm = wp.array(perm, dtype=int, device=device)
-        s.grad = wp.array(_GRADIENTS[perm & 7], dtype=wp.vec2, device=device)
+        perm = _permutation(self.seed) if noisy else np.zeros(2, np.int32)
+        grad = _GRADIENTS[perm & 7]
+        s.cols = wp.array(np.stack([perm[:-1], perm[1:]], axis=1)[:256], dtype=wp.vec2i, device=device)
+        s.grads = wp.array(np.concatenate([grad[:-1], grad[1:]], axis=1), dtype=wp.vec4, device=device)
         return s
 
     def evaluate(self, points, *, device=None) -> np.ndarray:
