@@ -287,23 +287,21 @@ def lowest1(
 
 @wp.func
 def fill_point1(
-    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int,
+    s: Setup, ctl: Control, bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
     pts1_out: wp.array(dtype=wp.vec4),
 ):
-    """Store the level-1 key point of cell ``k`` of the slot's block 0."""
-    bi = slot * SLOT
-    pts1_out[bases[bi] + k] = point1(s, ctl, block_cell(blocks, bi, k))
+    """Store the level-1 key point of cell ``c``, at position ``k`` of the slot's block 0."""
+    pts1_out[bases[slot * SLOT] + k] = point1(s, ctl, c)
 
 
 @wp.func
 def fill_segment1(
-    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int,
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
     pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
 ):
-    """Level-1 cell ``k``: link its key point to the lowest of its 3 x 3 neighbours."""
+    """Level-1 cell ``c`` (position ``k`` of its block): link its key point to the lowest of its 3 x 3 neighbours."""
     bp = slot * SLOT
     bi = bp + 1
-    c = block_cell(blocks, bi, k)
     vi = bases[bi] + k
     p = pts1[block_index(blocks, bases, bp, c)]
     t = lowest1(pts1, blocks, bases, bp, c)
@@ -447,11 +445,11 @@ def nearest_on_tree(
 @wp.func
 def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
-    k: int, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    k: int, c: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ):
-    """Cell ``k`` of ``level`` >= 2: inherit the parent's key point, or draw one and join the tree."""
+    """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
+    draw one and join the tree."""
     bi = slot * SLOT + level
-    c = block_cell(blocks, bi, k)
     vi = bases[bi] + k
     parent = keyp[block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1))]
     if parent[3] != STATE_NONE:
@@ -812,17 +810,23 @@ def build(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
     pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ):
-    """Fill all blocks of ``slot`` in order: level-1 points, level-1 segments, levels 2..n."""
+    """Fill all blocks of ``slot`` in order: level-1 points, level-1 segments, levels 2..n.
+
+    Cells are visited row by row, so no cell is found from its position by an integer division.
+    """
     b = blocks[slot * SLOT]
-    for k in range(b[2] * b[3]):
-        fill_point1(s, ctl, blocks, bases, slot, k, pts1)
+    for j in range(b[3]):
+        for i in range(b[2]):
+            fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
     b = blocks[slot * SLOT + 1]
-    for k in range(b[2] * b[3]):
-        fill_segment1(s, blocks, bases, slot, k, pts1, keyp, verts)
+    for j in range(b[3]):
+        for i in range(b[2]):
+            fill_segment1(s, blocks, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1, keyp, verts)
     for level in range(2, s.levels + 1):
         b = blocks[slot * SLOT + level]
-        for k in range(b[2] * b[3]):
-            fill_levelk(s, ctl, blocks, bases, slot, level, k, keyp, verts)
+        for j in range(b[3]):
+            for i in range(b[2]):
+                fill_levelk(s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), keyp, verts)
 
 
 @wp.func
@@ -874,7 +878,8 @@ def points1_kernel(
     pts1_out: wp.array(dtype=wp.vec4),
 ):
     """Cached mode: level-1 key points of slot 0, one thread per cell."""
-    fill_point1(s, ctl, blocks, bases, 0, wp.tid(), pts1_out)
+    k = wp.tid()
+    fill_point1(s, ctl, bases, 0, k, block_cell(blocks, 0, k), pts1_out)
 
 
 @wp.kernel
@@ -883,7 +888,8 @@ def segments1_kernel(
     keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
 ):
     """Cached mode: level-1 segments of slot 0, one thread per cell."""
-    fill_segment1(s, blocks, bases, 0, wp.tid(), pts1, keyp_out, verts_out)
+    k = wp.tid()
+    fill_segment1(s, blocks, bases, 0, k, block_cell(blocks, 1, k), pts1, keyp_out, verts_out)
 
 
 @wp.kernel
@@ -892,7 +898,8 @@ def levelk_kernel(
     keyp_inout: wp.array(dtype=wp.vec4), verts_inout: wp.array(dtype=wp.vec3),
 ):
     """Cached mode: key points and segments of ``level`` >= 2 (reads the coarser levels)."""
-    fill_levelk(s, ctl, blocks, bases, 0, level, wp.tid(), keyp_inout, verts_inout)
+    k = wp.tid()
+    fill_levelk(s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), keyp_inout, verts_inout)
 
 
 @wp.kernel
