@@ -51,6 +51,7 @@ GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # Weyl increment between a cell's r
 vec6 = wp.types.vector(length=6, dtype=float)
 vec6i = wp.types.vector(length=6, dtype=int)
 vec49i = wp.types.vector(length=49, dtype=int)
+vec25 = wp.types.vector(length=25, dtype=float)
 
 
 def _search_order(r: int) -> list[tuple[int, int]]:
@@ -690,30 +691,20 @@ def elevation(
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
     The radius is two primitive cells, so every primitive that can weigh lies in the 5 x 5 block.
-    In the per-pixel mode the primitives' queries read a shortlist: each primitive q lies
-    within R (the radius) of ``u``, and its answer is at most its distance to the polyline
-    through its finest cell's key point, itself at most T + R where T is the largest such
-    distance from ``u`` over the finest cells the primitives can fall in. So its nearest piece
-    lies within T + 2R of ``u``; the shortlist keeps those (with a margin against rounding).
+    In the per-pixel mode the primitives' queries read a shortlist: the answer at a primitive q
+    is at most D(q), its distance to the polyline through its finest cell's key point (a
+    candidate of its query), so its nearest piece lies within |q - u| + D(q) of ``u``; the
+    shortlist keeps the pieces within the largest such bound over the primitives that weigh
+    (with a margin against rounding).
     """
     pl = s.levels + s.steps
     pc = cell_of(u, pl)
     radius = 2.0 / level_factor(pl)
-    n = int(-1)
-    if cached == 0:
-        span = 2.02 / level_factor(pl)
-        lo = cell_of(u - wp.vec2(span, span), s.levels)
-        hi = cell_of(u + wp.vec2(span, span), s.levels)
-        t2 = float(0.0)
-        for cy in range(lo[1], hi[1] + 1):
-            for cx in range(lo[0], hi[0] + 1):
-                d2 = owner_near(s, blocks, bases, slot, wp.vec2i(cx, cy), u, keyp, verts)
-                if d2 < 0.0:
-                    t2 = wp.inf
-                t2 = wp.max(t2, d2)
-        if t2 < wp.inf:
-            limit = (wp.sqrt(t2) + 2.0 * radius) * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
-            n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
+    inv_r2 = 1.0 / (radius * radius)
+    # the primitives' key points and squared relative distances r^2 (>= 1: no weight)
+    px = vec25()
+    py = vec25()
+    pr2 = vec25()
     corner = int(0)
     width = int(0)
     if cached != 0:
@@ -721,31 +712,49 @@ def elevation(
         if corner < 0 or block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] + 2, pc[1] + 2)) < 0:
             return wp.nan  # the window's primitive block was planned too small (never expected)
         width = blocks[slot * SLOT + PRIM][2]
-    inv_r2 = 1.0 / (radius * radius)
+    bound = float(0.0)
+    for dy in range(5):
+        for dx in range(5):
+            k = dy * 5 + dx
+            q = wp.vec2(0.0, 0.0)
+            if cached != 0:
+                pq = prims[corner + dy * width + dx]
+                q = wp.vec2(pq[0], pq[1])
+            else:
+                q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
+            px[k] = q[0]
+            py[k] = q[1]
+            r2 = wp.length_sq(q - u) * inv_r2
+            pr2[k] = r2
+            if cached == 0 and r2 < 1.0:
+                d2 = owner_near(s, blocks, bases, slot, cell_of(q, s.levels), q, keyp, verts)
+                if d2 < 0.0:
+                    bound = wp.inf
+                bound = wp.max(bound, wp.sqrt(d2) + wp.length(q - u))
+    n = int(-1)
+    if cached == 0 and bound < wp.inf:
+        limit = bound * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+        n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
     total = float(0.0)
     wsum = float(0.0)
-    for dy in range(-2, 3):
-        for dx in range(-2, 3):
-            c = wp.vec2i(pc[0] + dx, pc[1] + dy)
-            pr = wp.vec3(0.0, 0.0, 0.0)
-            if cached != 0:
-                pr = prims[corner + (dy + 2) * width + dx + 2]
-            else:
-                q = jitter(s, pl, c)
-                pr = wp.vec3(q[0], q[1], 0.0)
-            r2 = wp.length_sq(wp.vec2(pr[0], pr[1]) - u) * inv_r2
+    for dy in range(5):
+        for dx in range(5):
+            r2 = pr2[dy * 5 + dx]
             if r2 < 1.0:
-                if cached == 0:
+                h = float(0.0)
+                if cached != 0:
+                    h = prims[corner + dy * width + dx][2]
+                else:
                     # only primitives that weigh are evaluated
-                    q = wp.vec2(pr[0], pr[1])
+                    q = wp.vec2(px[dy * 5 + dx], py[dy * 5 + dx])
                     r = wp.vec3(0.0, 0.0, 0.0)
                     if n >= 0:
                         r = query_short(s, q, u, verts, nearby, gaps, sfirst, n)
                     else:
                         r = query(s, blocks, bases, slot, q, keyp, verts)
-                    pr = primitive(s, ctl, c, q, r)
+                    h = primitive(s, ctl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2), q, r)[2]
                 g = (1.0 - r2) * (1.0 - r2) * (1.0 - r2)
-                total += g * pr[2]
+                total += g * h
                 wsum += g
     return total / wsum
 
