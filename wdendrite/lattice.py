@@ -219,7 +219,8 @@ class Lattice:
         connectivity: 4 or 8 in 2D, 6 or 26 in 3D (default: 4 in 2D, 6 in 3D).
         weights: a ``(K, *shape)`` array of finite edge costs, positive on every
             usable edge (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``;
-            entries whose neighbour lies outside are ignored), or a
+            entries whose neighbour lies outside are ignored, except along an axis
+            of size 1, where they are kept for refinement and checked), or a
             distribution from :mod:`wdendrite.weights` such as
             ``wd.weights.Uniform(r=10, seed=0)``. Default: each edge costs its
             length (1, sqrt(2), sqrt(3)), giving plain lattice distances.
@@ -234,14 +235,21 @@ class Lattice:
         shape, ndim, connectivity: as given.
         offsets: ``(K, ndim)`` int64 half-offsets, one per undirected edge direction.
         lengths: ``(K,)`` float32 Euclidean length of each direction.
-        weights: ``(K, *shape)`` float32, read-only. Entries whose neighbour
-            falls outside the lattice are ignored.
+        weights: ``(K, *shape)`` float32, read-only: the lattice's own copy
+            (the caller's array may change afterwards). Entries whose neighbour
+            falls outside the lattice hold the nearest edge inside.
         mask: ``shape`` bool, read-only, or ``None``.
+
+    The weights are kept in the node records the search kernels read (built
+    with the lattice on the host; copied to other devices when first used).
+    With fewer than a quarter of its nodes usable, a lattice is *sparse*: its
+    records are touched near usable nodes only, and whole-lattice passes
+    visit a list of the usable nodes.
 
     Raises:
         ValueError, TypeError: for a bad shape, connectivity, weights or mask;
             the message names the parameter and the value it got.
-        MemoryError: when generated weights would not fit in host memory.
+        MemoryError: when the node records would not fit in host memory.
     """
 
     def __init__(
