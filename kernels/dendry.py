@@ -51,6 +51,7 @@ GOLDEN = wp.constant(wp.uint32(0x9E3779B9))  # Weyl increment between a cell's r
 vec6 = wp.types.vector(length=6, dtype=float)
 vec6i = wp.types.vector(length=6, dtype=int)
 vec49i = wp.types.vector(length=49, dtype=int)
+vec64i = wp.types.vector(length=64, dtype=int)
 vec25 = wp.types.vector(length=25, dtype=float)
 
 
@@ -296,16 +297,16 @@ def fill_point1(
 
 
 @wp.func
-def fill_segment1(
+def link1(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
-    pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+    t: wp.vec2i, tt: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
+    verts_out: wp.array(dtype=wp.vec3),
 ):
-    """Level-1 cell ``c`` (position ``k`` of its block): link its key point to the lowest of its 3 x 3 neighbours."""
+    """Level-1 cell ``c`` (position ``k`` of its block): its segment to ``t``, the lowest of its 3 x 3
+    neighbours, whose own lowest neighbour is ``tt``."""
     bp = slot * SLOT
-    bi = bp + 1
-    vi = bases[bi] + k
+    vi = bases[bp + 1] + k
     p = pts1[block_index(blocks, bases, bp, c)]
-    t = lowest1(pts1, blocks, bases, bp, c)
     pt = pts1[block_index(blocks, bases, bp, t)]
     state = STATE_NONE
     if p[3] > 0.0 and pt[3] > 0.0:
@@ -316,12 +317,22 @@ def fill_segment1(
     pa = wp.vec2(p[0], p[1])
     pb = wp.vec2(pt[0], pt[1])
     # the tangent at the far end follows the target's own segment, else continues straight
-    tt = lowest1(pts1, blocks, bases, bp, t)
     ptt = pts1[block_index(blocks, bases, bp, tt)]
     p3 = 2.0 * pb - pa
     if (tt[0] != t[0] or tt[1] != t[1]) and ptt[3] > 0.0:
         p3 = wp.vec2(ptt[0], ptt[1])
     write_polyline(s, 1, c, a, b, 2.0 * pa - pb, p3, vi, verts_out)
+
+
+@wp.func
+def fill_segment1(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
+    pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+):
+    """Level-1 cell ``c`` (position ``k`` of its block): link its key point to the lowest of its 3 x 3 neighbours."""
+    bp = slot * SLOT
+    t = lowest1(pts1, blocks, bases, bp, c)
+    link1(s, blocks, bases, slot, k, c, t, lowest1(pts1, blocks, bases, bp, t), pts1, keyp_out, verts_out)
 
 
 @wp.func
@@ -338,18 +349,19 @@ def piece_near(q: wp.vec2, a: wp.vec3, b: wp.vec3) -> wp.vec2:
 
 @wp.func
 def reach_of(best: float) -> float:
-    """A distance a little above ``sqrt(best)``: cells whose box lies farther cannot hold a piece nearer than best."""
-    return wp.sqrt(best) * 1.00001
+    """A squared distance a little above ``best``: cells whose box lies farther cannot hold a piece
+    nearer than best (squared, so that a search's bound needs no square root after each better piece)."""
+    return best * 1.00002
 
 
 @wp.func
-def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
-    """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
+def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb2: float) -> bool:
+    """True when cell ``o``'s bounding box lies at least ``sqrt(sb2)`` away from ``q``."""
     lo = verts[o * NV + BOUND]
     hi = verts[o * NV + BOUND + 1]
     dx = wp.max(wp.max(lo[0] - q[0], q[0] - lo[2]), 0.0)
     dy = wp.max(wp.max(lo[1] - q[1], q[1] - hi[0]), 0.0)
-    return dx * dx + dy * dy >= sb * sb
+    return dx * dx + dy * dy >= sb2
 
 
 @wp.struct
@@ -357,7 +369,7 @@ class Hit:
     """The best piece found so far by a search (``o`` -1 while none)."""
 
     best: float  # squared distance
-    sb: float  # reach_of(best)
+    sb2: float  # reach_of(best)
     o: int  # cell index
     j: int  # piece
     t: float  # fraction along the piece
@@ -369,7 +381,7 @@ def no_hit() -> Hit:
     """A search result before any piece is found."""
     h = Hit()
     h.best = 1.0e30
-    h.sb = 1.0e15
+    h.sb2 = 1.0e30
     h.o = -1
     h.j = 0
     h.t = 0.0
@@ -402,12 +414,12 @@ def scan(
             if keyp[o][3] == STATE_SEGMENT:
                 # the pieces update the hit in place: returning them as one vector assembled lane
                 # by lane and read back whole stalled the CPU's store forwarding on every cell
-                if not cell_far(q, verts, o, hit.sb):
+                if not cell_far(q, verts, o, hit.sb2):
                     for j in range(PIECES):
                         pr = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
                         if pr[0] < hit.best:
                             hit.best = pr[0]
-                            hit.sb = reach_of(pr[0])
+                            hit.sb2 = reach_of(pr[0])
                             hit.o = o
                             hit.j = j
                             hit.t = pr[1]
@@ -601,7 +613,7 @@ def shortlist(
             for cx in range(b[2]):
                 o = bases[bi] + cy * b[2] + cx
                 if keyp[o][3] == STATE_SEGMENT:
-                    if not cell_far(u, verts, o, limit):
+                    if not cell_far(u, verts, o, lim2):
                         for j in range(PIECES):
                             d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
                             if d2 <= lim2:
@@ -815,6 +827,43 @@ def plan(
 
 
 @wp.func
+def fill_links1(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+):
+    """Per-pixel mode: every level-1 segment of ``slot``, as :func:`fill_segment1` makes them.
+
+    A link needs its target's lowest neighbour too, mostly that of another cell of the block:
+    each cell's is found once and kept as ``(x - x0 + 1) + 256 (y - y0 + 1)`` relative to the
+    block's corner (blocks of up to 64 cells; larger ones search twice).
+    """
+    b = blocks[slot * SLOT + 1]
+    if b[2] * b[3] > 64:
+        for j in range(b[3]):
+            for i in range(b[2]):
+                fill_segment1(s, blocks, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1, keyp_out, verts_out)
+    else:
+        low = vec64i()
+        for j in range(b[3]):
+            for i in range(b[2]):
+                t = lowest1(pts1, blocks, bases, slot * SLOT, wp.vec2i(b[0] + i, b[1] + j))
+                low[j * b[2] + i] = (t[0] - b[0] + 1) + 256 * (t[1] - b[1] + 1)
+        for j in range(b[3]):
+            for i in range(b[2]):
+                k = j * b[2] + i
+                rx = low[k] & 255
+                ry = low[k] >> 8
+                t = wp.vec2i(b[0] + rx - 1, b[1] + ry - 1)
+                tt = wp.vec2i(0, 0)
+                if rx >= 1 and ry >= 1 and rx <= b[2] and ry <= b[3]:
+                    ct = low[(ry - 1) * b[2] + rx - 1]
+                    tt = wp.vec2i(b[0] + (ct & 255) - 1, b[1] + (ct >> 8) - 1)
+                else:
+                    tt = lowest1(pts1, blocks, bases, slot * SLOT, t)
+                link1(s, blocks, bases, slot, k, wp.vec2i(b[0] + i, b[1] + j), t, tt, pts1, keyp_out, verts_out)
+
+
+@wp.func
 def build(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
     pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
@@ -827,10 +876,7 @@ def build(
     for j in range(b[3]):
         for i in range(b[2]):
             fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
-    b = blocks[slot * SLOT + 1]
-    for j in range(b[3]):
-        for i in range(b[2]):
-            fill_segment1(s, blocks, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1, keyp, verts)
+    fill_links1(s, blocks, bases, slot, pts1, keyp, verts)
     for level in range(2, s.levels + 1):
         b = blocks[slot * SLOT + level]
         for j in range(b[3]):
