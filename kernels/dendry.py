@@ -349,19 +349,18 @@ def piece_near(q: wp.vec2, a: wp.vec3, b: wp.vec3) -> wp.vec2:
 
 @wp.func
 def reach_of(best: float) -> float:
-    """A squared distance a little above ``best``: cells whose box lies farther cannot hold a piece
-    nearer than best (squared, so that a search's bound needs no square root after each better piece)."""
-    return best * 1.00002
+    """A distance a little above ``sqrt(best)``: cells whose box lies farther cannot hold a piece nearer than best."""
+    return wp.sqrt(best) * 1.00001
 
 
 @wp.func
-def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb2: float) -> bool:
-    """True when cell ``o``'s bounding box lies at least ``sqrt(sb2)`` away from ``q``."""
+def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
+    """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
     lo = verts[o * NV + BOUND]
     hi = verts[o * NV + BOUND + 1]
     dx = wp.max(wp.max(lo[0] - q[0], q[0] - lo[2]), 0.0)
     dy = wp.max(wp.max(lo[1] - q[1], q[1] - hi[0]), 0.0)
-    return dx * dx + dy * dy >= sb2
+    return dx * dx + dy * dy >= sb * sb
 
 
 @wp.struct
@@ -369,7 +368,7 @@ class Hit:
     """The best piece found so far by a search (``o`` -1 while none)."""
 
     best: float  # squared distance
-    sb2: float  # reach_of(best)
+    sb: float  # reach_of(best)
     o: int  # cell index
     j: int  # piece
     t: float  # fraction along the piece
@@ -381,7 +380,7 @@ def no_hit() -> Hit:
     """A search result before any piece is found."""
     h = Hit()
     h.best = 1.0e30
-    h.sb2 = 1.0e30
+    h.sb = 1.0e15
     h.o = -1
     h.j = 0
     h.t = 0.0
@@ -414,12 +413,12 @@ def scan(
             if keyp[o][3] == STATE_SEGMENT:
                 # the pieces update the hit in place: returning them as one vector assembled lane
                 # by lane and read back whole stalled the CPU's store forwarding on every cell
-                if not cell_far(q, verts, o, hit.sb2):
+                if not cell_far(q, verts, o, hit.sb):
                     for j in range(PIECES):
                         pr = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
                         if pr[0] < hit.best:
                             hit.best = pr[0]
-                            hit.sb2 = reach_of(pr[0])
+                            hit.sb = reach_of(pr[0])
                             hit.o = o
                             hit.j = j
                             hit.t = pr[1]
@@ -613,7 +612,7 @@ def shortlist(
             for cx in range(b[2]):
                 o = bases[bi] + cy * b[2] + cx
                 if keyp[o][3] == STATE_SEGMENT:
-                    if not cell_far(u, verts, o, lim2):
+                    if not cell_far(u, verts, o, limit):
                         for j in range(PIECES):
                             d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
                             if d2 <= lim2:
