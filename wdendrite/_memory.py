@@ -73,7 +73,8 @@ def zeros(count: int, dtype, device, *, huge: bool = True) -> wp.array:
     """
     device = wp.get_device(device)
     nbytes = max(1, count * wp.types.type_size_in_bytes(dtype))
-    if not device.is_cpu or nbytes < 2 * _HUGE:
+    if not device.is_cpu or nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
+        # (Windows has no private anonymous mappings through the mmap module)
         return wp.zeros(count, dtype=dtype, device=device)
     block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)  # private: eligible for huge pages
     ptr = ctypes.addressof(ctypes.c_char.from_buffer(block))
