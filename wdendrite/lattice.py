@@ -92,12 +92,12 @@ def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None
     """
     shape = weights.shape[1:]
 
-    def checked(k, off):
+    def checked(off):
         if any(o != 0 and n < 2 for o, n in zip(off, shape)):
             return tuple(slice(None) for _ in shape), None
         return edge_slices(off, shape)
 
-    slices = [checked(k, off) for k, off in enumerate(offsets)]
+    slices = [checked(off) for off in offsets]
     inside = [weights[k][src] for k, (src, _) in enumerate(slices)]
     # the common case: two reductions per direction over views
     if all(v.size == 0 or (0 < float(v.min()) and np.isfinite(float(v.max()))) for v in inside):
@@ -171,6 +171,24 @@ def _record_weights(aux: wp.array, padded: tuple, stride: int, nw: int) -> np.nd
     records = aux.numpy().view(np.float32).reshape(tuple(padded) + (stride,))
     inner = records[1:-1, 1:-1, 1:-1] if padded[0] > 1 else records[0, 1:-1, 1:-1]
     return np.moveaxis(inner[..., _ks.WEIGHT0 : _ks.WEIGHT0 + nw], -1, 0)
+
+
+def pass_chunk(device) -> int:
+    """Nodes per thread for whole-lattice passes: many on the CPU, where each thread
+    of a launch is a function call, one on GPUs, where neighbouring threads coalesce."""
+    return 4096 if wp.get_device(device).is_cpu else 1
+
+
+def pass_threads(count: int, chunk: int) -> int:
+    """Threads of a whole-lattice pass over ``count`` nodes, ``chunk`` per thread."""
+    return max(1, -(-count // chunk))
+
+
+def clear_records(aux: wp.array, stride: int, nw: int, *, with_state: bool) -> None:
+    """Zero every record's queue stamp, and with ``with_state`` its search state too."""
+    chunk = pass_chunk(aux.device)
+    wp.launch(_ks.clear_records_kernel, dim=pass_threads(aux.shape[0] // stride, chunk),
+              inputs=[stride, nw, int(with_state), chunk], outputs=[aux], device=aux.device)
 
 
 def record_words(shape: tuple, nw: int) -> int:
@@ -401,10 +419,7 @@ class Lattice:
         with host.stamps.lock:
             aux = _memory.empty(host.aux.shape[0], wp.int32, device)
             wp.copy(aux, host.aux)
-        chunk = 4096 if device.is_cpu else 1
-        records = host.aux.shape[0] // host.stride
-        wp.launch(_ks.clear_records_kernel, dim=-(-records // chunk), inputs=[host.stride, host.nw, 1, chunk],
-                  outputs=[aux], device=device)
+        clear_records(aux, host.stride, host.nw, with_state=True)
         return self._make_arrays(device, None, aux=aux)
 
     def _make_arrays(self, device, weights: np.ndarray | None, aux: wp.array | None = None) -> LatticeArrays:

@@ -21,7 +21,7 @@ import warp as wp
 
 from . import _checks, _memory
 from .kernels import sssp as _k
-from .lattice import Lattice
+from .lattice import Lattice, clear_records, pass_chunk, pass_threads
 
 __all__ = ["CostField", "shortest_paths"]
 
@@ -73,16 +73,6 @@ class CostField:
         out = self.label_array.numpy()
         out.flags.writeable = False
         return out
-
-
-def _chunk(device) -> int:
-    """Nodes per thread for whole-lattice passes: many on the CPU, where each thread
-    of a launch is a function call, one on GPUs, where neighbouring threads coalesce."""
-    return 4096 if device.is_cpu else 1
-
-
-def _threads(count: int, chunk: int) -> int:
-    return max(1, -(-count // chunk))
 
 
 class _Frontiers:
@@ -253,11 +243,10 @@ def shortest_paths(
 
     arrays = lattice.device_arrays(device)
     with wp.ScopedDevice(device), arrays.stamps.lock:
-        chunk = _chunk(device)
+        chunk = pass_chunk(device)
         size = arrays.mask.shape[0]
         if not arrays.stamps.room(2**24):
-            wp.launch(_k.clear_records_kernel, dim=_threads(size, chunk), inputs=[arrays.stride, arrays.nw, 0, chunk],
-                      outputs=[arrays.aux])
+            clear_records(arrays.aux, arrays.stride, arrays.nw, with_state=False)
             arrays.stamps.last = 0
         far_id = arrays.stamps.next()
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
@@ -267,7 +256,7 @@ def shortest_paths(
                 wp.launch(_k.init_listed_kernel, dim=arrays.usable.shape[0], inputs=[arrays.usable, arrays.stride],
                           outputs=[arrays.state])
             else:
-                wp.launch(_k.init_state_kernel, dim=_threads(size, chunk), inputs=[arrays.mask, arrays.stride, chunk],
+                wp.launch(_k.init_state_kernel, dim=pass_threads(size, chunk), inputs=[arrays.mask, arrays.stride, chunk],
                           outputs=[arrays.state])
             new_rows = np.arange(len(gens))
         else:
@@ -308,7 +297,7 @@ def shortest_paths(
         else:
             wp.launch(
                 _k.unpack_kernel,
-                dim=_threads(n, chunk),
+                dim=pass_threads(n, chunk),
                 inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, limit_f, chunk],
                 outputs=[dist.flatten(), label.flatten()],
             )
@@ -330,11 +319,11 @@ def load_state(costfield: CostField, arrays) -> None:
     if owner is not None and owner() is costfield:
         return
     device = arrays.aux.device
-    chunk = _chunk(device)
+    chunk = pass_chunk(device)
     n = costfield.lattice.num_nodes
     wp.launch(
         _k.load_state_kernel,
-        dim=_threads(n, chunk),
+        dim=pass_threads(n, chunk),
         inputs=[costfield.dist_array.to(device).flatten(), costfield.label_array.to(device).flatten(),
                 arrays.shape3, arrays.pad3, arrays.stride, chunk, arrays.mask],
         outputs=[arrays.state],
