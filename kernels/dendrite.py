@@ -17,7 +17,7 @@ import warp as wp
 
 from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, state_at
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
 TRACE_OK = wp.constant(0)
 TRACE_UNREACHABLE = wp.constant(1)
@@ -66,40 +66,48 @@ def predecessor(
 def trace_kernel(
     starts: wp.array(dtype=wp.int32),
     flat_offsets: wp.array(dtype=wp.int32),
-    aux: wp.array(dtype=wp.int32),
     stride: int,
+    nw: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     state: wp.array(dtype=wp.uint64),
-    is_root: wp.array(dtype=wp.int32),
+    root_id: int,
+    visit_id: int,
     max_steps: int,
-    visited: wp.array(dtype=wp.int32),
-    pred_out: wp.array(dtype=wp.int32),
+    aux: wp.array(dtype=wp.int32),
     new_nodes_out: wp.array(dtype=wp.int32),
+    new_pred_out: wp.array(dtype=wp.int32),
     new_count: wp.array(dtype=wp.int32),
     status_out: wp.array(dtype=wp.int32),
 ):
-    """Walk from each start to a root, recording each new node's predecessor.
+    """Walk from each start to a root, listing each new node with its predecessor.
 
-    A walk stops at a root (a generator, predecessor -1) or at a node some
-    walk already claimed (``visited``), from where the path is shared.
+    The walk marks live in the records' stamp words (word ``nw + 2``, which
+    searches only compare with their own, newer ids): ``visit_id`` on nodes
+    a walk has claimed (or the dendrite being extended already holds),
+    ``root_id`` on unclaimed generators. A walk stops at a root (a new node
+    with predecessor -1) or at a claimed node, from where the path is
+    shared. New node ``j`` is ``new_nodes_out[j]``, its predecessor
+    ``new_pred_out[j]``.
     """
     i = wp.tid()
     node = starts[i]
     status_out[i] = TRACE_OK
     for step in range(max_steps):
-        if wp.atomic_exch(visited, node, 1) != 0:
+        seen = wp.atomic_exch(aux, node * stride + nw + 2, visit_id)
+        if seen == visit_id:
             return
-        new_nodes_out[wp.atomic_add(new_count, 0, 1)] = node
-        if is_root[node] != 0:
-            pred_out[node] = -1
+        at = wp.atomic_add(new_count, 0, 1)
+        new_nodes_out[at] = node
+        if seen == root_id:
+            new_pred_out[at] = -1
             return
         if state_at(state, stride, node) == UNREACHED:
-            pred_out[node] = -1
+            new_pred_out[at] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
         prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, state)
-        pred_out[node] = prev
+        new_pred_out[at] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK
             return
@@ -108,6 +116,6 @@ def trace_kernel(
 
 
 @wp.kernel
-def mark_kernel(indices: wp.array(dtype=wp.int32), value: int, out: wp.array(dtype=wp.int32)):
-    """``out[indices[i]] = value``."""
-    out[indices[wp.tid()]] = value
+def stamp_kernel(nodes_in: wp.array(dtype=wp.int32), stride: int, nw: int, value: int, aux: wp.array(dtype=wp.int32)):
+    """Set the record stamp of each listed padded node to ``value``."""
+    aux[nodes_in[wp.tid()] * stride + nw + 2] = value

@@ -33,6 +33,8 @@ split). With many threads, a far push racing a near push of the same node
 must not undo it: :func:`push_far` changes the stamp by compare-and-swap and
 leaves a node stamped with the current generation alone. Generations and
 search ids only grow, so stamps never need clearing between searches.
+Backtracking (:mod:`wdendrite.kernels.dendrite`) marks its walks in the same
+word with ids of its own, which later searches' newer ids never equal.
 """
 
 import warp as wp
@@ -302,49 +304,6 @@ def relax_edge(
                              far_min)
 
 
-@wp.func
-def relax_direction(
-    node: int,
-    cost: float,
-    label: int,
-    k: int,
-    flat_offsets: wp.array(dtype=wp.int32),
-    hashed: HashedWeights,
-    stride: int,
-    nw: int,
-    far_id: int,
-    threshold: float,
-    limit: float,
-    generation: int,
-    near_slot: int,
-    far_slot: int,
-    state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
-    counts: wp.array(dtype=wp.int32),
-    far_min: wp.array(dtype=float),
-    near_out: wp.array(dtype=wp.int32),
-    far_out: wp.array(dtype=wp.int32),
-):
-    """Relax the two edges of ``node`` along half-offset ``k`` (to ``node + step`` and ``node - step``)."""
-    step = flat_offsets[k]
-    # forward edge stored at this node, backward edge stored at the neighbour
-    w_fwd = float(0.0)
-    w_bwd = float(0.0)
-    if hashed.use == 0:
-        w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
-        w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
-    else:
-        # only for neighbours that could improve: border nodes have no weights to compute
-        if state_at(state, stride, node + step) != wp.uint64(0):
-            w_fwd = edge_cost(aux, stride, hashed, node, k)
-        if state_at(state, stride, node - step) != wp.uint64(0):
-            w_bwd = edge_cost(aux, stride, hashed, node - step, k)
-    relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
-               near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-    relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
-               near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-
-
 @wp.kernel
 def relax_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
@@ -381,10 +340,10 @@ def relax_kernel(
     weight of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use``
     asks for weights recomputed from their hash.
 
-    The loop over directions is written out for each connectivity (2, 3, 4
-    or 13 half-offsets): constant trip counts let the compiler unroll it,
-    about 10 % faster per relaxed node on the CPU than a loop over
-    ``flat_offsets.shape[0]``.
+    The loop over directions has a constant trip count (13, the most
+    half-offsets a lattice has) so that it unrolls, with a test skipping
+    the directions a lattice lacks: about 10 % faster per relaxed node on
+    the CPU than a loop over ``flat_offsets.shape[0]``.
     """
     capacity = near_in.shape[0]
     directions = flat_offsets.shape[0]
@@ -400,26 +359,26 @@ def relax_kernel(
         word = state_at(state, stride, node)
         cost = packed_cost(word)
         label = packed_label(word)
-        if directions == 4:
-            for k in range(4):
-                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
-                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-        elif directions == 2:
-            for k in range(2):
-                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
-                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-        elif directions == 3:
-            for k in range(3):
-                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
-                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-        elif directions == 13:
-            for k in range(13):
-                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
-                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-        else:
-            for k in range(directions):
-                relax_direction(node, cost, label, k, flat_offsets, hashed, stride, nw, far_id, threshold, limit,
-                                generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+        # a constant trip count unrolls the loop; the test skips directions a lattice lacks
+        for k in range(13):
+            if k < directions:
+                step = flat_offsets[k]
+                # forward edge stored at this node, backward edge stored at the neighbour
+                w_fwd = float(0.0)
+                w_bwd = float(0.0)
+                if hashed.use == 0:
+                    w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
+                    w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
+                else:
+                    # only for neighbours that could improve: border nodes have no weights to compute
+                    if state_at(state, stride, node + step) != wp.uint64(0):
+                        w_fwd = edge_cost(aux, stride, hashed, node, k)
+                    if state_at(state, stride, node - step) != wp.uint64(0):
+                        w_bwd = edge_cost(aux, stride, hashed, node - step, k)
+                relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
+                           near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+                relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
+                           near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
         i += threads
 
 

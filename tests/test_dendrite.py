@@ -119,6 +119,32 @@ def test_trace_is_deterministic(device):
         np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
 
 
+def test_walk_marks_in_the_record_stamps_leave_searches_and_wraps_exact():
+    # trace marks its walks in the records' stamp words: a search after it (cold or warm) must give
+    # SciPy's costs, and a trace across the stamp ids' wrap the same dendrite as one before it
+    lat = wd.Lattice((30, 40), 8, weights=wd.weights.Uniform(seed=6))
+    gens = np.array([[3, 4], [25, 30]])
+    cf = wd.shortest_paths(lat, gens, limit=60.0)
+    ends = np.argwhere(np.isfinite(cf.dist))[::37]
+    ref = wd.trace(cf, ends)
+    stamps = lat.device_arrays().stamps
+    stamps.last = stamps.LIMIT - 1
+    again = wd.trace(cf, ends)
+    assert stamps.last < 10**6
+    for f in ("nodes", "parent", "cost", "label", "endpoints"):
+        np.testing.assert_array_equal(getattr(again, f), getattr(ref, f))
+    more = np.concatenate([gens, ref.nodes])
+    flat = np.ravel_multi_index(tuple(more.T), lat.shape)
+    want = dijkstra(lat.to_csgraph(), directed=False, indices=flat, min_only=True)
+    for warm in (cf, None):
+        out = wd.shortest_paths(lat, more, warm_start=warm, limit=60.0 if warm is not None else None)
+        expect = want.reshape(lat.shape)
+        if warm is not None:
+            expect = np.where(expect <= 60.0, expect, np.inf)
+        np.testing.assert_allclose(out.dist, expect, rtol=1e-5)
+        wd.trace(out, np.argwhere(np.isfinite(out.dist))[::53])
+
+
 def test_competing_generators_grow_separate_trees():
     lat = wd.Lattice((60, 60), 8, weights=wd.weights.Uniform(seed=1))
     cf = wd.shortest_paths(lat, [[10, 10], [50, 50]])

@@ -9,7 +9,7 @@ from typing import Iterator
 import numpy as np
 import warp as wp
 
-from . import _checks, _memory
+from . import _checks
 from .kernels import dendrite as _kd
 from .lattice import coords_of_padded, padded_index_of
 from .sssp import CostField, load_state
@@ -173,17 +173,6 @@ class Dendrite:
             yield self.path(e)
 
 
-def _rows_of(all_padded: np.ndarray, *wanted: np.ndarray) -> list[np.ndarray]:
-    """For each array in ``wanted``, the rows of ``all_padded`` holding its values (-1 stays -1)."""
-    order = np.argsort(all_padded, kind="stable")
-    ordered = all_padded[order]
-    out = []
-    for values in wanted:
-        rows = order[np.minimum(np.searchsorted(ordered, values), len(order) - 1)]
-        out.append(np.where(values >= 0, rows, -1))
-    return out
-
-
 def trace(
     costfield: CostField,
     endpoints,
@@ -237,34 +226,42 @@ def trace(
 
     device = costfield.device
     arrays = lattice.device_arrays(device)
-    size = arrays.mask.shape[0]
     starts = lattice.padded_indices(pts)
     old = np.zeros(0, np.int64) if extend is None else extend._padded
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
-        # walks touch few nodes: zero pages that cost nothing until touched
-        is_root = _memory.zeros(size, wp.int32, device, huge=False)
-        roots = lattice.padded_indices(costfield.generators)
-        wp.launch(_kd.mark_kernel, dim=len(roots), inputs=[wp.array(roots, dtype=wp.int32), 1],
-                  outputs=[is_root])
-        visited = _memory.zeros(size, wp.int32, device, huge=False)
-        if len(old):
-            wp.launch(_kd.mark_kernel, dim=len(old), inputs=[wp.array(old.astype(np.int32), dtype=wp.int32), 1],
-                      outputs=[visited])
-        pred = wp.empty(size, dtype=wp.int32)
-        new_nodes = wp.empty(max(1, lattice.num_usable), dtype=wp.int32)
+        # walks mark the records' stamps: generators first, then the nodes already on the dendrite
+        root_id = arrays.fresh_ids(2)
+        visit_id = root_id + 1
+        for nodes, mark in ((lattice.padded_indices(costfield.generators), root_id), (old.astype(np.int32), visit_id)):
+            if len(nodes):
+                wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32), arrays.stride,
+                                                                    arrays.nw, mark], outputs=[arrays.aux])
+        room = max(1, lattice.num_usable)
+        new_nodes = wp.empty(room, dtype=wp.int32)
+        new_pred = wp.empty(room, dtype=wp.int32)
         new_count = wp.zeros(1, dtype=wp.int32)
         status = wp.empty(len(starts), dtype=wp.int32)
         wp.launch(
             _kd.trace_kernel,
             dim=len(starts),
-            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.aux, arrays.stride, arrays.hashed,
-                    arrays.mask, arrays.state, is_root, size],
-            outputs=[visited, pred, new_nodes, new_count, status],
+            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw, arrays.hashed,
+                    arrays.mask, arrays.state, root_id, visit_id, arrays.mask.shape[0]],
+            outputs=[arrays.aux, new_nodes, new_pred, new_count, status],
         )
         n_new = int(new_count.numpy()[0])
-        fresh = np.sort(new_nodes.numpy()[:n_new]).astype(np.int64)
-        fresh_pred = pred.numpy()[fresh].astype(np.int64)
+        listed = new_nodes.numpy()[:n_new]
+        order = np.argsort(listed)
+        fresh = listed[order].astype(np.int64)
+        fresh_pred = new_pred.numpy()[:n_new][order]
+        all_padded = np.concatenate([old, fresh])
+        # rows of padded nodes through a lattice-sized table: only this dendrite's entries are written and read
+        rows = arrays.host_rows.get("rows")
+        if rows is None:
+            rows = arrays.host_rows["rows"] = np.empty(arrays.mask.shape[0], np.int32)
+        rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
+        new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
+        end_rows = np.unique(rows[starts])
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])
@@ -273,10 +270,7 @@ def trace(
             f"reach {float(np.nanmax(np.where(np.isfinite(dist), dist, np.nan))):.3g}, where float32 cannot add the "
             "lattice's smallest weights any more; use weights spanning fewer orders of magnitude"
         )
-    all_padded = np.concatenate([old, fresh])
     coords = coords_of_padded(fresh, lattice.shape)
-    new_parent, end_rows = _rows_of(all_padded, fresh_pred, starts.astype(np.int64))
-    end_rows = np.unique(end_rows)
     def _cat(name, new, dtype):
         return np.concatenate([getattr(extend, name), new]).astype(dtype) if extend is not None else new.astype(dtype)
     return Dendrite(

@@ -307,36 +307,66 @@ def _density(density, shape) -> np.ndarray:
     return arr
 
 
-def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, why: list[str]) -> np.ndarray:
-    """Draw ``count`` distinct nodes among ``usable`` (flat bool); ``why`` describes the filters for errors."""
+def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, why: list) -> np.ndarray:
+    """Draw ``count`` distinct nodes among ``usable`` (flat bool).
+
+    ``why`` holds zero-argument callables describing the filters, called only
+    to word an error (counting candidates for a message is a pass over the lattice).
+    """
     if density is not None:
         dens = _density(density, shape)
         usable = usable & (dens > 0)
-        why.append(f"{int(usable.sum())} with positive 'density'")
+        why.append(lambda u=usable: f"{int(u.sum())} with positive 'density'")
     cand = np.flatnonzero(usable)
     if len(cand) == 0:
-        raise ValueError("No candidate nodes for endpoints: " + ", ".join(why))
+        raise ValueError("No candidate nodes for endpoints: " + _describe(why))
     if count > len(cand):
-        raise ValueError(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: " + ", ".join(why))
-    if density is None:
-        keys = rng.random(len(cand))
+        raise ValueError(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: "
+                         + _describe(why))
+    if density is None and min_spacing is None:
+        # a uniform draw without replacement, in random order: no key per candidate needed
+        flat = cand[rng.choice(len(cand), size=count, replace=False)]
     else:
-        # exponential keys scaled by 1/density: sorting them is weighted sampling without replacement
-        keys = rng.exponential(size=len(cand)) / dens[cand]
-    if min_spacing is None:
-        flat = next(_in_key_order(cand, keys, count))
-    else:
-        flat = _spaced(cand, keys, shape, count, min_spacing)
+        if density is None:
+            keys = rng.random(len(cand))
+        else:
+            # exponential keys scaled by 1/density: sorting them is weighted sampling without replacement
+            keys = rng.exponential(size=len(cand)) / dens[cand]
+        if min_spacing is None:
+            flat = next(_in_key_order(cand, keys, count))
+        else:
+            flat = _spaced(cand, keys, shape, count, min_spacing)
     return np.stack(np.unravel_index(flat, shape), axis=1).astype(np.int64)
 
 
-def _candidates(shape, mask, within) -> tuple[np.ndarray, list[str]]:
-    usable = np.ones(math.prod(shape), bool) if mask is None else mask.reshape(-1).copy()
-    why = [f"{int(usable.sum())} usable lattice nodes"]
+def _describe(why: list) -> str:
+    return ", ".join(w() for w in why)
+
+
+def _candidates(shape, mask, within) -> tuple[np.ndarray, list]:
+    """Flat bool array of the usable nodes (inside ``within``), and the describers of :func:`_sample`."""
+    base = np.ones(math.prod(shape), bool) if mask is None else mask.reshape(-1)
+    why = [lambda: f"{int(base.sum())} usable lattice nodes"]
+    usable = base
     if within is not None:
-        usable &= _within(within, shape).reshape(-1)
-        why.append(f"{int(usable.sum())} of them inside 'within'")
+        usable = base & _within(within, shape).reshape(-1)
+        why.append(lambda: f"{int(usable.sum())} of them inside 'within'")
     return usable, why
+
+
+def _band_candidates(dist: np.ndarray, shape, mask, d: float, r: float, within) -> tuple[np.ndarray, list]:
+    """:func:`_candidates` whose flat ``dist`` lies in ``(d - r, d + r)``."""
+    usable, why = _candidates(shape, mask, within)
+    c = dist.reshape(-1)
+    band = usable & (c > d - r) & (c < d + r)
+
+    def told() -> str:
+        finite = c[np.isfinite(c)]
+        span = f"finite costs range over [{finite.min():g}, {finite.max():g}]" if finite.size else "no finite costs"
+        return f"{int(band.sum())} with cost in ({d - r:g}, {d + r:g}) ({span})"
+
+    why.append(told)
+    return band, why
 
 
 def _spacing(min_spacing):
@@ -460,12 +490,7 @@ def in_band(
     d = _finite("d", d)
     r = _checks.positive("r", r)
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
-    usable, why = _candidates(shape, mask, within)
-    c = dist.reshape(-1)
-    usable &= (c > d - r) & (c < d + r)
-    finite = c[np.isfinite(c)]
-    span = f"finite costs range over [{finite.min():g}, {finite.max():g}]" if finite.size else "no finite costs"
-    why.append(f"{int(usable.sum())} with cost in ({d - r:g}, {d + r:g}) ({span})")
+    usable, why = _band_candidates(dist, shape, mask, d, r, within)
     return _sample(shape, usable, count, rng, density, spacing, why)
 
 

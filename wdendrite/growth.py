@@ -57,6 +57,8 @@ class FractalParams:
         _checks.positive("epsilon", self.epsilon)
         if self.r is not None:
             _checks.positive("r", self.r)
+        if self.min_spacing is not None:
+            _checks.positive("min_spacing", self.min_spacing)
         cheap = _checks.nonnegative("cheap", self.cheap, allow_none=False)
         if cheap > 1:
             raise ValueError(f"Expected 'cheap' (D) in [0, 1], but got {self.cheap!r}")
@@ -116,12 +118,12 @@ def _relabel(den: Dendrite, first: int, n_gens: int) -> Dendrite:
 def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing):
     """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
     ``min_spacing`` apart) cannot hold that many; None when it holds none."""
-    usable, _ = _endpoints._candidates(cf.lattice.shape, cf.lattice.mask, within)
-    dist = cf.dist.reshape(-1)
-    n = min(m, int(np.count_nonzero(usable & (dist > d - r) & (dist < d + r))))
+    lattice = cf.lattice
+    usable, why = _endpoints._band_candidates(cf.dist, lattice.shape, lattice.mask, d, r, within)
+    n = min(m, int(np.count_nonzero(usable)))
     while n > 0:
         try:
-            return _endpoints.in_band(cf, n, d, r, seed=rng, within=within, min_spacing=min_spacing)
+            return _endpoints._sample(lattice.shape, usable, n, rng, None, min_spacing, why)
         except ValueError:
             if min_spacing is None:
                 raise

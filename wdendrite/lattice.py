@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import warp as wp
@@ -164,6 +164,23 @@ class LatticeArrays:
     recomputed in kernels."""
     stamps: "_Stamps"
     """Issues the ever-growing generation and search ids the record stamps use."""
+    host_rows: dict = field(default_factory=dict, repr=False)
+    """Host scratch reused by :func:`wdendrite.trace` under ``stamps.lock``: key ``"rows"``
+    holds an int32 array of P entries mapping padded nodes to dendrite rows (only the
+    entries of the dendrite being built are meaningful)."""
+
+    def fresh_ids(self, count: int) -> int:
+        """The first of ``count`` new stamp ids (the caller holds ``stamps.lock``).
+
+        Stamps are int32 and ids only grow; before they would wrap, every
+        record's stamp is cleared and numbering starts again.
+        """
+        if not self.stamps.room(max(count, 2**24)):
+            clear_records(self.aux, self.stride, self.nw, with_state=False)
+            self.stamps.last = 0
+        first = self.stamps.last + 1
+        self.stamps.last += count
+        return first
 
 
 def _record_weights(aux: wp.array, padded: tuple, stride: int, nw: int) -> np.ndarray:

@@ -21,7 +21,7 @@ import warp as wp
 
 from . import _checks, _memory
 from .kernels import sssp as _k
-from .lattice import Lattice, clear_records, pass_chunk, pass_threads
+from .lattice import Lattice, pass_chunk, pass_threads
 
 __all__ = ["CostField", "shortest_paths"]
 
@@ -245,10 +245,7 @@ def shortest_paths(
     with wp.ScopedDevice(device), arrays.stamps.lock:
         chunk = pass_chunk(device)
         size = arrays.mask.shape[0]
-        if not arrays.stamps.room(2**24):
-            clear_records(arrays.aux, arrays.stride, arrays.nw, with_state=False)
-            arrays.stamps.last = 0
-        far_id = arrays.stamps.next()
+        far_id = arrays.fresh_ids(1)
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
             arrays.stamps.owner = None
