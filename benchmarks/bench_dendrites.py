@@ -17,7 +17,11 @@ its usable edges are evaluated), run
 walk the predecessors with vectorized NumPy. Its refinement step reuses our
 NumPy sublattice builder, so only the path planning differs.
 
-Usage: python benchmarks/bench_dendrites.py [--quick]
+Each side runs ``--repeat`` times (default 3, alternating with the other side);
+the medians are printed, so one disturbed run on a shared machine does not
+decide the ratio.
+
+Usage: python benchmarks/bench_dendrites.py [--quick] [--repeat N]
 """
 
 from __future__ import annotations
@@ -126,52 +130,71 @@ def coral(quick):
 FRACTAL = wd.FractalParams(count=8, d=700.0, alpha=1.6, beta=3.0, epsilon=40.0)
 
 
-def run(name, quick):
+def _timed(fn):
+    t = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t, out
+
+
+def _sides(name, quick):
+    """The workload's two sides as zero-argument callables (ours, SciPy's) and a describer of their results."""
     if name == "fractal":
         n = 256 if quick else 512
         lat = wd.Lattice((n, n), 8, weights=wd.weights.Uniform(r=10, seed=9))
         gens = np.array([[n // 2, n // 2]])
         params = FRACTAL if not quick else wd.FractalParams(count=10, d=350.0, alpha=1.6, beta=3.0, epsilon=20.0)
-        t = time.perf_counter()
-        den = wd.grow(lat, gens, params, seed=0)
-        ours = time.perf_counter() - t
-        t = time.perf_counter()
-        size, ends = scipy_fractal(lat, gens, params, seed=0)
-        theirs = time.perf_counter() - t
-        return ours, theirs, f"{len(den.endpoints)} / {ends} endpoints, {len(den)} / {size} nodes"
+        ours = lambda: wd.grow(lat, gens, params, seed=0)
+        theirs = lambda: scipy_fractal(lat, gens, params, seed=0)
+        return ours, theirs, lambda den, res: f"{len(den.endpoints)} / {res[1]} endpoints, {len(den)} / {res[0]} nodes"
     lat, gens, ends = {"simple": simple, "lightning": lightning, "tree": tree, "coral": coral}[name](quick)
-    t = time.perf_counter()
-    cf = wd.shortest_paths(lat, gens)
-    den = wd.trace(cf, ends)
-    if name == "coral":
-        den, _ = wd.refine(den, lat, n=3, e=0.75, seed=0)
-    ours = time.perf_counter() - t
-    coarse = wd.trace(cf, ends)  # the coarse dendrite SciPy's refinement starts from (outside the timing)
-    t = time.perf_counter()
-    nodes = scipy_trace(lat, gens, ends)
-    size = len(nodes)
-    if name == "coral":
-        # the same refinement, planned with SciPy on the same sublattice builder
-        fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=3, e=0.75, seed=0)
-        size = len(scipy_trace(fine_lat, roots, fends))
-    theirs = time.perf_counter() - t
-    return ours, theirs, f"{len(den)} / {size} nodes"
+
+    def ours():
+        den = wd.trace(wd.shortest_paths(lat, gens), ends)
+        return wd.refine(den, lat, n=3, e=0.75, seed=0)[0] if name == "coral" else den
+
+    coarse = wd.trace(wd.shortest_paths(lat, gens), ends)  # SciPy's refinement starts from it (outside the timing)
+
+    def theirs():
+        size = len(scipy_trace(lat, gens, ends))
+        if name == "coral":
+            # the same refinement, planned with SciPy on the same sublattice builder
+            fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=3, e=0.75, seed=0)
+            size = len(scipy_trace(fine_lat, roots, fends))
+        return size
+
+    return ours, theirs, lambda den, size: f"{len(den)} / {size} nodes"
+
+
+def run(name, quick, repeat):
+    """Median seconds of ``repeat`` runs of each side (alternating), and the sizes both made."""
+    ours, theirs, describe = _sides(name, quick)
+    times = {"ours": [], "theirs": []}
+    for _ in range(repeat):
+        t, den = _timed(ours)
+        times["ours"].append(t)
+        t, res = _timed(theirs)
+        times["theirs"].append(t)
+    return float(np.median(times["ours"])), float(np.median(times["theirs"])), describe(den, res)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (a smoke test)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each side per workload; medians are printed")
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1, got {args.repeat}")
     wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
     for warm in (simple, tree):  # load the kernels and SciPy outside the measurements
         lat, gens, ends = warm(True)
         wd.trace(wd.shortest_paths(lat, gens), ends)
         scipy_trace(lat, gens, ends)
-    print(f"# bench_dendrites  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}  device={wp.get_device()}")
+    print(f"# bench_dendrites  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}  device={wp.get_device()}  "
+          f"median of {args.repeat} runs per side")
     print(f"{'workload':>10} | {'wdendrite s':>11} | {'scipy+numpy s':>13} | {'speed-up':>8} | {'paper (2007 CPU)':>16} | sizes (ours / scipy)")
     for name in ("simple", "fractal", "lightning", "tree", "coral"):
-        ours, theirs, note = run(name, args.quick)
+        ours, theirs, note = run(name, args.quick, args.repeat)
         print(f"{name:>10} | {ours:11.3f} | {theirs:13.3f} | {theirs / ours:7.1f}x | {PAPER[name]:>16} | {note}", flush=True)
 
 
