@@ -164,8 +164,8 @@ class LatticeArrays:
     recomputed in kernels."""
     stamps: "_Stamps"
     """Issues the ever-growing generation and search ids the record stamps use."""
-    host_rows: dict = field(default_factory=dict, repr=False)
-    """Host scratch reused by :func:`wdendrite.trace` under ``stamps.lock``: key ``"rows"``
+    host_scratch: dict = field(default_factory=dict, repr=False)
+    """Host arrays reused by :func:`wdendrite.trace` under ``stamps.lock``: ``"rows"``
     holds an int32 array of P entries mapping padded nodes to dendrite rows (only the
     entries of the dendrite being built are meaningful)."""
 
