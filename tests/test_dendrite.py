@@ -133,6 +133,8 @@ def test_walk_marks_in_the_record_stamps_leave_searches_and_wraps_exact():
     assert stamps.last < 10**6
     for f in ("nodes", "parent", "cost", "label", "endpoints"):
         np.testing.assert_array_equal(getattr(again, f), getattr(ref, f))
+    grown = wd.trace(cf, np.argwhere(np.isfinite(cf.dist))[5::41], extend=ref)
+    assert grown.endpoints.dtype == grown.parent.dtype == np.int64 and ref.endpoints.dtype == np.int64
     more = np.concatenate([gens, ref.nodes])
     flat = np.ravel_multi_index(tuple(more.T), lat.shape)
     want = dijkstra(lat.to_csgraph(), directed=False, indices=flat, min_only=True)

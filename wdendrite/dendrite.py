@@ -256,12 +256,11 @@ def trace(
         fresh_pred = new_pred.numpy()[:n_new][order]
         all_padded = np.concatenate([old, fresh])
         # rows of padded nodes through a lattice-sized table: only this dendrite's entries are written and read
-        rows = arrays.host_scratch.get("rows")
-        if rows is None:
-            rows = arrays.host_scratch["rows"] = np.empty(arrays.mask.shape[0], np.int32)
+        # (untouched pages of np.empty cost nothing)
+        rows = np.empty(arrays.mask.shape[0], np.int32)
         rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
-        end_rows = np.unique(rows[starts])
+        end_rows = np.unique(rows[starts]).astype(np.int64)
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import warp as wp
@@ -164,10 +164,6 @@ class LatticeArrays:
     recomputed in kernels."""
     stamps: "_Stamps"
     """Issues the ever-growing generation and search ids the record stamps use."""
-    host_scratch: dict = field(default_factory=dict, repr=False)
-    """Host arrays reused by :func:`wdendrite.trace` under ``stamps.lock``: ``"rows"``
-    holds an int32 array of P entries mapping padded nodes to dendrite rows (only the
-    entries of the dendrite being built are meaningful)."""
 
     def fresh_ids(self, count: int) -> int:
         """The first of ``count`` new stamp ids (the caller holds ``stamps.lock``).
