@@ -169,6 +169,21 @@ def test_glow_keeps_the_total_and_is_symmetric(device):
     assert 3.5 < sigma < 4.5
 
 
+@pytest.mark.parametrize("shape", [(37, 53), (5, 3), (1, 1), (8, 12)])
+def test_glow_equals_scipy_box_filters(device, shape):
+    # three box passes per axis with zeros outside: SciPy's uniform_filter in float64 is the reference;
+    # sizes that are not multiples of 4 exercise the kernels' row and column groups
+    from scipy import ndimage
+
+    img = np.random.default_rng(shape[0]).random(shape).astype(np.float32)
+    radius, passes = 3.0, 3
+    half = max(1, int(round(0.5 * (np.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
+    ref = img.astype(np.float64)
+    for _ in range(passes):
+        ref = ndimage.uniform_filter(ref, size=2 * half + 1, mode="constant", cval=0.0)
+    np.testing.assert_allclose(glow(img, radius=radius, passes=passes, device=device), ref, rtol=0, atol=1e-6)
+
+
 def test_colorize_adds_light_over_the_background(device):
     v = np.array([[0.0, 1.0]], np.float32)
     rgb = colorize(v, device=device)

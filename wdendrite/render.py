@@ -482,18 +482,21 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
     half = max(1, int(round(0.5 * (math.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
     device = wp.get_device(device)
     h, w = img.shape
-    # rows a few floats longer than the image: column sweeps over power-of-two strides
-    # keep evicting each other from the CPU caches
-    stride = w + 8
-    buf = np.zeros((h, stride), np.float32)
-    buf[:, :w] = img
+    # kernels take rows four at a time and columns as vec4 groups: a buffer of whole groups
+    # (padding zeros, never read into the image), its rows a few floats longer than the image
+    # so that column sweeps over power-of-two strides do not keep evicting each other from the caches
+    rows = -(-h // 4) * 4
+    stride = -(-w // 4) * 4 + 8
+    buf = np.zeros((rows, stride), np.float32)
+    buf[:h, :w] = img
     with wp.ScopedDevice(device):
         a = wp.array(buf, dtype=float)
         b = wp.zeros_like(a)
+        a4, b4 = (wp.array(ptr=x.ptr, dtype=wp.vec4, shape=(rows, stride // 4), device=device) for x in (a, b))
         for _ in range(passes):
-            wp.launch(_k.box_blur_rows_kernel, dim=h, inputs=[a, w, half], outputs=[b])
-            wp.launch(_k.box_blur_cols_kernel, dim=w, inputs=[b, half], outputs=[a])
-        return np.ascontiguousarray(a.numpy()[:, :w])
+            wp.launch(_k.box_blur_rows_kernel, dim=rows // 4, inputs=[a, w, half], outputs=[b])
+            wp.launch(_k.box_blur_cols_kernel, dim=stride // 4, inputs=[b4, h, half], outputs=[a4])
+        return np.ascontiguousarray(a.numpy()[:h, :w])
 
 
 COLORMAPS: dict[str, tuple[tuple[float, float, float], ...]] = {
