@@ -1,5 +1,7 @@
 """shortest_paths against SciPy's Dijkstra, tie rule, warm starts, limit, bad input."""
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -262,6 +264,23 @@ def test_unstored_weights_give_the_stored_result(shape, conn, dist, device):
 def test_unstored_weights_need_a_distribution():
     with pytest.raises(ValueError, match="store_weights"):
         wd.Lattice((4, 4), weights=np.ones((2, 4, 4)), store_weights=False)
+
+
+def test_warm_start_checks_new_generator_rows_and_names_them_in_the_whole_list():
+    # generators that begin with the warm start's are checked from there on; errors count rows in the whole list
+    mask = np.ones((20, 20), bool)
+    mask[5, 5] = False
+    lat = wd.Lattice((20, 20), 8, weights=wd.weights.Uniform(seed=2), mask=mask)
+    first = np.array([[1, 1], [10, 12]])
+    cf = wd.shortest_paths(lat, first, limit=30.0)
+    for bad, words in (([[5, 5]], "row 2 = (5, 5) is a masked-out node"), ([[3, 20]], "row 2 = (3, 20) lies outside")):
+        with pytest.raises(ValueError, match=re.escape(words)):
+            wd.shortest_paths(lat, np.concatenate([first, np.array(bad)]), warm_start=cf, limit=30.0)
+    more = np.concatenate([first, np.array([[15, 3]])])
+    warm = wd.shortest_paths(lat, more, warm_start=cf, limit=30.0)
+    cold = wd.shortest_paths(lat, more, limit=30.0)
+    assert warm.dist.tobytes() == cold.dist.tobytes() and warm.label.tobytes() == cold.label.tobytes()
+    assert warm.generators.dtype == np.int64 and np.array_equal(warm.generators, more)
 
 
 def test_stamp_ids_wrap_safely():

@@ -173,6 +173,15 @@ class Dendrite:
             yield self.path(e)
 
 
+def _endpoint_rows(extend: Dendrite | None, rows: np.ndarray, n: int) -> np.ndarray:
+    """Sorted distinct endpoint rows of a dendrite of ``n`` rows: ``extend``'s and ``rows``."""
+    flag = np.zeros(n, bool)
+    if extend is not None:
+        flag[extend.endpoints] = True
+    flag[rows] = True
+    return np.flatnonzero(flag)
+
+
 def trace(
     costfield: CostField,
     endpoints,
@@ -260,7 +269,7 @@ def trace(
         rows = np.empty(arrays.mask.shape[0], np.int32)
         rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
-        end_rows = np.unique(rows[starts]).astype(np.int64)
+        end_rows = rows[starts].astype(np.int64)
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])
@@ -279,7 +288,7 @@ def trace(
         cost=_cat("cost", dist[tuple(coords.T)], np.float32),
         label=_cat("label", costfield.label[tuple(coords.T)], np.int32),
         generation=_cat("generation", np.full(len(fresh), generation), np.int32),
-        endpoints=np.unique(np.concatenate([extend.endpoints, end_rows])) if extend is not None else end_rows,
+        endpoints=_endpoint_rows(extend, end_rows, len(all_padded)),
         _padded=all_padded,
         origin=None if extend is None else extend.origin,
         spacing=1.0 if extend is None else extend.spacing,

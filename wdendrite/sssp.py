@@ -141,6 +141,25 @@ def _default_delta(lattice: Lattice) -> float:
     return max(float(np.percentile(sample, 10)), 1e-6) * 16.0
 
 
+def _generator_rows(generators, lattice: Lattice, warm_start) -> np.ndarray:
+    """``generators`` validated as ``(G, ndim)`` int64 coordinates.
+
+    A warm start's generators were validated when it was made: when ``generators``
+    begins with them (as growth passes them), only the rows after them are checked.
+    """
+    if isinstance(warm_start, CostField) and isinstance(generators, np.ndarray) and generators.dtype == np.int64:
+        old = warm_start.generators
+        if (generators.ndim == 2 and generators.shape[1] == lattice.ndim and len(generators) > len(old)
+                and warm_start.lattice.shape == lattice.shape and np.array_equal(generators[: len(old)], old)):
+            try:
+                tail = _checks.node_coordinates("generators", generators[len(old):], lattice.shape, lattice.mask)
+            except (TypeError, ValueError):
+                pass  # the whole check below names the bad row in the whole list
+            else:
+                return np.concatenate([old, tail])
+    return _checks.node_coordinates("generators", generators, lattice.shape, lattice.mask)
+
+
 def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit: float) -> None:
     old = warm.lattice
     if old.shape != lattice.shape or old.connectivity != lattice.connectivity:
@@ -219,7 +238,7 @@ def shortest_paths(
     """
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
-    gens = _checks.node_coordinates("generators", generators, lattice.shape, lattice.mask)
+    gens = _generator_rows(generators, lattice, warm_start)
     if len(gens) >= 2**31:
         raise ValueError(f"'generators' has {len(gens)} rows; at most 2**31 - 1 are supported")
     limit_f = _checks.nonnegative("limit", limit, allow_inf=True)
