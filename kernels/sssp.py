@@ -506,6 +506,30 @@ def unpack_one(word: wp.uint64, limit: float, i: int, dist_out: wp.array(dtype=f
         label_out[i] = -1
 
 
+@wp.func
+def walk_start(i: int, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec3i:
+    """Walk state ``(padded index, x, y)`` of unpadded node ``i`` (see :func:`walk_next`)."""
+    c = node_coords(i, shape)
+    return wp.vec3i(padded_index(i, shape, pad), c[2], c[1])
+
+
+@wp.func
+def walk_next(w: wp.vec3i, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec3i:
+    """The walk state of the next unpadded node: passes over consecutive nodes keep
+    the padded index alongside, skipping the border at row and plane ends, instead of dividing."""
+    p = w[0] + 1
+    x = w[1] + 1
+    y = w[2]
+    if x == shape[2]:
+        x = 0
+        p += 2
+        y += 1
+        if y == shape[1]:
+            y = 0
+            p += 2 * (shape[2] + 2) * pad[0]
+    return wp.vec3i(p, x, y)
+
+
 @wp.kernel
 def unpack_kernel(
     state: wp.array(dtype=wp.uint64),
@@ -520,33 +544,84 @@ def unpack_kernel(
 ):
     """Split the records' packed states into costs (inf when unreached or above ``limit``) and labels (-1).
 
-    Each thread handles ``chunk`` consecutive nodes, walking the padded index
-    alongside (skipping the border at row and plane ends) instead of dividing.
+    Each thread handles ``chunk`` consecutive nodes.
     """
     start = wp.tid() * chunk
     stop = wp.min(start + chunk, dist_out.shape[0])
     if start >= stop:
         return
-    p = padded_index(start, shape, pad)
-    c = node_coords(start, shape)
-    x = c[2]
-    y = c[1]
+    w = walk_start(start, shape, pad)
     sstride = stride >> 1
     for i in range(start, stop):
         # masked nodes' records are not read: a sparse lattice never touches them
         word = UNREACHED
-        if mask[p] != wp.uint8(0):
-            word = state[p * sstride]
+        if mask[w[0]] != wp.uint8(0):
+            word = state[w[0] * sstride]
         unpack_one(word, limit, i, dist_out, label_out)
-        p += 1
-        x += 1
-        if x == shape[2]:
-            x = 0
-            p += 2
-            y += 1
-            if y == shape[1]:
-                y = 0
-                p += 2 * (shape[2] + 2) * pad[0]
+        w = walk_next(w, shape, pad)
+
+
+@wp.kernel
+def read_states_kernel(
+    nodes: wp.array(dtype=wp.int32),
+    state: wp.array(dtype=wp.uint64),
+    stride: int,
+    limit: float,
+    cost_out: wp.array(dtype=float),
+    label_out: wp.array(dtype=wp.int32),
+):
+    """Costs and labels of the listed padded nodes, as :func:`unpack_one` gives them."""
+    i = wp.tid()
+    unpack_one(state_at(state, stride, nodes[i]), limit, i, cost_out, label_out)
+
+
+@wp.func
+def in_band(word: wp.uint64, limit: float, low: float, high: float) -> bool:
+    """Whether a packed state holds a searched cost ``c`` (within ``limit``) with ``low < c < high``."""
+    if word == UNREACHED:
+        return False
+    c = packed_cost(word)
+    return c <= limit and c > low and c < high
+
+
+@wp.kernel
+def band_kernel(
+    usable: wp.array(dtype=wp.int32),
+    listed: int,
+    state: wp.array(dtype=wp.uint64),
+    mask: wp.array(dtype=wp.uint8),
+    shape: wp.vec3i,
+    pad: wp.vec3i,
+    stride: int,
+    limit: float,
+    low: float,
+    high: float,
+    chunk: int,
+    count: wp.array(dtype=wp.int32),
+    nodes_out: wp.array(dtype=wp.int32),
+):
+    """List the (unpadded) indices of the usable nodes whose cost lies in ``(low, high)``.
+
+    Launch dim: ``chunk`` consecutive nodes per thread (one thread lists them in
+    ascending order), or with ``listed`` one thread per entry of ``usable``, the
+    padded indices of the usable nodes of a sparse lattice.
+    """
+    if listed != 0:
+        p = usable[wp.tid()]
+        if in_band(state_at(state, stride, p), limit, low, high):
+            nodes_out[wp.atomic_add(count, 0, 1)] = node_index(node_coords(p, shape + pad + pad) - pad, shape)
+        return
+    start = wp.tid() * chunk
+    stop = wp.min(start + chunk, shape[0] * shape[1] * shape[2])
+    if start >= stop:
+        return
+    w = walk_start(start, shape, pad)
+    sstride = stride >> 1
+    for i in range(start, stop):
+        if mask[w[0]] != wp.uint8(0):
+            if in_band(state[w[0] * sstride], limit, low, high):
+                nodes_out[wp.atomic_add(count, 0, 1)] = i
+        w = walk_next(w, shape, pad)
 
 
 @wp.kernel

@@ -161,6 +161,22 @@ def test_in_band_every_point_in_the_band():
     assert np.array_equal(got, band)
 
 
+def test_in_band_reads_a_cost_field_as_it_reads_its_dist_array():
+    # a cost field's band is read from the lattice's records, without unpacking its dist:
+    # the same candidates, so the same draws, as from the array
+    mask = np.ones((50, 60), bool)
+    mask[10:40, 20:25] = False
+    lat = wd.Lattice((50, 60), 8, weights=wd.weights.Uniform(r=10, seed=5), mask=mask)
+    cf = wd.shortest_paths(lat, [[25, 10]], limit=150.0)
+    within = ep.Disc(center=(10, 20), radius=15)
+    for kwargs in ({}, {"within": within}, {"min_spacing": 3.0}):
+        a = ep.in_band(cf, 30, 70.0, 12.0, seed=9, **kwargs)
+        assert cf._fields.dist is None
+        b = ep.in_band(np.array(cf.dist), 30, 70.0, 12.0, seed=9, **kwargs)
+        cf = wd.shortest_paths(lat, [[25, 10]], limit=150.0)
+        np.testing.assert_array_equal(a, b)
+
+
 def test_in_band_respects_mask_and_reports_empty_band():
     mask = np.ones((40, 40), bool)
     mask[:, 25:] = False

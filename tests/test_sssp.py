@@ -355,5 +355,65 @@ def test_sparse_lattices_match_scipy(shape, conn, source):
     warm = wd.shortest_paths(lat, gens, warm_start=capped, limit=15.0)
     cold = wd.shortest_paths(lat, gens, limit=15.0)
     assert warm.dist.tobytes() == cold.dist.tobytes() and warm.label.tobytes() == cold.label.tobytes()
+    # the band of costs read from the usable list equals the band of the unpacked array
+    from wdendrite.sssp import band_nodes
+
+    flat = cold.dist.reshape(-1)
+    np.testing.assert_array_equal(band_nodes(cold, 5.0, 12.0), np.flatnonzero((flat > 5.0) & (flat < 12.0)))
     # a masked distribution's weights are computed on access: the same values the records hold
     np.testing.assert_array_equal(lat.weights, wd.Lattice(shape, conn, weights=weights).weights)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problems(), st.floats(5.0, 60.0))
+def test_costs_read_after_the_records_were_reused_match_scipy(problem, limit):
+    # a search leaves its costs in the lattice's records and unpacks them only when they are
+    # first read or when another search is about to reuse the records: reading late loses nothing
+    lat, gens = problem
+    first = wd.shortest_paths(lat, gens, limit=limit)
+    assert first._fields.dist is None  # nothing unpacked yet
+    second = wd.shortest_paths(lat, gens[::-1])  # cold: reuses the records
+    third = wd.shortest_paths(lat, gens[::-1], limit=limit / 2, warm_start=second)  # warm: reuses them again
+    _check_against_scipy(lat, gens, first, limit=limit)
+    _check_against_scipy(lat, gens[::-1], second)
+    _check_against_scipy(lat, gens[::-1], third, limit=limit / 2)
+
+
+def test_a_consumed_warm_start_is_not_unpacked_and_says_so():
+    lat = wd.Lattice((30, 40), 8, weights=wd.weights.Uniform(r=10, seed=3))
+    ref = np.array(wd.shortest_paths(lat, [[5, 5]], limit=80.0).dist)
+    first = wd.shortest_paths(lat, [[5, 5]], limit=80.0)
+    kept = wd.shortest_paths(lat, [[5, 5], [20, 30]], limit=60.0, warm_start=first)
+    # without the private flag a warm start keeps its costs
+    np.testing.assert_array_equal(first.dist, ref)
+    spent = wd.shortest_paths(lat, [[5, 5], [20, 30], [25, 2]], limit=50.0, warm_start=kept,
+                              _consume_warm_start=True)
+    assert kept._fields.dist is None and kept._fields.spent
+    with pytest.raises(RuntimeError, match="warm start"):
+        kept.dist
+    _check_against_scipy(lat, np.array([[5, 5], [20, 30], [25, 2]]), spent, limit=50.0)
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problems(), st.floats(-5.0, 40.0), st.floats(0.5, 30.0), st.floats(5.0, 60.0))
+def test_band_and_point_reads_from_the_records_equal_the_unpacked_arrays(problem, low, width, limit):
+    from wdendrite.sssp import band_nodes, read_states
+
+    lat, gens = problem
+    # a wide search then a warm start with a lower limit: the records keep words above the limit
+    wide = wd.shortest_paths(lat, gens[:1], limit=2 * limit)
+    cf = wd.shortest_paths(lat, gens, limit=limit, warm_start=wide)
+    band = band_nodes(cf, low, low + width)  # read from the records, before any unpacking
+    arrays = lat.device_arrays(cf.device)
+    usable = np.ones(lat.shape, bool) if lat.mask is None else lat.mask
+    nodes = np.argwhere(usable)  # (masked nodes are never read: their records hold no state)
+    with arrays.stamps.lock:
+        cost, label = read_states(arrays, lat.padded_indices(nodes), cf.limit)
+    assert cf._fields.dist is None
+    dist = cf.dist.reshape(-1)
+    np.testing.assert_array_equal(band, np.flatnonzero((dist > low) & (dist < low + width)))
+    assert band.dtype == np.int64
+    assert cost.tobytes() == cf.dist[usable].tobytes() and label.tobytes() == cf.label[usable].tobytes()
+    # and once more from a field packed back into records another search had taken
+    wd.shortest_paths(lat, gens[::-1])
+    np.testing.assert_array_equal(band_nodes(cf, low, low + width), band)

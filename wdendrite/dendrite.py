@@ -12,7 +12,7 @@ import warp as wp
 from . import _checks
 from .kernels import dendrite as _kd
 from .lattice import coords_of_padded, padded_index_of
-from .sssp import CostField, load_state
+from .sssp import CostField, load_state, read_states
 
 __all__ = ["Dendrite", "trace"]
 
@@ -217,14 +217,6 @@ def trace(
         raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
     lattice = costfield.lattice
     pts = _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
-    dist = costfield.dist
-    bad = ~np.isfinite(dist[tuple(pts.T)])
-    if bad.any():
-        row = int(np.argmax(bad))
-        why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"
-        raise ValueError(
-            f"'endpoints' row {row} = {tuple(pts[row].tolist())} is {why} ({int(bad.sum())} such endpoints)"
-        )
     if extend is not None:
         if not isinstance(extend, Dendrite):
             raise TypeError(f"Expected a Dendrite for 'extend', but got {type(extend).__name__}")
@@ -239,10 +231,22 @@ def trace(
     old = np.zeros(0, np.int64) if extend is None else extend._padded
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
+        # costs are read from the records: the cost field's dist array is not needed
+        bad = ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
+        if bad.any():
+            row = int(np.argmax(bad))
+            why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"
+            raise ValueError(
+                f"'endpoints' row {row} = {tuple(pts[row].tolist())} is {why} ({int(bad.sum())} such endpoints)"
+            )
         # walks mark the records' stamps: generators first, then the nodes already on the dendrite
         root_id = arrays.fresh_ids(2)
         visit_id = root_id + 1
-        for nodes, mark in ((lattice.padded_indices(costfield.generators), root_id), (old.astype(np.int32), visit_id)):
+        gen_rows = costfield.generators
+        if len(old) and len(gen_rows) >= len(old) and np.array_equal(gen_rows[len(gen_rows) - len(old):], extend.nodes):
+            # the generators end with the dendrite's nodes (growth with new generators): those get visit_id anyway
+            gen_rows = gen_rows[: len(gen_rows) - len(old)]
+        for nodes, mark in ((lattice.padded_indices(gen_rows), root_id), (old.astype(np.int32), visit_id)):
             if len(nodes):
                 wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32), arrays.stride,
                                                                     arrays.nw, mark], outputs=[arrays.aux])
@@ -261,7 +265,8 @@ def trace(
         n_new = int(new_count.numpy()[0])
         listed = new_nodes.numpy()[:n_new]
         order = np.argsort(listed)
-        fresh = listed[order].astype(np.int64)
+        fresh32 = listed[order]
+        fresh = fresh32.astype(np.int64)
         fresh_pred = new_pred.numpy()[:n_new][order]
         all_padded = np.concatenate([old, fresh])
         # rows of padded nodes through a lattice-sized table: only this dendrite's entries are written and read
@@ -270,9 +275,11 @@ def trace(
         rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
+        cost, label = read_states(arrays, fresh32, costfield.limit)
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])
+        dist = costfield.dist
         raise ValueError(
             f"backtracking from 'endpoints' row {row} = {tuple(pts[row].tolist())} found no way down: path costs "
             f"reach {float(np.nanmax(np.where(np.isfinite(dist), dist, np.nan))):.3g}, where float32 cannot add the "
@@ -285,8 +292,8 @@ def trace(
         shape=lattice.shape,
         nodes=_cat("nodes", coords, np.int64).reshape(-1, lattice.ndim),
         parent=_cat("parent", new_parent, np.int64),
-        cost=_cat("cost", dist[tuple(coords.T)], np.float32),
-        label=_cat("label", costfield.label[tuple(coords.T)], np.int32),
+        cost=_cat("cost", cost, np.float32),
+        label=_cat("label", label, np.int32),
         generation=_cat("generation", np.full(len(fresh), generation), np.int32),
         endpoints=_endpoint_rows(extend, end_rows, len(all_padded)),
         _padded=all_padded,

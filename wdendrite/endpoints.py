@@ -26,6 +26,7 @@ from typing import Literal
 import numpy as np
 
 from . import _checks
+from . import sssp as _sssp
 from .lattice import Lattice
 
 __all__ = ["Box", "Disc", "Image", "Polygon", "Region", "Triangle", "biased", "in_band", "manual", "random"]
@@ -307,17 +308,16 @@ def _density(density, shape) -> np.ndarray:
     return arr
 
 
-def _sample(shape, usable: np.ndarray, count: int, rng, density, min_spacing, why: list) -> np.ndarray:
-    """Draw ``count`` distinct nodes among ``usable`` (flat bool).
+def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why: list) -> np.ndarray:
+    """Draw ``count`` distinct nodes among the candidates ``cand`` (ascending flat indices).
 
     ``why`` holds zero-argument callables describing the filters, called only
     to word an error (counting candidates for a message is a pass over the lattice).
     """
     if density is not None:
         dens = _density(density, shape)
-        usable = usable & (dens > 0)
-        why.append(lambda u=usable: f"{int(u.sum())} with positive 'density'")
-    cand = np.flatnonzero(usable)
+        cand = cand[dens[cand] > 0]
+        why.append(lambda n=len(cand): f"{n} with positive 'density'")
     if len(cand) == 0:
         raise ValueError("No candidate nodes for endpoints: " + _describe(why))
     if count > len(cand):
@@ -354,19 +354,31 @@ def _candidates(shape, mask, within) -> tuple[np.ndarray, list]:
     return usable, why
 
 
-def _band_candidates(dist: np.ndarray, shape, mask, d: float, r: float, within) -> tuple[np.ndarray, list]:
-    """:func:`_candidates` whose flat ``dist`` lies in ``(d - r, d + r)``."""
+def _band_candidates(cost, shape, mask, d: float, r: float, within) -> tuple[np.ndarray, list]:
+    """Ascending flat indices of the usable nodes (inside ``within``) whose cost lies in
+    ``(d - r, d + r)``, and the describers of :func:`_sample`.
+
+    ``cost`` is a :class:`~wdendrite.CostField`, whose band is read from the
+    lattice's records without making its ``dist`` array, or a flat float array.
+    """
     usable, why = _candidates(shape, mask, within)
-    c = dist.reshape(-1)
-    band = usable & (c > d - r) & (c < d + r)
+    if isinstance(cost, np.ndarray):
+        cand = np.flatnonzero(usable & (cost > d - r) & (cost < d + r))
+        costs = lambda: cost  # noqa: E731
+    else:
+        cand = _sssp.band_nodes(cost, d - r, d + r)  # usable nodes only
+        if within is not None:
+            cand = cand[usable[cand]]
+        costs = lambda: cost.dist.reshape(-1)  # noqa: E731
 
     def told() -> str:
+        c = costs()
         finite = c[np.isfinite(c)]
         span = f"finite costs range over [{finite.min():g}, {finite.max():g}]" if finite.size else "no finite costs"
-        return f"{int(band.sum())} with cost in ({d - r:g}, {d + r:g}) ({span})"
+        return f"{len(cand)} with cost in ({d - r:g}, {d + r:g}) ({span})"
 
     why.append(told)
-    return band, why
+    return cand, why
 
 
 def _spacing(min_spacing):
@@ -408,7 +420,7 @@ def random(
     shape, mask = _space(lattice)
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
     usable, why = _candidates(shape, mask, within)
-    return _sample(shape, usable, count, rng, density, spacing, why)
+    return _sample(shape, np.flatnonzero(usable), count, rng, density, spacing, why)
 
 
 def biased(
@@ -477,21 +489,19 @@ def in_band(
     Returns:
         ``(M, ndim)`` int64 node coordinates.
     """
-    if hasattr(cost, "dist") and hasattr(cost, "lattice"):
-        dist, lattice = np.asarray(cost.dist), cost.lattice
+    if isinstance(cost, _sssp.CostField):
+        shape, mask = _space(cost.lattice)
     else:
         dist = np.asarray(cost)
         if dist.dtype.kind != "f":
             raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
-        lattice = dist.shape
-    shape, mask = _space(lattice)
-    if dist.shape != shape:
-        raise ValueError(f"Expected 'cost' of shape {shape}, but got shape {dist.shape}")
+        shape, mask = _space(dist.shape)
+        cost = dist.reshape(-1)
     d = _finite("d", d)
     r = _checks.positive("r", r)
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
-    usable, why = _band_candidates(dist, shape, mask, d, r, within)
-    return _sample(shape, usable, count, rng, density, spacing, why)
+    cand, why = _band_candidates(cost, shape, mask, d, r, within)
+    return _sample(shape, cand, count, rng, density, spacing, why)
 
 
 def manual(lattice, points, *, cost=None) -> np.ndarray:

@@ -119,11 +119,11 @@ def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_
     """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
     ``min_spacing`` apart) cannot hold that many; None when it holds none."""
     lattice = cf.lattice
-    usable, why = _endpoints._band_candidates(cf.dist, lattice.shape, lattice.mask, d, r, within)
-    n = min(m, int(np.count_nonzero(usable)))
+    cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, d, r, within)
+    n = min(m, len(cand))
     while n > 0:
         try:
-            return _endpoints._sample(lattice.shape, usable, n, rng, None, min_spacing, why)
+            return _endpoints._sample(lattice.shape, cand, n, rng, None, min_spacing, why)
         except ValueError:
             if min_spacing is None:
                 raise
@@ -205,11 +205,13 @@ def grow(
             if it + 1 < len(plan):
                 # the next band lies below the next limit: nothing beyond it is searched
                 limit = plan[it + 1][1] + r
+                # the last cost field is not read again: the search may reuse its memory
                 if new_generators:
-                    cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf)
+                    cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf,
+                                        _consume_warm_start=True)
                 else:
                     lat = lower_dendrite_weights(base_lat, den, params.cheap)
-                    cf = shortest_paths(lat, gens, limit=limit, warm_start=cf)
+                    cf = shortest_paths(lat, gens, limit=limit, warm_start=cf, _consume_warm_start=True)
         if bar is not None:
             bar.update(1)
         elif callable(progress):

@@ -224,7 +224,7 @@ class _Stamps:
 
     def __init__(self):
         self.last = 0
-        self.lock = threading.Lock()
+        self.lock = threading.RLock()
         self.owner = None
         """Weak reference to the CostField whose packed states the records hold (or None)."""
 

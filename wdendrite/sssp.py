@@ -26,13 +26,30 @@ from .lattice import Lattice, pass_chunk, pass_threads
 __all__ = ["CostField", "shortest_paths"]
 
 
+class _Fields:
+    """Where a :class:`CostField`'s costs live: in the records of ``arrays`` until they
+    are first asked for or the records are needed by another search, then in
+    arrays of its own."""
+
+    __slots__ = ("arrays", "dist", "label", "spent")
+
+    def __init__(self, arrays):
+        self.arrays = arrays
+        self.dist: wp.array | None = None
+        self.label: wp.array | None = None
+        self.spent = False
+
+
 @dataclass(frozen=True, eq=False)
 class CostField:
     """Least path costs from a set of generators, and which generator is nearest.
 
     ``dist`` and ``label`` are NumPy views of the device arrays
     ``dist_array`` / ``label_array`` (no copy on the CPU); kernels that follow
-    can take the device arrays directly.
+    can take the device arrays directly. A search leaves its costs packed in
+    the lattice's node records: backtracking and endpoint draws read them
+    there, and the two arrays are only made when first asked for (or when
+    another search on the lattice is about to reuse the records).
 
     Tie rule: when several generators reach a node at the same least cost
     (to float32 rounding of the sums along the paths), ``label`` is the lowest
@@ -46,10 +63,7 @@ class CostField:
     """``(G, ndim)`` int64 generator coordinates; ``label`` indexes its rows."""
     limit: float
     """Costs above this bound were not searched (inf: no bound)."""
-    dist_array: wp.array = field(repr=False)
-    """float32 device array of the lattice shape."""
-    label_array: wp.array = field(repr=False)
-    """int32 device array of the lattice shape."""
+    _fields: _Fields = field(repr=False)
     rounds: int = 0
     """Relaxation launches the search took (one per bucket on the CPU, one per frontier generation on GPUs)."""
     relaxed: int = 0
@@ -58,7 +72,17 @@ class CostField:
     @property
     def device(self):
         """The Warp device holding the arrays."""
-        return self.dist_array.device
+        return self._fields.arrays.aux.device
+
+    @property
+    def dist_array(self) -> wp.array:
+        """float32 device array of the lattice shape."""
+        return self._materialized().dist
+
+    @property
+    def label_array(self) -> wp.array:
+        """int32 device array of the lattice shape."""
+        return self._materialized().label
 
     @property
     def dist(self) -> np.ndarray:
@@ -73,6 +97,67 @@ class CostField:
         out = self.label_array.numpy()
         out.flags.writeable = False
         return out
+
+    def _materialized(self) -> _Fields:
+        f = self._fields
+        if f.dist is None:
+            with f.arrays.stamps.lock:
+                if f.dist is None:
+                    _unpack(self)
+        return f
+
+
+def _unpack(costfield: CostField) -> None:
+    """Give ``costfield`` its own ``dist``/``label`` arrays from the records that hold it
+    (the caller holds the records' lock)."""
+    f = costfield._fields
+    if f.spent:
+        raise RuntimeError(
+            "this CostField was handed to a later search as a warm start that reused its memory; "
+            "its costs are gone (ask for 'dist' before that search to keep them)"
+        )
+    arrays = f.arrays
+    owner = arrays.stamps.owner
+    if owner is None or owner() is not costfield:
+        raise RuntimeError("internal error: a cost field's records were reused before its costs were unpacked")
+    lattice = costfield.lattice
+    device = arrays.aux.device
+    dist = _memory.empty(lattice.shape, float, device)
+    label = _memory.empty(lattice.shape, wp.int32, device)
+    with wp.ScopedDevice(device):
+        if arrays.usable is not None:
+            # sparse: fill the outputs, then visit the usable nodes only
+            dist.fill_(math.inf)
+            label.fill_(-1)
+            wp.launch(_k.unpack_listed_kernel, dim=arrays.usable.shape[0],
+                      inputs=[arrays.usable, arrays.state, arrays.shape3, arrays.pad3, arrays.stride, costfield.limit],
+                      outputs=[dist.flatten(), label.flatten()])
+        else:
+            chunk = pass_chunk(device)
+            wp.launch(
+                _k.unpack_kernel,
+                dim=pass_threads(lattice.num_nodes, chunk),
+                inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, costfield.limit, chunk],
+                outputs=[dist.flatten(), label.flatten()],
+            )
+    f.dist, f.label = dist, label
+
+
+def release_records(arrays, consumed: CostField | None = None) -> None:
+    """Free ``arrays``' records for new search states (the caller holds their lock).
+
+    The cost field they hold, if any is still alive, first gets its own arrays,
+    unless it is ``consumed``: a warm start whose caller will not read it again
+    (fractal growth), which is marked spent instead of unpacked.
+    """
+    ref = arrays.stamps.owner
+    owner = None if ref is None else ref()
+    if owner is not None and owner._fields.dist is None:
+        if owner is consumed:
+            owner._fields.spent = True
+        else:
+            _unpack(owner)
+    arrays.stamps.owner = None
 
 
 class _Frontiers:
@@ -203,6 +288,7 @@ def shortest_paths(
     delta: float | None = None,
     _fifo: bool | None = None,
     _max_threads: int | None = None,
+    _consume_warm_start: bool = False,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -226,6 +312,8 @@ def shortest_paths(
             bucket on single-threaded CPU devices, generation rounds on GPUs).
         _max_threads: testing hook: threads per generation-round launch (GPU
             striding exercised on the CPU).
+        _consume_warm_start: the caller will not read ``warm_start`` again, so
+            its costs need not be kept when the search reuses their memory.
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -256,7 +344,6 @@ def shortest_paths(
         if device is None:
             device = warm_start.device
     device = wp.get_device(device)
-    n = lattice.num_nodes
     need = lattice.search_bytes(device)
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
@@ -267,7 +354,7 @@ def shortest_paths(
         far_id = arrays.fresh_ids(1)
         fr = _Frontiers(size, device, capacity=lattice.num_usable)
         if warm_start is None:
-            arrays.stamps.owner = None
+            release_records(arrays)
             if arrays.usable is not None:
                 wp.launch(_k.init_listed_kernel, dim=arrays.usable.shape[0], inputs=[arrays.usable, arrays.stride],
                           outputs=[arrays.state])
@@ -277,7 +364,7 @@ def shortest_paths(
             new_rows = np.arange(len(gens))
         else:
             load_state(warm_start, arrays)
-            arrays.stamps.owner = None
+            release_records(arrays, consumed=warm_start if _consume_warm_start else None)
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
             if lattice.stores_weights and old_arrays.aux is not arrays.aux:
@@ -301,23 +388,7 @@ def shortest_paths(
         # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
         kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
         rounds, relaxed = _run(arrays, fr, kernel_limit, delta_f, fifo, far_id)
-        dist = _memory.empty(lattice.shape, float, device)
-        label = _memory.empty(lattice.shape, wp.int32, device)
-        if arrays.usable is not None:
-            # sparse: fill the outputs, then visit the usable nodes only
-            dist.fill_(math.inf)
-            label.fill_(-1)
-            wp.launch(_k.unpack_listed_kernel, dim=arrays.usable.shape[0],
-                      inputs=[arrays.usable, arrays.state, arrays.shape3, arrays.pad3, arrays.stride, limit_f],
-                      outputs=[dist.flatten(), label.flatten()])
-        else:
-            wp.launch(
-                _k.unpack_kernel,
-                dim=pass_threads(n, chunk),
-                inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, limit_f, chunk],
-                outputs=[dist.flatten(), label.flatten()],
-            )
-        result = CostField(lattice, gens, limit_f, dist, label, rounds, relaxed)
+        result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
     return result
 
@@ -334,18 +405,59 @@ def load_state(costfield: CostField, arrays) -> None:
     owner = arrays.stamps.owner
     if owner is not None and owner() is costfield:
         return
+    dist, label = costfield.dist_array, costfield.label_array  # from the records that hold it, if any
+    release_records(arrays)
     device = arrays.aux.device
     chunk = pass_chunk(device)
     n = costfield.lattice.num_nodes
     wp.launch(
         _k.load_state_kernel,
         dim=pass_threads(n, chunk),
-        inputs=[costfield.dist_array.to(device).flatten(), costfield.label_array.to(device).flatten(),
+        inputs=[dist.to(device).flatten(), label.to(device).flatten(),
                 arrays.shape3, arrays.pad3, arrays.stride, chunk, arrays.mask],
         outputs=[arrays.state],
         device=device,
     )
     arrays.stamps.owner = weakref.ref(costfield)
+
+
+def read_states(arrays, nodes: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """Costs (float32) and labels (int32) of padded ``nodes`` from the records' states, as
+    ``dist``/``label`` would give them (inf and -1 when unreached or above ``limit``);
+    the caller holds the records' lock and the records hold the wanted cost field."""
+    count = len(nodes)
+    device = arrays.aux.device
+    cost = wp.empty(max(count, 1), dtype=float, device=device)
+    label = wp.empty(max(count, 1), dtype=wp.int32, device=device)
+    if count:
+        wp.launch(_k.read_states_kernel, dim=count,
+                  inputs=[wp.array(np.asarray(nodes, dtype=np.int32), dtype=wp.int32, device=device), arrays.state,
+                          arrays.stride, limit],
+                  outputs=[cost, label], device=device)
+    return cost.numpy()[:count], label.numpy()[:count]
+
+
+def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
+    """Flat int64 node indices, ascending, of the usable nodes whose cost ``c`` has
+    ``low < c < high``, read from the records (no ``dist`` array is made)."""
+    lattice = costfield.lattice
+    arrays = lattice.device_arrays(costfield.device)
+    device = arrays.aux.device
+    with wp.ScopedDevice(device), arrays.stamps.lock:
+        load_state(costfield, arrays)
+        out = wp.empty(max(1, lattice.num_usable), dtype=wp.int32)
+        count = wp.zeros(1, dtype=wp.int32)
+        listed = arrays.usable is not None
+        chunk = pass_chunk(device)
+        threads = arrays.usable.shape[0] if listed else pass_threads(lattice.num_nodes, chunk)
+        usable = arrays.usable if listed else count  # read only when listed
+        wp.launch(_k.band_kernel, dim=threads,
+                  inputs=[usable, int(listed), arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride,
+                          costfield.limit, low, high, chunk],
+                  outputs=[count, out])
+        found = out.numpy()[: int(count.numpy()[0])].astype(np.int64)
+    # GPU threads append in any order (one CPU thread appends in index order)
+    return found if device.is_cpu and not listed else np.sort(found)
 
 
 class _Launches:
