@@ -79,6 +79,8 @@ def trace_kernel(
     new_pred_out: wp.array(dtype=wp.int32),
     new_count: wp.array(dtype=wp.int32),
     status_out: wp.array(dtype=wp.int32),
+    new_cost_out: wp.array(dtype=float),
+    new_label_out: wp.array(dtype=wp.int32),
 ):
     """Walk from each start to a root, listing each new node with its predecessor.
 
@@ -88,7 +90,8 @@ def trace_kernel(
     ``root_id`` on unclaimed generators. A walk stops at a root (a new node
     with predecessor -1) or at a claimed node, from where the path is
     shared. New node ``j`` is ``new_nodes_out[j]``, its predecessor
-    ``new_pred_out[j]``.
+    ``new_pred_out[j]``, its cost and label ``new_cost_out[j]``, ``new_label_out[j]``
+    (walks start at nodes within the search's limit and only descend).
     """
     i = wp.tid()
     node = starts[i]
@@ -99,10 +102,13 @@ def trace_kernel(
             return
         at = wp.atomic_add(new_count, 0, 1)
         new_nodes_out[at] = node
+        word = state_at(state, stride, node)
+        new_cost_out[at] = packed_cost(word)
+        new_label_out[at] = packed_label(word)
         if seen == root_id:
             new_pred_out[at] = -1
             return
-        if state_at(state, stride, node) == UNREACHED:
+        if word == UNREACHED:
             new_pred_out[at] = -1
             status_out[i] = TRACE_UNREACHABLE
             return

@@ -255,18 +255,19 @@ def trace(
         new_pred = wp.empty(room, dtype=wp.int32)
         new_count = wp.zeros(1, dtype=wp.int32)
         status = wp.empty(len(starts), dtype=wp.int32)
+        new_cost = wp.empty(room, dtype=float)
+        new_label = wp.empty(room, dtype=wp.int32)
         wp.launch(
             _kd.trace_kernel,
             dim=len(starts),
             inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw, arrays.hashed,
                     arrays.mask, arrays.state, root_id, visit_id, arrays.mask.shape[0]],
-            outputs=[arrays.aux, new_nodes, new_pred, new_count, status],
+            outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
         )
         n_new = int(new_count.numpy()[0])
         listed = new_nodes.numpy()[:n_new]
         order = np.argsort(listed)
-        fresh32 = listed[order]
-        fresh = fresh32.astype(np.int64)
+        fresh = listed[order].astype(np.int64)
         fresh_pred = new_pred.numpy()[:n_new][order]
         all_padded = np.concatenate([old, fresh])
         # rows of padded nodes through a lattice-sized table: only this dendrite's entries are written and read
@@ -275,7 +276,8 @@ def trace(
         rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
-        cost, label = read_states(arrays, fresh32, costfield.limit)
+        cost = new_cost.numpy()[:n_new][order]
+        label = new_label.numpy()[:n_new][order]
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])
