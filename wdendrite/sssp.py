@@ -348,6 +348,10 @@ def shortest_paths(
     _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
     arrays = lattice.device_arrays(device)
+    if warm_start is not None and warm_start._fields.arrays is not arrays:
+        # a warm start held by other records (another lattice or device) is unpacked under their own lock,
+        # before this search takes its lock: no search ever holds two
+        warm_start.dist_array
     with wp.ScopedDevice(device), arrays.stamps.lock:
         chunk = pass_chunk(device)
         size = arrays.mask.shape[0]
