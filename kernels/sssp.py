@@ -507,27 +507,12 @@ def unpack_one(word: wp.uint64, limit: float, i: int, dist_out: wp.array(dtype=f
 
 
 @wp.func
-def walk_start(i: int, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec3i:
-    """Walk state ``(padded index, x, y)`` of unpadded node ``i`` (see :func:`walk_next`)."""
-    c = node_coords(i, shape)
-    return wp.vec3i(padded_index(i, shape, pad), c[2], c[1])
-
-
-@wp.func
-def walk_next(w: wp.vec3i, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec3i:
-    """The walk state of the next unpadded node: passes over consecutive nodes keep
-    the padded index alongside, skipping the border at row and plane ends, instead of dividing."""
-    p = w[0] + 1
-    x = w[1] + 1
-    y = w[2]
-    if x == shape[2]:
-        x = 0
-        p += 2
-        y += 1
-        if y == shape[1]:
-            y = 0
-            p += 2 * (shape[2] + 2) * pad[0]
-    return wp.vec3i(p, x, y)
+def row_run(i: int, stop: int, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec2i:
+    """The padded index of unpadded node ``i`` and the end (at most ``stop``) of the run
+    of nodes from ``i`` along its row, whose padded indices follow each other: passes
+    over consecutive nodes take a row at a time, with one division per row."""
+    x = i % shape[2]
+    return wp.vec2i(padded_index(i, shape, pad), wp.min(stop, i + shape[2] - x))
 
 
 @wp.kernel
@@ -544,21 +529,24 @@ def unpack_kernel(
 ):
     """Split the records' packed states into costs (inf when unreached or above ``limit``) and labels (-1).
 
-    Each thread handles ``chunk`` consecutive nodes.
+    Each thread handles ``chunk`` consecutive nodes, a row at a time (see :func:`row_run`).
     """
     start = wp.tid() * chunk
     stop = wp.min(start + chunk, dist_out.shape[0])
     if start >= stop:
         return
-    w = walk_start(start, shape, pad)
     sstride = stride >> 1
-    for i in range(start, stop):
-        # masked nodes' records are not read: a sparse lattice never touches them
-        word = UNREACHED
-        if mask[w[0]] != wp.uint8(0):
-            word = state[w[0] * sstride]
-        unpack_one(word, limit, i, dist_out, label_out)
-        w = walk_next(w, shape, pad)
+    i = start
+    while i < stop:
+        run = row_run(i, stop, shape, pad)
+        p = run[0] - i
+        for j in range(i, run[1]):
+            # masked nodes' records are not read: a sparse lattice never touches them
+            word = UNREACHED
+            if mask[p + j] != wp.uint8(0):
+                word = state[(p + j) * sstride]
+            unpack_one(word, limit, j, dist_out, label_out)
+        i = run[1]
 
 
 @wp.kernel
@@ -615,13 +603,17 @@ def band_kernel(
     stop = wp.min(start + chunk, shape[0] * shape[1] * shape[2])
     if start >= stop:
         return
-    w = walk_start(start, shape, pad)
     sstride = stride >> 1
-    for i in range(start, stop):
-        if mask[w[0]] != wp.uint8(0):
-            if in_band(state[w[0] * sstride], limit, low, high):
-                nodes_out[wp.atomic_add(count, 0, 1)] = i
-        w = walk_next(w, shape, pad)
+    i = start
+    while i < stop:
+        run = row_run(i, stop, shape, pad)
+        p = run[0] - i
+        for j in range(i, run[1]):
+            # (a masked node's word 0 reads as cost 0: the mask is checked for nodes in the band)
+            if in_band(state[(p + j) * sstride], limit, low, high):
+                if mask[p + j] != wp.uint8(0):
+                    nodes_out[wp.atomic_add(count, 0, 1)] = j
+        i = run[1]
 
 
 @wp.kernel

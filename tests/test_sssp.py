@@ -1,5 +1,6 @@
 """shortest_paths against SciPy's Dijkstra, tie rule, warm starts, limit, bad input."""
 
+import math
 import re
 
 import numpy as np
@@ -417,3 +418,20 @@ def test_band_and_point_reads_from_the_records_equal_the_unpacked_arrays(problem
     # and once more from a field packed back into records another search had taken
     wd.shortest_paths(lat, gens[::-1])
     np.testing.assert_array_equal(band_nodes(cf, low, low + width), band)
+
+
+@pytest.mark.parametrize("shape,conn", [((67, 71), 8), ((9, 23, 29), 26)])
+def test_passes_over_many_rows_split_mid_row_match_scipy(shape, conn):
+    # whole-lattice passes (unpacking, band lists) give each CPU thread 4096 consecutive nodes,
+    # a row at a time: here threads start and stop in the middle of rows and planes
+    from wdendrite.lattice import pass_chunk
+    from wdendrite.sssp import band_nodes
+
+    assert math.prod(shape) > 4096 and 4096 % shape[-1] and pass_chunk("cpu") == 4096
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Uniform(r=10, seed=8))
+    gens = np.array([[s // 3 for s in shape], [s - 1 for s in shape]])
+    cf = wd.shortest_paths(lat, gens, limit=90.0)
+    band = band_nodes(cf, 20.0, 60.0)
+    _check_against_scipy(lat, gens, cf, limit=90.0)
+    flat = cf.dist.reshape(-1)
+    np.testing.assert_array_equal(band, np.flatnonzero((flat > 20.0) & (flat < 60.0)))
