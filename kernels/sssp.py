@@ -195,7 +195,7 @@ def load_state_kernel(
 ):
     """Write an earlier search's ``dist``/``label`` (unpadded) back into the records' states.
 
-    The inverse of :func:`unpack_kernel`: a finite cost becomes the word
+    The inverse of :func:`records_pass_kernel`'s unpacking: a finite cost becomes the word
     ``pack(dist, label)`` the search had left, an infinite one ``UNREACHED``;
     masked nodes keep their word 0. ``chunk`` nodes per thread.
     """
@@ -515,24 +515,79 @@ def row_run(i: int, stop: int, shape: wp.vec3i, pad: wp.vec3i) -> wp.vec2i:
     return wp.vec2i(padded_index(i, shape, pad), wp.min(stop, i + shape[2] - x))
 
 
+@wp.func
+def in_band(word: wp.uint64, limit: float, low: float, high: float) -> bool:
+    """Whether a packed state holds a searched cost ``c`` (within ``limit``) with ``low < c < high``."""
+    if word == UNREACHED:
+        return False
+    c = packed_cost(word)
+    return c <= limit and c > low and c < high
+
+
+@wp.func
+def pass_node(
+    word: wp.uint64,
+    usable: bool,
+    j: int,
+    band: int,
+    limit: float,
+    low: float,
+    high: float,
+    dist_out: wp.array(dtype=float),
+    label_out: wp.array(dtype=wp.int32),
+    count: wp.array(dtype=wp.int32),
+    nodes_out: wp.array(dtype=wp.int32),
+):
+    """One node of :func:`records_pass_kernel`: unpack its state into output ``j``
+    (inf and -1 unless usable), or with ``band`` list ``j`` if its cost is in the band."""
+    if band != 0:
+        if usable and in_band(word, limit, low, high):
+            nodes_out[wp.atomic_add(count, 0, 1)] = j
+    else:
+        if not usable:
+            word = UNREACHED
+        unpack_one(word, limit, j, dist_out, label_out)
+
+
 @wp.kernel
-def unpack_kernel(
+def records_pass_kernel(
+    usable: wp.array(dtype=wp.int32),
+    listed: int,
     state: wp.array(dtype=wp.uint64),
     mask: wp.array(dtype=wp.uint8),
     shape: wp.vec3i,
     pad: wp.vec3i,
     stride: int,
     limit: float,
+    band: int,
+    low: float,
+    high: float,
     chunk: int,
     dist_out: wp.array(dtype=float),
     label_out: wp.array(dtype=wp.int32),
+    count: wp.array(dtype=wp.int32),
+    nodes_out: wp.array(dtype=wp.int32),
 ):
-    """Split the records' packed states into costs (inf when unreached or above ``limit``) and labels (-1).
+    """One pass over the records' packed states, in node order.
 
-    Each thread handles ``chunk`` consecutive nodes, a row at a time (see :func:`row_run`).
+    Without ``band``: split them into costs (inf when unreached or above
+    ``limit``) and labels (-1), ``dist_out`` and ``label_out`` of the unpadded
+    shape. With ``band``: list in ``nodes_out`` the (unpadded) indices of the
+    usable nodes whose cost lies in ``(low, high)``, ``count`` of them.
+
+    Launch dim: ``chunk`` consecutive nodes per thread, a row at a time (see
+    :func:`row_run`; one thread lists in ascending order), or with ``listed``
+    one thread per entry of ``usable``, the padded indices of the usable nodes
+    of a sparse lattice (whose outputs already hold inf and -1 elsewhere): a
+    sparse lattice's other records are never read.
     """
+    if listed != 0:
+        p = usable[wp.tid()]
+        j = node_index(node_coords(p, shape + pad + pad) - pad, shape)
+        pass_node(state_at(state, stride, p), True, j, band, limit, low, high, dist_out, label_out, count, nodes_out)
+        return
     start = wp.tid() * chunk
-    stop = wp.min(start + chunk, dist_out.shape[0])
+    stop = wp.min(start + chunk, shape[0] * shape[1] * shape[2])
     if start >= stop:
         return
     sstride = stride >> 1
@@ -541,11 +596,11 @@ def unpack_kernel(
         run = row_run(i, stop, shape, pad)
         p = run[0] - i
         for j in range(i, run[1]):
-            # masked nodes' records are not read: a sparse lattice never touches them
+            usable_node = mask[p + j] != wp.uint8(0)
             word = UNREACHED
-            if mask[p + j] != wp.uint8(0):
+            if usable_node:
                 word = state[(p + j) * sstride]
-            unpack_one(word, limit, j, dist_out, label_out)
+            pass_node(word, usable_node, j, band, limit, low, high, dist_out, label_out, count, nodes_out)
         i = run[1]
 
 
@@ -563,72 +618,3 @@ def read_states_kernel(
     unpack_one(state_at(state, stride, nodes[i]), limit, i, cost_out, label_out)
 
 
-@wp.func
-def in_band(word: wp.uint64, limit: float, low: float, high: float) -> bool:
-    """Whether a packed state holds a searched cost ``c`` (within ``limit``) with ``low < c < high``."""
-    if word == UNREACHED:
-        return False
-    c = packed_cost(word)
-    return c <= limit and c > low and c < high
-
-
-@wp.kernel
-def band_kernel(
-    usable: wp.array(dtype=wp.int32),
-    listed: int,
-    state: wp.array(dtype=wp.uint64),
-    mask: wp.array(dtype=wp.uint8),
-    shape: wp.vec3i,
-    pad: wp.vec3i,
-    stride: int,
-    limit: float,
-    low: float,
-    high: float,
-    chunk: int,
-    count: wp.array(dtype=wp.int32),
-    nodes_out: wp.array(dtype=wp.int32),
-):
-    """List the (unpadded) indices of the usable nodes whose cost lies in ``(low, high)``.
-
-    Launch dim: ``chunk`` consecutive nodes per thread (one thread lists them in
-    ascending order), or with ``listed`` one thread per entry of ``usable``, the
-    padded indices of the usable nodes of a sparse lattice.
-    """
-    if listed != 0:
-        p = usable[wp.tid()]
-        if in_band(state_at(state, stride, p), limit, low, high):
-            nodes_out[wp.atomic_add(count, 0, 1)] = node_index(node_coords(p, shape + pad + pad) - pad, shape)
-        return
-    start = wp.tid() * chunk
-    stop = wp.min(start + chunk, shape[0] * shape[1] * shape[2])
-    if start >= stop:
-        return
-    sstride = stride >> 1
-    i = start
-    while i < stop:
-        run = row_run(i, stop, shape, pad)
-        p = run[0] - i
-        for j in range(i, run[1]):
-            # (a masked node's word 0 reads as cost 0: the mask is checked for nodes in the band)
-            if in_band(state[(p + j) * sstride], limit, low, high):
-                if mask[p + j] != wp.uint8(0):
-                    nodes_out[wp.atomic_add(count, 0, 1)] = j
-        i = run[1]
-
-
-@wp.kernel
-def unpack_listed_kernel(
-    usable: wp.array(dtype=wp.int32),
-    state: wp.array(dtype=wp.uint64),
-    shape: wp.vec3i,
-    pad: wp.vec3i,
-    stride: int,
-    limit: float,
-    dist_out: wp.array(dtype=float),
-    label_out: wp.array(dtype=wp.int32),
-):
-    """:func:`unpack_kernel` for the listed (usable) padded nodes of a sparse lattice; the
-    outputs already hold inf and -1 everywhere else."""
-    p = usable[wp.tid()]
-    unpack_one(state[p * (stride >> 1)], limit, node_index(node_coords(p, shape + pad + pad) - pad, shape),
-               dist_out, label_out)

@@ -124,23 +124,33 @@ def _unpack(costfield: CostField) -> None:
     device = arrays.aux.device
     dist = _memory.empty(lattice.shape, float, device)
     label = _memory.empty(lattice.shape, wp.int32, device)
-    with wp.ScopedDevice(device):
-        if arrays.usable is not None:
-            # sparse: fill the outputs, then visit the usable nodes only
-            dist.fill_(math.inf)
-            label.fill_(-1)
-            wp.launch(_k.unpack_listed_kernel, dim=arrays.usable.shape[0],
-                      inputs=[arrays.usable, arrays.state, arrays.shape3, arrays.pad3, arrays.stride, costfield.limit],
-                      outputs=[dist.flatten(), label.flatten()])
-        else:
-            chunk = pass_chunk(device)
-            wp.launch(
-                _k.unpack_kernel,
-                dim=pass_threads(lattice.num_nodes, chunk),
-                inputs=[arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride, costfield.limit, chunk],
-                outputs=[dist.flatten(), label.flatten()],
-            )
+    if arrays.usable is not None:
+        # sparse: fill the outputs, then visit the usable nodes only
+        dist.fill_(math.inf)
+        label.fill_(-1)
+    _records_pass(arrays, lattice, costfield.limit, dist=dist.flatten(), label=label.flatten())
     f.dist, f.label = dist, label
+
+
+def _records_pass(arrays, lattice: Lattice, limit: float, *, dist=None, label=None, band=None, count=None,
+                  nodes=None) -> None:
+    """Launch :func:`~wdendrite.kernels.sssp.records_pass_kernel` over the usable nodes:
+    unpack into flat ``dist`` / ``label``, or list the nodes with cost in ``band = (low, high)``
+    into ``nodes`` (``count`` of them). Unused outputs get a one-element stand-in."""
+    device = arrays.aux.device
+    with wp.ScopedDevice(device):
+        spare_f, spare_i = wp.empty(1, dtype=float), wp.empty(1, dtype=wp.int32)
+        listed = arrays.usable is not None
+        chunk = pass_chunk(device)
+        low, high = (0.0, 0.0) if band is None else band
+        wp.launch(
+            _k.records_pass_kernel,
+            dim=arrays.usable.shape[0] if listed else pass_threads(lattice.num_nodes, chunk),
+            inputs=[arrays.usable if listed else spare_i, int(listed), arrays.state, arrays.mask, arrays.shape3,
+                    arrays.pad3, arrays.stride, limit, int(band is not None), low, high, chunk],
+            outputs=[spare_f if dist is None else dist, spare_i if label is None else label,
+                     spare_i if count is None else count, spare_i if nodes is None else nodes],
+        )
 
 
 def release_records(arrays, consumed: CostField | None = None) -> None:
@@ -451,17 +461,10 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
         load_state(costfield, arrays)
         out = wp.empty(max(1, lattice.num_usable), dtype=wp.int32)
         count = wp.zeros(1, dtype=wp.int32)
-        listed = arrays.usable is not None
-        chunk = pass_chunk(device)
-        threads = arrays.usable.shape[0] if listed else pass_threads(lattice.num_nodes, chunk)
-        usable = arrays.usable if listed else count  # read only when listed
-        wp.launch(_k.band_kernel, dim=threads,
-                  inputs=[usable, int(listed), arrays.state, arrays.mask, arrays.shape3, arrays.pad3, arrays.stride,
-                          costfield.limit, low, high, chunk],
-                  outputs=[count, out])
+        _records_pass(arrays, lattice, costfield.limit, band=(low, high), count=count, nodes=out)
         found = out.numpy()[: int(count.numpy()[0])].astype(np.int64)
     # GPU threads append in any order (one CPU thread appends in index order)
-    return found if device.is_cpu and not listed else np.sort(found)
+    return found if device.is_cpu and arrays.usable is None else np.sort(found)
 
 
 class _Launches:
