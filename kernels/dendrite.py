@@ -15,7 +15,7 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
-from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, state_at
+from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, stamp_index, state_at
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -97,7 +97,7 @@ def trace_kernel(
     node = starts[i]
     status_out[i] = TRACE_OK
     for step in range(max_steps):
-        seen = wp.atomic_exch(aux, node * stride + nw + 2, visit_id)
+        seen = wp.atomic_exch(aux, stamp_index(node, stride, nw), visit_id)
         if seen == visit_id:
             return
         at = wp.atomic_add(new_count, 0, 1)
@@ -124,4 +124,4 @@ def trace_kernel(
 @wp.kernel
 def stamp_kernel(nodes_in: wp.array(dtype=wp.int32), stride: int, nw: int, value: int, aux: wp.array(dtype=wp.int32)):
     """Set the record stamp of each listed padded node to ``value``."""
-    aux[nodes_in[wp.tid()] * stride + nw + 2] = value
+    aux[stamp_index(nodes_in[wp.tid()], stride, nw)] = value

@@ -58,6 +58,12 @@ def state_at(state: wp.array(dtype=wp.uint64), stride: int, node: int) -> wp.uin
 
 
 @wp.func
+def stamp_index(node: int, stride: int, nw: int) -> int:
+    """Index in ``aux`` of padded node ``node``'s queue stamp (the record word after its ``nw`` weights)."""
+    return node * stride + nw + 2
+
+
+@wp.func
 def state_min(state: wp.array(dtype=wp.uint64), stride: int, node: int, word: wp.uint64) -> wp.uint64:
     """``atomic_min`` of ``node``'s packed state with ``word``; returns the previous state."""
     return wp.atomic_min(state, node * (stride >> 1), word)
@@ -133,7 +139,7 @@ def push_far(
     near a second time). A compare-and-swap loop makes the test and the
     change one step. Callers with no near list pass ``generation = -far_id``.
     """
-    word = node * stride + nw + 2
+    word = stamp_index(node, stride, nw)
     stamp = aux[word]
     while stamp != -far_id and stamp != generation:
         seen = wp.atomic_cas(aux, word, stamp, -far_id)
@@ -157,7 +163,7 @@ def push_near(
     near_slot: int,
 ):
     """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
-    if wp.atomic_exch(aux, node * stride + nw + 2, generation) != generation:
+    if wp.atomic_exch(aux, stamp_index(node, stride, nw), generation) != generation:
         at = wp.atomic_add(counts, near_slot, 1)
         if at >= near_out.shape[0]:
             at = at % near_out.shape[0]  # only a work queue wraps: no division on the common path
@@ -355,7 +361,7 @@ def relax_kernel(
         if at >= capacity:
             at = at % capacity
         if fifo != 0:
-            aux[node * stride + nw + 2] = 0  # out of the work queue: it may be queued again
+            aux[stamp_index(node, stride, nw)] = 0  # out of the work queue: it may be queued again
         word = state_at(state, stride, node)
         cost = packed_cost(word)
         label = packed_label(word)
@@ -485,7 +491,7 @@ def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux:
         if with_state != 0:
             aux[p * stride] = 0
             aux[p * stride + 1] = 0
-        aux[p * stride + nw + 2] = 0
+        aux[stamp_index(p, stride, nw)] = 0
 
 
 @wp.kernel
