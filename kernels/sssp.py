@@ -40,7 +40,7 @@ word with ids of its own, which later searches' newer ids never equal.
 import warp as wp
 
 from .lattice import in_bounds, node_coords, node_index, padded_index
-from .weights import WeightParams, edge_weight_at
+from .weights import WeightParams, drawn_weight, edge_weight_at, edge_weight_of, is_plain
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -88,13 +88,26 @@ class HashedWeights:
 
 
 @wp.func
+def hashed_weight(hashed: HashedWeights, plain: bool, node: int, coords: wp.vec3i, k: int) -> float:
+    """Weight of the edge from (unpadded) ``node`` at ``coords`` in direction ``k``, from the hash.
+
+    ``plain`` is :func:`~wdendrite.kernels.weights.is_plain` of ``hashed.params``,
+    tested once per launch: plain weights are computed from scalars.
+    """
+    p = hashed.params
+    if plain:
+        return hashed.lengths[k] * drawn_weight(p.kind, p.seed, p.a, p.b, node, k)
+    return edge_weight_of(p, hashed.shape3, node, coords, k, hashed.offsets[k], hashed.lengths[k])
+
+
+@wp.func
 def edge_cost(aux: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
     """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
     if hashed.use == 0:
         return wp.cast(aux[lower * stride + WEIGHT0 + k], wp.float32)
     padded = hashed.shape3 + hashed.pad3 + hashed.pad3
     coords = node_coords(lower, padded) - hashed.pad3
-    return edge_weight_at(hashed.params, hashed.shape3, coords, k, hashed.offsets[k], hashed.lengths[k])
+    return hashed_weight(hashed, is_plain(hashed.params), node_index(coords, hashed.shape3), coords, k)
 
 
 @wp.func
@@ -353,6 +366,7 @@ def relax_kernel(
     """
     capacity = near_in.shape[0]
     directions = flat_offsets.shape[0]
+    plain = is_plain(hashed.params)
     i = wp.tid()
     at = i  # i modulo the ring's capacity, kept without a division per node
     while i < counts[in_slot]:
@@ -365,6 +379,12 @@ def relax_kernel(
         word = state_at(state, stride, node)
         cost = packed_cost(word)
         label = packed_label(word)
+        c = wp.vec3i(0, 0, 0)
+        j = int(0)
+        if hashed.use != 0:
+            # hashed weights: the node's coordinates once (two divisions), its neighbours' by offsets
+            c = node_coords(node, hashed.shape3 + hashed.pad3 + hashed.pad3) - hashed.pad3
+            j = node_index(c, hashed.shape3)
         # a constant trip count unrolls the loop; the test skips directions a lattice lacks
         for k in range(13):
             if k < directions:
@@ -378,9 +398,10 @@ def relax_kernel(
                 else:
                     # only for neighbours that could improve: border nodes have no weights to compute
                     if state_at(state, stride, node + step) != wp.uint64(0):
-                        w_fwd = edge_cost(aux, stride, hashed, node, k)
+                        w_fwd = hashed_weight(hashed, plain, j, c, k)
                     if state_at(state, stride, node - step) != wp.uint64(0):
-                        w_bwd = edge_cost(aux, stride, hashed, node - step, k)
+                        back = c - hashed.offsets[k]
+                        w_bwd = hashed_weight(hashed, plain, node_index(back, hashed.shape3), back, k)
                 relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
                            near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
                 relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
@@ -472,13 +493,18 @@ def fill_records_kernel(
         return
     padded = shape + pad + pad
     c = node_coords(p, padded) - pad
+    plain = is_plain(params)
     for k in range(offsets.shape[0]):
         o = offsets[k]
         # an edge into a masked node is never relaxed: its weight is not needed (edges
         # leaving the lattice are kept, for the ``weights`` view of complete records)
         if not in_bounds(c + o, shape) or mask[p + (o[0] * padded[1] + o[1]) * padded[2] + o[2]] != wp.uint8(0):
             src = nearest_edge_source(c, o, shape)
-            w = edge_weight_at(params, shape, src, k, o, lengths[k])
+            w = float(0.0)
+            if plain:
+                w = lengths[k] * drawn_weight(params.kind, params.seed, params.a, params.b, node_index(src, shape), k)
+            else:
+                w = edge_weight_at(params, shape, src, k, o, lengths[k])
             aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
 
 

@@ -96,17 +96,35 @@ class WeightParams:
 
 
 @wp.func
+def drawn_weight(kind: int, seed: wp.uint32, a: float, b: float, node: int, k: int) -> float:
+    """The random part of the weight of edge ``(node, k)`` of a CONSTANT, UNIFORM, POWER or
+    POLYNOMIAL distribution (``kind``, ``seed``, ``a``, ``b`` as in :class:`WeightParams`),
+    before length scaling. Scalars only: callers in tight loops need not pass the struct."""
+    u = hash_unit(seed, wp.uint32(node), wp.uint32(k))
+    w = a
+    if kind == UNIFORM:
+        w = 1.0 + a * u
+    elif kind == POWER:
+        w = wp.pow(1.0 + (b - 1.0) * u, a)
+    elif kind == POLYNOMIAL:
+        w = 1.0 + wp.pow(100.0 * u, a)
+    return w
+
+
+@wp.func
+def is_plain(params: WeightParams) -> bool:
+    """No bias terms and a drawn (not refined) distribution: an edge's weight is exactly
+    ``length * drawn_weight(kind, seed, a, b, node, k)`` (the general form of
+    :func:`edge_weight_of` adds 0 and scales by 1). Kernels that weigh many edges test
+    this once and then call :func:`drawn_weight` with scalars: on the CPU, passing the
+    parameter struct to a function per edge costs more than the hash."""
+    return params.num_terms == 0 and params.kind != REFINED
+
+
+@wp.func
 def base_weight(params: WeightParams, node: int, k: int) -> float:
     """The random part of the weight of edge ``(node, k)``, before length scaling."""
-    u = hash_unit(params.seed, wp.uint32(node), wp.uint32(k))
-    w = params.a
-    if params.kind == UNIFORM:
-        w = 1.0 + params.a * u
-    elif params.kind == POWER:
-        w = wp.pow(1.0 + (params.b - 1.0) * u, params.a)
-    elif params.kind == POLYNOMIAL:
-        w = 1.0 + wp.pow(100.0 * u, params.a)
-    return w
+    return drawn_weight(params.kind, params.seed, params.a, params.b, node, k)
 
 
 @wp.func

@@ -175,3 +175,35 @@ def test_weights_along_an_axis_of_size_one_are_checked(bad):
         wd.Lattice((1, 8), 8, weights=w)
     w[1] = 2.0
     np.testing.assert_array_equal(wd.Lattice((1, 8), 8, weights=w).weights[1], 2.0)
+
+
+@pytest.mark.parametrize("shape,conn", [((67, 71), 8), ((9, 23, 29), 26), ((5, 40, 33), 6)])
+@pytest.mark.parametrize("usable_share", [1.0, 0.6, 0.15])
+def test_records_filled_from_a_distribution_equal_its_samples(shape, conn, usable_share):
+    # the records' fill kernel visits every padded node, or the usable list of a sparse lattice,
+    # and takes a shortcut for distributions without bias terms (scalars instead of the
+    # parameter struct): every stored weight equals the distribution's own sample of that edge
+    from wdendrite.lattice import _record_weights, fill_outside
+
+    rng = np.random.default_rng(len(shape) * conn)
+    mask = None if usable_share == 1.0 else rng.random(shape) < usable_share
+    for dist in (wd.weights.Uniform(r=10, seed=3), wd.weights.Power(alpha=2.0, max=9.0, seed=4),
+                 wd.weights.Uniform(r=4, seed=5) * wd.weights.Tropism("top", strength=2.0)):
+        lat = wd.Lattice(shape, conn, weights=dist, mask=mask)
+        arrays = lat.device_arrays("cpu")
+        assert (arrays.usable is not None) == (usable_share < 0.25)
+        got = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, len(lat.offsets))
+        want = fill_outside(dist.sample(shape, lat.lengths, offsets=lat.offsets), lat.offsets)
+        usable = np.ones(shape, bool) if mask is None else mask
+        padded = np.pad(usable, 1)  # neighbours outside count as usable: their edge is filled in
+        for k, off in enumerate(lat.offsets):
+            nb = tuple(slice(1 + o, n + 1 + o) for o, n in zip(off, shape))
+            inside = np.ones(shape, bool)
+            for axis, o in enumerate(off):
+                idx = np.arange(shape[axis]) + o
+                ok = (idx >= 0) & (idx < shape[axis])
+                inside &= ok.reshape([-1 if a == axis else 1 for a in range(len(shape))])
+            # stored: usable nodes whose neighbour is usable or outside the lattice
+            stored = usable & (padded[nb] | ~inside)
+            np.testing.assert_array_equal(got[k][stored], want[k][stored])
+            assert (got[k][~usable] == 0).all()
