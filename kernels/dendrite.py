@@ -15,7 +15,8 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
-from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, stamp_index, state_at
+from .sssp import (UNREACHED, HashedWeights, edge_cost, nonneg, pack_cost, packed_cost, packed_label, stamp_index,
+                   state_at)
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -51,7 +52,7 @@ def predecessor(
             if side == 1:
                 other = node - flat_offsets[k]
                 lower = other
-            if mask[other] != wp.uint8(0):
+            if mask[nonneg(other)] != wp.uint8(0):
                 src = state_at(state, stride, other)
                 if src != UNREACHED:
                     if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
@@ -100,7 +101,7 @@ def trace_kernel(
         seen = wp.atomic_exch(aux, stamp_index(node, stride, nw), visit_id)
         if seen == visit_id:
             return
-        at = wp.atomic_add(new_count, 0, 1)
+        at = nonneg(wp.atomic_add(new_count, 0, 1))
         new_nodes_out[at] = node
         word = state_at(state, stride, node)
         new_cost_out[at] = packed_cost(word)

