@@ -15,8 +15,8 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
-from .sssp import (UNREACHED, HashedWeights, edge_cost, nonneg, pack_cost, packed_cost, packed_label, stamp_index,
-                   state_at)
+from .indexing import nonneg
+from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, stamp_index, state_at
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 

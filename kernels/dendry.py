@@ -28,6 +28,7 @@ that decides a value: that sharing is what makes them agree bit for bit.
 
 import warp as wp
 
+from .indexing import nonneg
 from .noise import Control, control_inside, control_value
 from .random import hash3, mix32
 
@@ -158,19 +159,19 @@ def to_control(s: Setup, u: wp.vec2) -> wp.vec2:
 @wp.func
 def block_cell(blocks: wp.array(dtype=wp.vec4i), bi: int, k: int) -> wp.vec2i:
     """The cell at linear position ``k`` of block ``bi``."""
-    b = blocks[bi]
+    b = blocks[nonneg(bi)]
     return wp.vec2i(b[0] + k % b[2], b[1] + k / b[2])
 
 
 @wp.func
 def block_index(blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, c: wp.vec2i) -> int:
     """Flat index of cell ``c`` in block ``bi``, or -1 when the block does not hold it."""
-    b = blocks[bi]
+    b = blocks[nonneg(bi)]
     dx = c[0] - b[0]
     dy = c[1] - b[1]
     if dx < 0 or dy < 0 or dx >= b[2] or dy >= b[3]:
         return -1
-    return bases[bi] + dy * b[2] + dx
+    return bases[nonneg(bi)] + dy * b[2] + dx
 
 
 @wp.func
@@ -232,7 +233,7 @@ def write_polyline(
         tan = spline_tangents(p0, pa, pb, p3)
     key = cell_key(s.seed, level, c)
     amp = s.delta[level - 1] * length
-    verts_out[vi * NV] = a
+    verts_out[nonneg(vi * NV)] = a
     lo = wp.min(pa, pb)
     hi = wp.max(pa, pb)
     step = 1.0 / float(pieces)
@@ -242,16 +243,16 @@ def write_polyline(
         if s.smoothing != 0:
             pos = hermite(pa, pb, tan, t)
         pos = pos + (2.0 * key_uniform(key, 8 + j) - 1.0) * amp * side
-        verts_out[vi * NV + j] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
+        verts_out[nonneg(vi * NV + j)] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
     for j in range(pieces, PIECES + 1):
-        verts_out[vi * NV + j] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
+        verts_out[nonneg(vi * NV + j)] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
     # the polyline's bounding box, widened against rounding (relative to its size and to the
     # coordinates), lets searches skip the cell exactly
     pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
-    verts_out[vi * NV + BOUND] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
-    verts_out[vi * NV + BOUND + 1] = wp.vec3(hi[1] + pad, 0.0, 0.0)
+    verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
+    verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, 0.0, 0.0)
 
 
 @wp.func
@@ -274,13 +275,13 @@ def lowest1(
     The point block always holds the whole 3 x 3 (the plan keeps it 2 cells wider than the cells
     that ask), so neighbours are read at fixed offsets from the centre.
     """
-    w = blocks[bi][2]
+    w = blocks[nonneg(bi)][2]
     centre = block_index(blocks, bases, bi, c)
     best = c
-    bz = pts1[centre][2]
+    bz = pts1[nonneg(centre)][2]
     for dy in range(-1, 2):
         for dx in range(-1, 2):
-            z = pts1[centre + dy * w + dx][2]
+            z = pts1[nonneg(centre + dy * w + dx)][2]
             if z < bz:
                 bz = z
                 best = wp.vec2i(c[0] + dx, c[1] + dy)
@@ -293,7 +294,7 @@ def fill_point1(
     pts1_out: wp.array(dtype=wp.vec4),
 ):
     """Store the level-1 key point of cell ``c``, at position ``k`` of the slot's block 0."""
-    pts1_out[bases[slot * SLOT] + k] = point1(s, ctl, c)
+    pts1_out[nonneg(bases[nonneg(slot * SLOT)] + k)] = point1(s, ctl, c)
 
 
 @wp.func
@@ -305,19 +306,19 @@ def link1(
     """Level-1 cell ``c`` (position ``k`` of its block): its segment to ``t``, the lowest of its 3 x 3
     neighbours, whose own lowest neighbour is ``tt``."""
     bp = slot * SLOT
-    vi = bases[bp + 1] + k
-    p = pts1[block_index(blocks, bases, bp, c)]
-    pt = pts1[block_index(blocks, bases, bp, t)]
+    vi = bases[nonneg(bp + 1)] + k
+    p = pts1[nonneg(block_index(blocks, bases, bp, c))]
+    pt = pts1[nonneg(block_index(blocks, bases, bp, t))]
     state = STATE_NONE
     if p[3] > 0.0 and pt[3] > 0.0:
         state = STATE_SEGMENT
-    keyp_out[vi] = wp.vec4(p[0], p[1], p[2], state)
+    keyp_out[nonneg(vi)] = wp.vec4(p[0], p[1], p[2], state)
     a = wp.vec3(p[0], p[1], p[2])
     b = wp.vec3(pt[0], pt[1], pt[2])
     pa = wp.vec2(p[0], p[1])
     pb = wp.vec2(pt[0], pt[1])
     # the tangent at the far end follows the target's own segment, else continues straight
-    ptt = pts1[block_index(blocks, bases, bp, tt)]
+    ptt = pts1[nonneg(block_index(blocks, bases, bp, tt))]
     p3 = 2.0 * pb - pa
     if (tt[0] != t[0] or tt[1] != t[1]) and ptt[3] > 0.0:
         p3 = wp.vec2(ptt[0], ptt[1])
@@ -356,8 +357,8 @@ def reach_of(best: float) -> float:
 @wp.func
 def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
     """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
-    lo = verts[o * NV + BOUND]
-    hi = verts[o * NV + BOUND + 1]
+    lo = verts[nonneg(o * NV + BOUND)]
+    hi = verts[nonneg(o * NV + BOUND + 1)]
     dx = wp.max(wp.max(lo[0] - q[0], q[0] - lo[2]), 0.0)
     dy = wp.max(wp.max(lo[1] - q[1], q[1] - hi[0]), 0.0)
     return dx * dx + dy * dy >= sb * sb
@@ -396,12 +397,12 @@ def scan(
     """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
     for a piece nearer to ``q`` than ``hit``: centre first, then ring by ring, so far cells are
     mostly skipped by their bounding boxes."""
-    b = blocks[bi]
+    b = blocks[nonneg(bi)]
     dx = c[0] - b[0]
     dy = c[1] - b[1]
     # the plans make blocks hold every neighbourhood asked for; cells are then at fixed offsets
     whole = dx >= r and dy >= r and dx + r < b[2] and dy + r < b[3]
-    centre = bases[bi] + dy * b[2] + dx
+    centre = bases[nonneg(bi)] + dy * b[2] + dx
     for k in range((2 * r + 1) * (2 * r + 1)):
         off = wp.vec2i(ORDER_X[k], ORDER_Y[k])
         o = int(-1)
@@ -410,12 +411,12 @@ def scan(
         else:
             o = block_index(blocks, bases, bi, c + off)
         if o >= 0:
-            if keyp[o][3] == STATE_SEGMENT:
+            if keyp[nonneg(o)][3] == STATE_SEGMENT:
                 # the pieces update the hit in place: returning them as one vector assembled lane
                 # by lane and read back whole stalled the CPU's store forwarding on every cell
                 if not cell_far(q, verts, o, hit.sb):
                     for j in range(PIECES):
-                        pr = piece_near(q, verts[o * NV + j], verts[o * NV + j + 1])
+                        pr = piece_near(q, verts[nonneg(o * NV + j)], verts[nonneg(o * NV + j + 1)])
                         if pr[0] < hit.best:
                             hit.best = pr[0]
                             hit.sb = reach_of(pr[0])
@@ -445,11 +446,11 @@ def nearest_on_tree(
         hit = scan(blocks, bases, slot * SLOT + l, l, anc, 1, q, keyp, verts, hit)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
-    a = verts[hit.o * NV + hit.j]
-    b = verts[hit.o * NV + hit.j + 1]
+    a = verts[nonneg(hit.o * NV + hit.j)]
+    b = verts[nonneg(hit.o * NV + hit.j + 1)]
     rn = wp.vec3(b[0], b[1], 0.0)
     if hit.j + 1 < s.pieces[hit.l - 1]:
-        nx = verts[hit.o * NV + hit.j + 2]
+        nx = verts[nonneg(hit.o * NV + hit.j + 2)]
         rn = wp.vec3(nx[0], nx[1], 1.0)
     return wp.mat33(a[0], a[1], a[2], b[0], b[1], b[2], rn[0], rn[1], rn[2])
 
@@ -462,21 +463,21 @@ def fill_levelk(
     """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
     draw one and join the tree."""
     bi = slot * SLOT + level
-    vi = bases[bi] + k
-    parent = keyp[block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1))]
+    vi = bases[nonneg(bi)] + k
+    parent = keyp[nonneg(block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
     if parent[3] != STATE_NONE:
         pc = cell_of(wp.vec2(parent[0], parent[1]), level)
         if pc[0] == c[0] and pc[1] == c[1]:
-            keyp[vi] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
+            keyp[nonneg(vi)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
             return
     q = jitter(s, level, c)
     cp = to_control(s, q)
     if not control_inside(ctl, cp):
-        keyp[vi] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
+        keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
         return
     m = nearest_on_tree(s, blocks, bases, slot, level, c, q, keyp, verts)
     if m[2, 2] < 0.0:
-        keyp[vi] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
+        keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
         return
     pa = wp.vec2(m[0, 0], m[0, 1])
     pb = wp.vec2(m[1, 0], m[1, 1])
@@ -504,7 +505,7 @@ def fill_levelk(
     zq = zx + s.slope[level - 1] * wp.length(q - x) * s.inv_resolution
     if s.need_z != 0:
         zq = wp.max(control_value(ctl, cp), zq)
-    keyp[vi] = wp.vec4(q[0], q[1], zq, STATE_SEGMENT)
+    keyp[nonneg(vi)] = wp.vec4(q[0], q[1], zq, STATE_SEGMENT)
     p3 = 2.0 * x - q
     if tc < 1.0:
         p3 = pb
@@ -533,8 +534,8 @@ def query(
         hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), r, u, keyp, verts, hit)
     if hit.o < 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
-    a = verts[hit.o * NV + hit.j]
-    b = verts[hit.o * NV + hit.j + 1]
+    a = verts[nonneg(hit.o * NV + hit.j)]
+    b = verts[nonneg(hit.o * NV + hit.j + 1)]
     return wp.vec3(wp.sqrt(hit.best) * s.inv_resolution, a[2] + hit.t * (b[2] - a[2]), float(hit.l))
 
 
@@ -578,11 +579,11 @@ def owner_near(
         o = block_index(blocks, bases, slot * SLOT + l, cc)
         if o < 0:
             return -1.0
-        state = keyp[o][3]
+        state = keyp[nonneg(o)][3]
         if state == STATE_SEGMENT:
             d2 = float(1.0e30)
             for j in range(PIECES):
-                d2 = wp.min(d2, piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0])
+                d2 = wp.min(d2, piece_near(u, verts[nonneg(o * NV + j)], verts[nonneg(o * NV + j + 1)])[0])
             return d2
         if state != STATE_INHERITED:
             return -1.0
@@ -607,24 +608,24 @@ def shortlist(
     for i in range(s.levels):
         l = s.levels - i
         bi = slot * SLOT + l
-        b = blocks[bi]
+        b = blocks[nonneg(bi)]
         for cy in range(b[3]):
             for cx in range(b[2]):
-                o = bases[bi] + cy * b[2] + cx
-                if keyp[o][3] == STATE_SEGMENT:
+                o = bases[nonneg(bi)] + cy * b[2] + cx
+                if keyp[nonneg(o)][3] == STATE_SEGMENT:
                     if not cell_far(u, verts, o, limit):
                         for j in range(PIECES):
-                            d2 = piece_near(u, verts[o * NV + j], verts[o * NV + j + 1])[0]
+                            d2 = piece_near(u, verts[nonneg(o * NV + j)], verts[nonneg(o * NV + j + 1)])[0]
                             if d2 <= lim2:
                                 # insertion by distance, so that queries can stop at the first piece too far
                                 gap = wp.sqrt(d2)
                                 k = first + n
-                                while k > first and gaps_out[k - 1] > gap:
-                                    nearby_out[k] = nearby_out[k - 1]
-                                    gaps_out[k] = gaps_out[k - 1]
+                                while k > first and gaps_out[nonneg(k - 1)] > gap:
+                                    nearby_out[nonneg(k)] = nearby_out[nonneg(k - 1)]
+                                    gaps_out[nonneg(k)] = gaps_out[nonneg(k - 1)]
                                     k -= 1
-                                nearby_out[k] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
-                                gaps_out[k] = gap
+                                nearby_out[nonneg(k)] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
+                                gaps_out[nonneg(k)] = gap
                                 n += 1
     return n
 
@@ -666,10 +667,10 @@ def query_short(
     bz = float(0.0)
     bl = int(0)
     for e in range(n):
-        lb = gaps[first + e] - off
+        lb = gaps[nonneg(first + e)] - off
         if lb > 0.0 and lb * lb > best:
             break  # this piece and all later ones (sorted by distance to u) lie farther than the best
-        ent = nearby[first + e]
+        ent = nearby[nonneg(first + e)]
         l = ent[1] >> 3
         r = 2
         if l == 1:
@@ -678,8 +679,8 @@ def query_short(
         d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
         if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
             j = ent[1] & 7
-            a = verts[ent[0] * NV + j]
-            b = verts[ent[0] * NV + j + 1]
+            a = verts[nonneg(ent[0] * NV + j)]
+            b = verts[nonneg(ent[0] * NV + j + 1)]
             pr = piece_near(q, a, b)
             if pr[0] <= best:
                 rank = (shift * 64 + ring_rank(d)) * 8 + j
@@ -722,14 +723,14 @@ def elevation(
         corner = block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] - 2, pc[1] - 2))
         if corner < 0 or block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] + 2, pc[1] + 2)) < 0:
             return wp.nan  # the window's primitive block was planned too small (never expected)
-        width = blocks[slot * SLOT + PRIM][2]
+        width = blocks[nonneg(slot * SLOT + PRIM)][2]
     bound = float(0.0)
     for dy in range(5):
         for dx in range(5):
             k = dy * 5 + dx
             q = wp.vec2(0.0, 0.0)
             if cached != 0:
-                pq = prims[corner + dy * width + dx]
+                pq = prims[nonneg(corner + dy * width + dx)]
                 q = wp.vec2(pq[0], pq[1])
             else:
                 q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
@@ -754,7 +755,7 @@ def elevation(
             if r2 < 1.0:
                 h = float(0.0)
                 if cached != 0:
-                    h = prims[corner + dy * width + dx][2]
+                    h = prims[nonneg(corner + dy * width + dx)][2]
                 else:
                     # only primitives that weigh are evaluated
                     q = wp.vec2(px[dy * 5 + dx], py[dy * 5 + dx])
@@ -776,8 +777,8 @@ def set_block(
     blocks_out: wp.array(dtype=wp.vec4i), bases_out: wp.array(dtype=int),
 ) -> int:
     """Store block ``l`` of ``slot`` spanning cells lo..hi (inclusive); return its cell count."""
-    blocks_out[slot * SLOT + l] = wp.vec4i(lo[0], lo[1], hi[0] - lo[0] + 1, hi[1] - lo[1] + 1)
-    bases_out[slot * SLOT + l] = base
+    blocks_out[nonneg(slot * SLOT + l)] = wp.vec4i(lo[0], lo[1], hi[0] - lo[0] + 1, hi[1] - lo[1] + 1)
+    bases_out[nonneg(slot * SLOT + l)] = base
     return (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)
 
 
@@ -836,7 +837,7 @@ def fill_links1(
     each cell's is found once and kept as ``(x - x0 + 1) + 256 (y - y0 + 1)`` relative to the
     block's corner (blocks of up to 64 cells; larger ones search twice).
     """
-    b = blocks[slot * SLOT + 1]
+    b = blocks[nonneg(slot * SLOT + 1)]
     if b[2] * b[3] > 64:
         for j in range(b[3]):
             for i in range(b[2]):
@@ -871,13 +872,13 @@ def build(
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
-    b = blocks[slot * SLOT]
+    b = blocks[nonneg(slot * SLOT)]
     for j in range(b[3]):
         for i in range(b[2]):
             fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
     fill_links1(s, blocks, bases, slot, pts1, keyp, verts)
     for level in range(2, s.levels + 1):
-        b = blocks[slot * SLOT + level]
+        b = blocks[nonneg(slot * SLOT + level)]
         for j in range(b[3]):
             for i in range(b[2]):
                 fill_levelk(s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), keyp, verts)
@@ -966,7 +967,7 @@ def prims_kernel(
     bi = PRIM
     c = block_cell(blocks, bi, k)
     q = jitter(s, s.levels + s.steps, c)
-    prims_out[bases[bi] + k] = primitive(s, ctl, c, q, query(s, blocks, bases, 0, q, keyp, verts))
+    prims_out[nonneg(bases[nonneg(bi)] + k)] = primitive(s, ctl, c, q, query(s, blocks, bases, 0, q, keyp, verts))
 
 
 @wp.kernel

@@ -18,6 +18,8 @@ every lattice point.
 
 import warp as wp
 
+from .indexing import nonneg
+
 wp.set_module_options({"enable_backward": False})
 
 KIND_PLANE = wp.constant(0)
@@ -68,9 +70,9 @@ def perlin(cols: wp.array(dtype=wp.vec2i), grads: wp.array(dtype=wp.vec4), p: wp
     y = p[1] - fy
     ix = int(fx) & 255
     iy = int(fy) & 255
-    col = cols[ix]
-    ga = grads[col[0] + iy]
-    gb = grads[col[1] + iy]
+    col = cols[nonneg(ix)]
+    ga = grads[nonneg(col[0] + iy)]
+    gb = grads[nonneg(col[1] + iy)]
     n00 = ga[0] * x + ga[1] * y
     n10 = gb[0] * (x - 1.0) + gb[1] * y
     n01 = ga[2] * x + ga[3] * (y - 1.0)
@@ -150,7 +152,7 @@ def sample_bicubic(image: wp.array2d(dtype=float), fx: float, fy: float) -> floa
         row = float(0.0)
         for i in range(4):
             c = wp.clamp(x0 - 1 + i, 0, w - 1)
-            row += wx[i] * image[r, c]
+            row += wx[i] * image[nonneg(r), nonneg(c)]
         total += wy[j] * row
     return total
 
