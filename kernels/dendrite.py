@@ -45,7 +45,8 @@ def predecessor(
     """
     word = state_at(state, stride, node)
     level_match = int(-1)
-    for k in range(flat_offsets.shape[0]):
+    k = int(0)
+    while k < flat_offsets.shape[0]:
         for side in range(2):
             other = node + flat_offsets[k]
             lower = node
@@ -60,6 +61,7 @@ def predecessor(
                             return other
                         if level_match < 0 and other < node:
                             level_match = other
+        k += 1
     return level_match
 
 
@@ -97,7 +99,8 @@ def trace_kernel(
     i = wp.tid()
     node = starts[i]
     status_out[i] = TRACE_OK
-    for step in range(max_steps):
+    step = int(0)
+    while step < max_steps:
         seen = wp.atomic_exch(aux, stamp_index(node, stride, nw), visit_id)
         if seen == visit_id:
             return
@@ -119,6 +122,7 @@ def trace_kernel(
             status_out[i] = TRACE_STUCK
             return
         node = prev
+        step += 1
     status_out[i] = TRACE_STUCK
 
 

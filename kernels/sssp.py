@@ -191,9 +191,12 @@ def init_state_kernel(mask: wp.array(dtype=wp.uint8), stride: int, chunk: int, s
     Masked and border nodes keep the word 0 the records were built with.
     """
     start = wp.tid() * chunk
-    for i in range(start, wp.min(start + chunk, mask.shape[0])):
+    stop = wp.min(start + chunk, mask.shape[0])
+    i = int(start)
+    while i < stop:
         if mask[nonneg(i)] != wp.uint8(0):
             state[nonneg(i * (stride >> 1))] = UNREACHED
+        i += 1
 
 
 @wp.kernel
@@ -221,13 +224,15 @@ def load_state_kernel(
     """
     start = wp.tid() * chunk
     stop = wp.min(start + chunk, dist.shape[0])
-    for i in range(start, stop):
+    i = int(start)
+    while i < stop:
         p = padded_index(i, shape, pad)
         if mask[p] != wp.uint8(0):
             word = UNREACHED
             if dist[i] < wp.inf:
                 word = pack_cost(dist[i], label[i])
             state[p * (stride >> 1)] = word
+        i += 1
 
 
 @wp.kernel
@@ -274,7 +279,8 @@ def mark_lowered_kernel(
     node = wp.tid()
     if mask[node] == wp.uint8(0):
         return
-    for k in range(flat_offsets.shape[0]):
+    k = int(0)
+    while k < flat_offsets.shape[0]:
         e = node * stride + WEIGHT0 + k
         other = node + flat_offsets[k]
         if wp.cast(aux[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
@@ -286,6 +292,7 @@ def mark_lowered_kernel(
                 if word != UNREACHED:
                     push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot,
                              far_min)
+        k += 1
 
 
 @wp.func
@@ -495,7 +502,8 @@ def fill_records_kernel(
     padded = shape + pad + pad
     c = node_coords(p, padded) - pad
     plain = is_plain(params)
-    for k in range(offsets.shape[0]):
+    k = int(0)
+    while k < offsets.shape[0]:
         o = offsets[k]
         # an edge into a masked node is never relaxed: its weight is not needed (edges
         # leaving the lattice are kept, for the ``weights`` view of complete records)
@@ -507,6 +515,7 @@ def fill_records_kernel(
             else:
                 w = edge_weight_at(params, shape, src, k, o, lengths[k])
             aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
+        k += 1
 
 
 @wp.kernel
@@ -514,11 +523,14 @@ def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux:
     """Zero every record's stamp (before the stamp ids would wrap), and with ``with_state``
     its state words too (records copied from another device); ``chunk`` records per thread."""
     start = wp.tid() * chunk
-    for p in range(start, wp.min(start + chunk, aux.shape[0] / stride)):
+    stop = wp.min(start + chunk, aux.shape[0] / stride)
+    p = int(start)
+    while p < stop:
         if with_state != 0:
             aux[p * stride] = 0
             aux[p * stride + 1] = 0
         aux[stamp_index(p, stride, nw)] = 0
+        p += 1
 
 
 @wp.kernel
@@ -628,12 +640,14 @@ def records_pass_kernel(
     while i < stop:
         run = row_run(i, stop, shape, pad)
         p = run[0] - i
-        for j in range(i, run[1]):
+        j = int(i)
+        while j < run[1]:
             usable_node = mask[nonneg(p + j)] != wp.uint8(0)
             word = UNREACHED
             if usable_node:
                 word = state[nonneg((p + j) * sstride)]
             pass_node(word, usable_node, j, band, limit, low, high, dist_out, label_out, count, nodes_out)
+            j += 1
         i = run[1]
 
 
