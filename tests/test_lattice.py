@@ -195,7 +195,7 @@ def test_records_filled_from_a_distribution_equal_its_samples(shape, conn, usabl
         got = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, len(lat.offsets))
         want = fill_outside(dist.sample(shape, lat.lengths, offsets=lat.offsets), lat.offsets)
         usable = np.ones(shape, bool) if mask is None else mask
-        padded = np.pad(usable, 1)  # neighbours outside count as usable: their edge is filled in
+        padded = np.pad(usable, 1)  # (False outside: edges leaving the lattice are caught by ~inside below)
         for k, off in enumerate(lat.offsets):
             nb = tuple(slice(1 + o, n + 1 + o) for o, n in zip(off, shape))
             inside = np.ones(shape, bool)
