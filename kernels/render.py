@@ -11,6 +11,7 @@ order in which threads arrive.
 
 import warp as wp
 
+from .indexing import nonneg
 from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
 
 wp.set_module_options({"enable_backward": False})
@@ -50,9 +51,12 @@ def splat_distance_kernel(
     r2 = radius * radius
     z0 = wp.max(c[0] - r, 0)
     z1 = wp.min(c[0] + r, shape[0] - 1)
-    for z in range(z0, z1 + 1):
+    # (while loops and nonneg indices: see kernels/indexing.py; 0.4x the time of range() loops)
+    z = int(z0)
+    while z <= z1:
         dz = float(z - c[0])
-        for dy_i in range(-r, r + 1):
+        dy_i = int(-r)
+        while dy_i <= r:
             y = c[1] + dy_i
             dy = float(dy_i)
             rest = r2 - dz * dz - dy * dy
@@ -62,7 +66,8 @@ def splat_distance_kernel(
                 x0 = wp.max(c[2] - half, 0)
                 x1 = wp.min(c[2] + half, shape[2] - 1)
                 base = (z * shape[1] + y) * shape[2]
-                for x in range(x0, x1 + 1):
+                x = int(x0)
+                while x <= x1:
                     dx = float(x - c[2])
                     d = float(0.0)
                     if metric == METRIC_EUCLIDEAN:
@@ -70,7 +75,10 @@ def splat_distance_kernel(
                     else:
                         d = lattice_distance(wp.abs(dz), wp.abs(dy), wp.abs(dx))
                     if d <= radius:
-                        wp.atomic_min(packed_out, base + x, pack_cost(d, row))
+                        wp.atomic_min(packed_out, nonneg(base + x), pack_cost(d, row))
+                    x += 1
+            dy_i += 1
+        z += 1
 
 
 @wp.kernel
@@ -182,20 +190,28 @@ def box_blur_rows_kernel(
     y = 4 * wp.tid()
     scale = 1.0 / float(2 * radius + 1)
     acc = wp.vec4(0.0)
-    for x in range(0, wp.min(radius, width)):
-        acc += wp.vec4(src_in[y, x], src_in[y + 1, x], src_in[y + 2, x], src_in[y + 3, x])
-    for x in range(width):
+    # (while loops and nonneg indices: see kernels/indexing.py)
+    stop = wp.min(radius, width)
+    x = int(0)
+    while x < stop:
+        xi = nonneg(x)
+        acc += wp.vec4(src_in[y, xi], src_in[y + 1, xi], src_in[y + 2, xi], src_in[y + 3, xi])
+        x += 1
+    x = int(0)
+    while x < width:
         if x + radius < width:
-            xa = x + radius
+            xa = nonneg(x + radius)
             acc += wp.vec4(src_in[y, xa], src_in[y + 1, xa], src_in[y + 2, xa], src_in[y + 3, xa])
         if x - radius - 1 >= 0:
-            xs = x - radius - 1
+            xs = nonneg(x - radius - 1)
             acc -= wp.vec4(src_in[y, xs], src_in[y + 1, xs], src_in[y + 2, xs], src_in[y + 3, xs])
         out = acc * scale
-        dst_out[y, x] = out[0]
-        dst_out[y + 1, x] = out[1]
-        dst_out[y + 2, x] = out[2]
-        dst_out[y + 3, x] = out[3]
+        xo = nonneg(x)
+        dst_out[y, xo] = out[0]
+        dst_out[y + 1, xo] = out[1]
+        dst_out[y + 2, xo] = out[2]
+        dst_out[y + 3, xo] = out[3]
+        x += 1
 
 
 @wp.kernel
@@ -210,14 +226,19 @@ def box_blur_cols_kernel(
     x = wp.tid()
     scale = 1.0 / float(2 * radius + 1)
     acc = wp.vec4(0.0)
-    for y in range(0, wp.min(radius, height)):
-        acc += src_in[y, x]
-    for y in range(height):
+    stop = wp.min(radius, height)
+    y = int(0)
+    while y < stop:
+        acc += src_in[nonneg(y), x]
+        y += 1
+    y = int(0)
+    while y < height:
         if y + radius < height:
-            acc += src_in[y + radius, x]
+            acc += src_in[nonneg(y + radius), x]
         if y - radius - 1 >= 0:
-            acc -= src_in[y - radius - 1, x]
-        dst_out[y, x] = acc * scale
+            acc -= src_in[nonneg(y - radius - 1), x]
+        dst_out[nonneg(y), x] = acc * scale
+        y += 1
 
 
 @wp.kernel
