@@ -19,6 +19,7 @@ edge midpoint (ramp, radial) or as the mean of the two end nodes (map).
 import warp as wp
 
 from .lattice import node_coords, node_index
+from .indexing import nonneg
 from .random import hash_unit
 
 wp.set_module_options({"enable_backward": False})
@@ -226,13 +227,15 @@ def edge_weight_of(
     """
     add = float(0.0)
     scale = float(1.0)
-    for i in range(params.num_terms):
-        term = params.terms[i]
+    i = int(0)
+    while i < params.num_terms:  # (see kernels/indexing.py)
+        term = params.terms[nonneg(i)]
         s = term.strength * bias_field(term, params.maps, shape3, node, coords, offset)
         if term.op == ADD:
             add = add + s
         else:
             scale = scale * (1.0 + s)
+        i += 1
     base = float(0.0)
     if params.kind == REFINED:
         base = refined_base(params, node, coords, k)
