@@ -41,7 +41,7 @@ import warp as wp
 
 from .indexing import nonneg
 from .lattice import in_bounds, node_coords, node_index, padded_index
-from .weights import WeightParams, drawn_weight, edge_weight_at, edge_weight_of, is_plain
+from .weights import WeightParams, is_plain, weight_of_edge
 
 wp.set_module_options({"enable_backward": False, "optimization_level": 3})
 
@@ -95,10 +95,7 @@ def hashed_weight(hashed: HashedWeights, plain: bool, node: int, coords: wp.vec3
     ``plain`` is :func:`~wdendrite.kernels.weights.is_plain` of ``hashed.params``,
     tested once per launch: plain weights are computed from scalars.
     """
-    p = hashed.params
-    if plain:
-        return hashed.lengths[k] * drawn_weight(p.kind, p.seed, p.a, p.b, node, k)
-    return edge_weight_of(p, hashed.shape3, node, coords, k, hashed.offsets[k], hashed.lengths[k])
+    return weight_of_edge(hashed.params, plain, hashed.shape3, node, coords, k, hashed.offsets[k], hashed.lengths[k])
 
 
 @wp.func
@@ -509,11 +506,7 @@ def fill_records_kernel(
         # leaving the lattice are kept, for the ``weights`` view of complete records)
         if not in_bounds(c + o, shape) or mask[p + (o[0] * padded[1] + o[1]) * padded[2] + o[2]] != wp.uint8(0):
             src = nearest_edge_source(c, o, shape)
-            w = float(0.0)
-            if plain:
-                w = lengths[k] * drawn_weight(params.kind, params.seed, params.a, params.b, node_index(src, shape), k)
-            else:
-                w = edge_weight_at(params, shape, src, k, o, lengths[k])
+            w = weight_of_edge(params, plain, shape, node_index(src, shape), src, k, o, lengths[k])
             aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
         k += 1
 

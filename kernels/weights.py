@@ -117,8 +117,8 @@ def is_plain(params: WeightParams) -> bool:
     """No bias terms and a drawn (not refined) distribution: an edge's weight is exactly
     ``length * drawn_weight(kind, seed, a, b, node, k)`` (the general form of
     :func:`edge_weight_of` adds 0 and scales by 1). Kernels that weigh many edges test
-    this once and then call :func:`drawn_weight` with scalars: on the CPU, passing the
-    parameter struct to a function per edge costs more than the hash."""
+    this once and weigh through :func:`weight_of_edge`: on the CPU, passing the parameter
+    struct down to a function per edge costs more than the hash."""
     return params.num_terms == 0 and params.kind != REFINED
 
 
@@ -242,6 +242,18 @@ def edge_weight_of(
     else:
         base = base_weight(params, node, k)
     return length * (base + add) * scale
+
+
+@wp.func
+def weight_of_edge(
+    params: WeightParams, plain: bool, shape3: wp.vec3i, node: int, coords: wp.vec3i, k: int, offset: wp.vec3i,
+    length: float,
+) -> float:
+    """:func:`edge_weight_of`, taken from scalars when ``plain`` (:func:`is_plain` of ``params``,
+    which callers weighing many edges test once)."""
+    if plain:
+        return length * drawn_weight(params.kind, params.seed, params.a, params.b, node, k)
+    return edge_weight_of(params, shape3, node, coords, k, offset, length)
 
 
 @wp.func
