@@ -438,3 +438,21 @@ def test_passes_over_many_rows_split_mid_row_match_scipy(shape, conn):
     _check_against_scipy(lat, gens, cf, limit=90.0)
     flat = cf.dist.reshape(-1)
     np.testing.assert_array_equal(band, np.flatnonzero((flat > 20.0) & (flat < 60.0)))
+
+
+def test_searches_reusing_a_lattices_frontiers_and_launches_equal_fresh_ones():
+    # the records keep their frontier lists and recorded launches for the next search, which must
+    # start from empty lists and give the kept launches its own limit and search id
+    shape, dist = (30, 41), wd.weights.Uniform(r=10, seed=6)
+    lat = wd.Lattice(shape, 8, weights=dist)
+    runs = [([[2, 3]], 60.0, True), ([[20, 30], [5, 5]], np.inf, True), ([[2, 3]], 25.0, False),
+            ([[29, 40]], 90.0, True), ([[2, 3]], 25.0, True), ([[10, 10]], 12.0, False)]
+    for gens, limit, fifo in runs:
+        kept = wd.shortest_paths(lat, gens, limit=limit, _fifo=fifo)
+        fresh = wd.shortest_paths(wd.Lattice(shape, 8, weights=dist), gens, limit=limit, _fifo=fifo)
+        assert kept.dist.tobytes() == fresh.dist.tobytes() and kept.label.tobytes() == fresh.label.tobytes()
+        assert (kept.rounds, kept.relaxed) == (fresh.rounds, fresh.relaxed)
+        # as a search stopped halfway (an interrupt) would leave them: the next one must not care
+        frontiers = lat.device_arrays().scratch["search"][0]
+        frontiers.counts.fill_(7)
+        frontiers.far_min.fill_(-1.0)

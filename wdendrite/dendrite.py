@@ -188,6 +188,7 @@ def trace(
     *,
     extend: Dendrite | None = None,
     generation: int | None = None,
+    _drawn: bool = False,
 ) -> Dendrite:
     """Backtrack least-cost paths from ``endpoints`` to their generators (greedy descent).
 
@@ -204,6 +205,9 @@ def trace(
             nodes, and the new nodes are appended after its rows.
         generation: value stored in ``Dendrite.generation`` for the new nodes
             (default: one more than ``extend``'s largest, else 0).
+        _drawn: the endpoints are an int64 ``(M, ndim)`` array drawn by growth
+            from this cost field's band: in bounds, usable and of finite cost,
+            so they are not checked again.
 
     Returns:
         A :class:`Dendrite` holding ``extend``'s nodes followed by the new ones.
@@ -216,7 +220,7 @@ def trace(
     if not isinstance(costfield, CostField):
         raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
     lattice = costfield.lattice
-    pts = _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
+    pts = endpoints if _drawn else _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
     if extend is not None:
         if not isinstance(extend, Dendrite):
             raise TypeError(f"Expected a Dendrite for 'extend', but got {type(extend).__name__}")
@@ -232,7 +236,7 @@ def trace(
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
         # costs are read from the records: the cost field's dist array is not needed
-        bad = ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
+        bad = np.zeros(1, bool) if _drawn else ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
         if bad.any():
             row = int(np.argmax(bad))
             why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"
@@ -266,13 +270,21 @@ def trace(
         )
         n_new = int(new_count.numpy()[0])
         listed = new_nodes.numpy()[:n_new]
-        order = np.argsort(listed)
-        fresh = listed[order].astype(np.int64)
+        # new rows in ascending node order, whatever order the walks listed them in. A lattice-sized
+        # table maps padded nodes to positions; only the entries written are read, so the records
+        # keep it for the next trace (a fresh one costs a page fault per page its scattered writes
+        # touch): first each new node's place in the list, which orders the walks' outputs as a
+        # sort of the nodes (cheaper than an argsort) ...
+        rows = arrays.scratch.get("rows")
+        if rows is None:
+            rows = arrays.scratch["rows"] = np.empty(arrays.mask.shape[0], np.int32)
+        rows[listed] = np.arange(n_new, dtype=np.int32)
+        fresh = np.sort(listed)
+        order = rows[fresh]
+        fresh = fresh.astype(np.int64)
         fresh_pred = new_pred.numpy()[:n_new][order]
         all_padded = np.concatenate([old, fresh])
-        # rows of padded nodes through a lattice-sized table: only this dendrite's entries are written and read
-        # (untouched pages of np.empty cost nothing)
-        rows = np.empty(arrays.mask.shape[0], np.int32)
+        # ... then the dendrite row of every node on it
         rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)

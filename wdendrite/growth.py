@@ -199,7 +199,7 @@ def grow(
         ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing)
         if ep is not None:
             first = 0 if den is None else len(den)
-            den = trace(cf, ep, extend=den, generation=it)
+            den = trace(cf, ep, extend=den, generation=it, _drawn=True)
             if new_generators:
                 den = _relabel(den, first, len(gens))
             if it + 1 < len(plan):
@@ -207,8 +207,9 @@ def grow(
                 limit = plan[it + 1][1] + r
                 # the last cost field is not read again: the search may reuse its memory
                 if new_generators:
+                    # the new generators are the rows this iteration's walks added
                     cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf,
-                                        _consume_warm_start=True)
+                                        _consume_warm_start=True, _walked=den._padded[first:])
                 else:
                     lat = lower_dendrite_weights(base_lat, den, params.cheap)
                     cf = shortest_paths(lat, gens, limit=limit, warm_start=cf, _consume_warm_start=True)

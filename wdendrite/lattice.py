@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import warp as wp
@@ -164,6 +164,9 @@ class LatticeArrays:
     recomputed in kernels."""
     stamps: "_Stamps"
     """Issues the ever-growing generation and search ids the record stamps use."""
+    scratch: dict = field(default_factory=dict, compare=False, repr=False)
+    """Buffers searches on these records keep for the next one (frontier lists and
+    recorded launches, see :mod:`wdendrite.sssp`); used under ``stamps.lock``."""
 
     def fresh_ids(self, count: int) -> int:
         """The first of ``count`` new stamp ids (the caller holds ``stamps.lock``).
@@ -403,10 +406,15 @@ class Lattice:
         return int(dense * min(1.0, 16.0 * self.num_usable / self.num_nodes))
 
     def search_bytes(self, device) -> int:
-        """Bytes a shortest-path search allocates on ``device`` beyond the arrays it already has
-        (outputs, frontier lists, and the records and mask the first time on a device)."""
+        """Bytes a shortest-path search allocates on ``device`` beyond the arrays it already has:
+        the first search on a device makes the records and mask, the frontier lists
+        later searches reuse, and room for the cost field's ``dist``/``label``
+        (made when first read); later searches allocate nothing lattice-sized (0)."""
+        arrays = self._device_arrays.get(str(wp.get_device(device)))
+        if arrays is not None and "search" in arrays.scratch:
+            return 0
         need = 8 * self.num_nodes + 16 * self.num_usable
-        if str(wp.get_device(device)) not in self._device_arrays:
+        if arrays is None:
             need += self._records_bytes(device) + int(np.prod([n + 2 for n in self.shape]))
         return need
 

@@ -186,6 +186,15 @@ class _Frontiers:
         self._counts_view = self.counts.numpy() if self._cpu else None
         self._min_view = self.far_min.numpy() if self._cpu else None
 
+    def reset(self) -> None:
+        """Empty lists and an infinite far minimum, as a search starts."""
+        if self._cpu:
+            self._counts_view[:] = 0
+            self._min_view[0] = math.inf
+        else:
+            self.counts.zero_()
+            self.far_min.fill_(math.inf)
+
     def threads(self, work: int) -> int:
         """Threads for a launch over ``work`` list entries: one on the CPU, where a
         single thread striding over the list avoids per-thread launch costs."""
@@ -255,7 +264,7 @@ def _generator_rows(generators, lattice: Lattice, warm_start) -> np.ndarray:
     return _checks.node_coordinates("generators", generators, lattice.shape, lattice.mask)
 
 
-def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit: float) -> None:
+def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit: float, rows_checked=False) -> None:
     old = warm.lattice
     if old.shape != lattice.shape or old.connectivity != lattice.connectivity:
         raise ValueError(
@@ -277,7 +286,7 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
                 f"'lattice' raises {raised} edge weights over 'warm_start'; a warm start only allows lowered weights"
             )
     g_old = warm.generators
-    if len(gens) < len(g_old) or not np.array_equal(gens[: len(g_old)], g_old):
+    if len(gens) < len(g_old) or not (rows_checked or np.array_equal(gens[: len(g_old)], g_old)):
         raise ValueError(
             "'generators' must begin with the generators of 'warm_start' (same rows, same order) "
             f"so that labels stay valid; 'warm_start' has {len(g_old)} generators"
@@ -299,6 +308,7 @@ def shortest_paths(
     _fifo: bool | None = None,
     _max_threads: int | None = None,
     _consume_warm_start: bool = False,
+    _walked: np.ndarray | None = None,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -324,6 +334,10 @@ def shortest_paths(
             striding exercised on the CPU).
         _consume_warm_start: the caller will not read ``warm_start`` again, so
             its costs need not be kept when the search reuses their memory.
+        _walked: padded node indices of the generator rows after the warm
+            start's, given by growth, whose generators are the warm start's
+            followed by nodes its walks just added on this lattice: those rows
+            are not checked again.
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -336,7 +350,8 @@ def shortest_paths(
     """
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
-    gens = _generator_rows(generators, lattice, warm_start)
+    trusted = _walked is not None and isinstance(warm_start, CostField)
+    gens = np.asarray(generators) if trusted else _generator_rows(generators, lattice, warm_start)
     if len(gens) >= 2**31:
         raise ValueError(f"'generators' has {len(gens)} rows; at most 2**31 - 1 are supported")
     limit_f = _checks.nonnegative("limit", limit, allow_inf=True)
@@ -350,12 +365,13 @@ def shortest_paths(
     if warm_start is not None:
         if not isinstance(warm_start, CostField):
             raise TypeError(f"Expected a CostField for 'warm_start', but got {type(warm_start).__name__}")
-        _check_warm_start(warm_start, lattice, gens, limit_f)
+        _check_warm_start(warm_start, lattice, gens, limit_f, rows_checked=trusted)
         if device is None:
             device = warm_start.device
     device = wp.get_device(device)
     need = lattice.search_bytes(device)
-    _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
+    if need:
+        _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")
 
     arrays = lattice.device_arrays(device)
     if warm_start is not None and warm_start._fields.arrays is not arrays:
@@ -366,7 +382,7 @@ def shortest_paths(
         chunk = pass_chunk(device)
         size = arrays.mask.shape[0]
         far_id = arrays.fresh_ids(1)
-        fr = _Frontiers(size, device, capacity=lattice.num_usable)
+        fr, launches = _scratch(arrays, lattice, device)
         if warm_start is None:
             release_records(arrays)
             if arrays.usable is not None:
@@ -389,7 +405,7 @@ def shortest_paths(
                     outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
                 )
         if len(new_rows):
-            flat = lattice.padded_indices(gens[new_rows])
+            flat = _walked.astype(np.int32) if trusted else lattice.padded_indices(gens[new_rows])
             wp.launch(
                 _k.seed_kernel,
                 dim=len(flat),
@@ -401,7 +417,8 @@ def shortest_paths(
         fr.max_threads = _max_threads
         # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
         kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
-        rounds, relaxed = _run(arrays, fr, kernel_limit, delta_f, fifo, far_id)
+        launches.begin(kernel_limit, fifo, far_id)
+        rounds, relaxed = _run(arrays, fr, launches, delta_f)
         result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
     return result
@@ -467,25 +484,43 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
     return found if device.is_cpu and arrays.usable is None else np.sort(found)
 
 
+def _scratch(arrays, lattice: Lattice, device) -> tuple[_Frontiers, "_Launches"]:
+    """The frontier lists and recorded launches of searches on ``arrays`` (the caller holds
+    their lock): made by the first search, emptied and reused by the next ones."""
+    kept = arrays.scratch.get("search")
+    if kept is None:
+        fr = _Frontiers(arrays.mask.shape[0], device, capacity=lattice.num_usable)
+        kept = arrays.scratch["search"] = (fr, _Launches(arrays, fr))
+    kept[0].reset()
+    return kept
+
+
 class _Launches:
     """Relax and split launches recorded once per buffer arrangement, then replayed.
 
     Replaying a recorded launch costs a few microseconds instead of about
     twenty for a fresh ``wp.launch``, which matters over thousands of rounds.
+    The records keep them for later searches (see :func:`_scratch`), which
+    give them their own limit and search id (:meth:`begin`).
     """
 
-    def __init__(self, arrays, fr: _Frontiers, limit: float, fifo: bool, far_id: int):
-        self._arrays, self._fr, self._limit = arrays, fr, limit
-        self.fifo, self._far_id = fifo, far_id
-        self._relax: dict[tuple[int, int], wp.Launch] = {}
+    def __init__(self, arrays, fr: _Frontiers):
+        self._arrays, self._fr = arrays, fr
+        self._relax: dict[tuple[bool, int, int], list] = {}
         self._split: dict[tuple[int, int], wp.Launch] = {}
+        self._search = 0
+
+    def begin(self, limit: float, fifo: bool, far_id: int) -> None:
+        """Start a search with these bounds and schedule."""
+        self._limit, self.fifo, self._far_id = limit, fifo, far_id
+        self._search += 1
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
-        cmd = self._relax.get((near, far))
+        kept = self._relax.get((self.fifo, near, far))
         fr, a = self._fr, self._arrays
         nxt = near if self.fifo else 1 - near
-        if cmd is None:
-            cmd = self._relax[(near, far)] = wp.launch(
+        if kept is None:
+            cmd = wp.launch(
                 _k.relax_kernel,
                 dim=threads,
                 inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[near], near, threads,
@@ -493,6 +528,12 @@ class _Launches:
                 outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
                 record_cmd=True,
             )
+            kept = self._relax[(self.fifo, near, far)] = [cmd, self._search]
+        cmd = kept[0]
+        if kept[1] != self._search:  # recorded by an earlier search
+            cmd.set_param_by_name("limit", self._limit)
+            cmd.set_param_by_name("far_id", self._far_id)
+            kept[1] = self._search
         self._replay(cmd, threads, threshold, generation)
 
     def split(self, near: int, far: int, threads: int, previous: float, threshold: float, generation: int) -> None:
@@ -534,7 +575,7 @@ def _next_threshold(threshold: float, far_min: float, delta: float) -> float:
     return float(t)
 
 
-def _run(arrays, fr: _Frontiers, limit: float, delta: float, fifo: bool, far_id: int) -> tuple[int, int]:
+def _run(arrays, fr: _Frontiers, launches: _Launches, delta: float) -> tuple[int, int]:
     """Drive near-far rounds until both the near list and the far pile are empty.
 
     With ``fifo`` (single-threaded devices), one launch empties the near list
@@ -547,7 +588,7 @@ def _run(arrays, fr: _Frontiers, limit: float, delta: float, fifo: bool, far_id:
     holds more than the usable nodes; generation rounds number each list they
     fill. Generations come from the lattice's ever-growing stamp ids.
     """
-    launches = _Launches(arrays, fr, limit, fifo, far_id)
+    fifo = launches.fifo
     queue_generation = arrays.stamps.next() if fifo else 0
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
     threshold = -math.inf
