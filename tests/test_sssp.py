@@ -456,3 +456,23 @@ def test_searches_reusing_a_lattices_frontiers_and_launches_equal_fresh_ones():
         frontiers = lat.device_arrays().scratch["search"][0]
         frontiers.counts.fill_(7)
         frontiers.far_min.fill_(-1.0)
+
+
+def test_a_searched_lattice_is_freed_by_reference_counting():
+    # the records keep search buffers; nothing in them may point back, or every lattice's
+    # records would wait for the cycle collector
+    import gc
+    import weakref
+
+    gc.disable()
+    try:
+        lat = wd.Lattice((20, 30), 8, weights=wd.weights.Uniform(seed=2))
+        cf = wd.shortest_paths(lat, [[3, 4]])
+        cf = wd.shortest_paths(lat, [[3, 4], [10, 20]], warm_start=cf)
+        den = wd.trace(cf, [[19, 29], [0, 29]])
+        records = weakref.ref(lat.device_arrays())
+        assert "search" in records().scratch and "rows" in records().scratch
+        del lat, cf, den
+        assert records() is None
+    finally:
+        gc.enable()

@@ -505,7 +505,8 @@ class _Launches:
     """
 
     def __init__(self, arrays, fr: _Frontiers):
-        self._arrays, self._fr = arrays, fr
+        # the records keep this object: a weak reference back keeps them freed by reference counting
+        self._arrays, self._fr = weakref.ref(arrays), fr
         self._relax: dict[tuple[bool, int, int], list] = {}
         self._split: dict[tuple[int, int], wp.Launch] = {}
         self._search = 0
@@ -517,9 +518,10 @@ class _Launches:
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
         kept = self._relax.get((self.fifo, near, far))
-        fr, a = self._fr, self._arrays
+        fr = self._fr
         nxt = near if self.fifo else 1 - near
         if kept is None:
+            a = self._arrays()
             cmd = wp.launch(
                 _k.relax_kernel,
                 dim=threads,
@@ -540,12 +542,13 @@ class _Launches:
         cmd = self._split.get((near, far))
         fr, other = self._fr, 1 - far
         if cmd is None:
+            a = self._arrays()
             cmd = self._split[(near, far)] = wp.launch(
                 _k.split_far_kernel,
                 dim=threads,
                 inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation,
-                        self._arrays.stride, self._arrays.nw, near, 2 + other],
-                outputs=[self._arrays.state, self._arrays.aux, fr.counts, fr.far_min, fr.lists[near],
+                        a.stride, a.nw, near, 2 + other],
+                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[near],
                          fr.lists[2 + other]],
                 record_cmd=True,
             )
