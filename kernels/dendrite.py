@@ -53,9 +53,11 @@ def predecessor(
             if side == 1:
                 other = node - flat_offsets[k]
                 lower = other
-            if mask[nonneg(other)] != wp.uint8(0):
-                src = state_at(state, stride, other)
-                if src != UNREACHED:
+            # a word above this node's never matches (adding a weight only raises the cost), and
+            # unreached neighbours hold the largest word: only lower or equal words are tested
+            src = state_at(state, stride, other)
+            if src <= word:
+                if mask[nonneg(other)] != wp.uint8(0):
                     if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
                         if src < word:
                             return other

@@ -416,7 +416,7 @@ def test_band_and_point_reads_from_the_records_equal_the_unpacked_arrays(problem
     assert cf._fields.dist is None
     dist = cf.dist.reshape(-1)
     np.testing.assert_array_equal(band, np.flatnonzero((dist > low) & (dist < low + width)))
-    assert band.dtype == np.int64
+    assert band.dtype == np.int32
     assert cost.tobytes() == cf.dist[usable].tobytes() and label.tobytes() == cf.label[usable].tobytes()
     # and once more from a field packed back into records another search had taken
     wd.shortest_paths(lat, gens[::-1])

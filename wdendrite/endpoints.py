@@ -343,10 +343,15 @@ def _describe(why: list) -> str:
     return ", ".join(w() for w in why)
 
 
+def _usable_count(shape, mask):
+    """Describer (for :func:`_sample`'s errors) of how many lattice nodes are usable."""
+    return lambda: f"{math.prod(shape) if mask is None else int(np.count_nonzero(mask))} usable lattice nodes"
+
+
 def _candidates(shape, mask, within) -> tuple[np.ndarray, list]:
     """Flat bool array of the usable nodes (inside ``within``), and the describers of :func:`_sample`."""
     base = np.ones(math.prod(shape), bool) if mask is None else mask.reshape(-1)
-    why = [lambda: f"{int(base.sum())} usable lattice nodes"]
+    why = [_usable_count(shape, mask)]
     usable = base
     if within is not None:
         usable = base & _within(within, shape).reshape(-1)
@@ -361,13 +366,17 @@ def _band_candidates(cost, shape, mask, d: float, r: float, within) -> tuple[np.
     ``cost`` is a :class:`~wdendrite.CostField`, whose band is read from the
     lattice's records without making its ``dist`` array, or a flat float array.
     """
-    usable, why = _candidates(shape, mask, within)
     if isinstance(cost, np.ndarray):
+        usable, why = _candidates(shape, mask, within)
         cand = np.flatnonzero(usable & (cost > d - r) & (cost < d + r))
         costs = lambda: cost  # noqa: E731
     else:
         cand = _sssp.band_nodes(cost, d - r, d + r)  # usable nodes only
-        if within is not None:
+        if within is None:
+            # the band lists usable nodes only: the usable-node flags are needed for an error message only
+            why = [_usable_count(shape, mask)]
+        else:
+            usable, why = _candidates(shape, mask, within)
             cand = cand[usable[cand]]
         costs = lambda: cost.dist.reshape(-1)  # noqa: E731
 

@@ -469,17 +469,22 @@ def read_states(arrays, nodes: np.ndarray, limit: float) -> tuple[np.ndarray, np
 
 
 def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
-    """Flat int64 node indices, ascending, of the usable nodes whose cost ``c`` has
+    """Flat int32 node indices, ascending, of the usable nodes whose cost ``c`` has
     ``low < c < high``, read from the records (no ``dist`` array is made)."""
     lattice = costfield.lattice
     arrays = lattice.device_arrays(costfield.device)
     device = arrays.aux.device
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
-        out = wp.empty(max(1, lattice.num_usable), dtype=wp.int32)
-        count = wp.zeros(1, dtype=wp.int32)
+        # the list's room (every usable node) is kept for the next band: growth asks for one per iteration
+        kept = arrays.scratch.get("band")
+        if kept is None:
+            kept = arrays.scratch["band"] = (wp.empty(max(1, lattice.num_usable), dtype=wp.int32),
+                                             wp.zeros(1, dtype=wp.int32))
+        out, count = kept
+        count.zero_()
         _records_pass(arrays, lattice, costfield.limit, band=(low, high), count=count, nodes=out)
-        found = out.numpy()[: int(count.numpy()[0])].astype(np.int64)
+        found = out.numpy()[: int(count.numpy()[0])].copy()
     # GPU threads append in any order (one CPU thread appends in index order)
     return found if device.is_cpu and arrays.usable is None else np.sort(found)
 
