@@ -500,6 +500,38 @@ def _scratch(arrays, lattice: Lattice, device) -> tuple[_Frontiers, "_Launches"]
     return kept
 
 
+class _Recorded:
+    """A recorded launch that sets a parameter only when its value changed since the last
+    replay: most replays change one or two of them (a bucket's threshold), and each set
+    costs a few microseconds."""
+
+    __slots__ = ("cmd", "_index", "_last", "search")
+
+    def __init__(self, cmd: wp.Launch, search: int):
+        self.cmd = cmd
+        self._index = {arg.label: i for i, arg in enumerate(cmd.kernel.adj.args)}
+        self._last: dict[str, object] = {}
+        self.search = search
+        """The search that last set the per-search parameters."""
+
+    def set(self, **params) -> None:
+        last, cmd = self._last, self.cmd
+        for name, value in params.items():
+            if last.get(name, _UNSET) != value:
+                cmd.set_param_at_index(self._index[name], value)
+                last[name] = value
+
+    def launch(self, threads: int, **params) -> None:
+        if self._last.get("dim") != threads:
+            self.cmd.set_dim(threads)
+            self._last["dim"] = threads
+        self.set(threads=threads, **params)
+        self.cmd.launch()
+
+
+_UNSET = object()
+
+
 class _Launches:
     """Relax and split launches recorded once per buffer arrangement, then replayed.
 
@@ -512,8 +544,8 @@ class _Launches:
     def __init__(self, arrays, fr: _Frontiers):
         # the records keep this object: a weak reference back keeps them freed by reference counting
         self._arrays, self._fr = weakref.ref(arrays), fr
-        self._relax: dict[tuple[bool, int, int], list] = {}
-        self._split: dict[tuple[int, int], wp.Launch] = {}
+        self._relax: dict[tuple[bool, int, int], _Recorded] = {}
+        self._split: dict[tuple[int, int], _Recorded] = {}
         self._search = 0
 
     def begin(self, limit: float, fifo: bool, far_id: int) -> None:
@@ -522,51 +554,36 @@ class _Launches:
         self._search += 1
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
-        kept = self._relax.get((self.fifo, near, far))
-        fr = self._fr
-        nxt = near if self.fifo else 1 - near
-        if kept is None:
-            a = self._arrays()
-            cmd = wp.launch(
+        rec = self._relax.get((self.fifo, near, far))
+        if rec is None:
+            fr, a = self._fr, self._arrays()
+            nxt = near if self.fifo else 1 - near
+            rec = self._relax[(self.fifo, near, far)] = _Recorded(wp.launch(
                 _k.relax_kernel,
                 dim=threads,
                 inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[near], near, threads,
                         int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
                 outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
                 record_cmd=True,
-            )
-            kept = self._relax[(self.fifo, near, far)] = [cmd, self._search]
-        cmd = kept[0]
-        if kept[1] != self._search:  # recorded by an earlier search
-            cmd.set_param_by_name("limit", self._limit)
-            cmd.set_param_by_name("far_id", self._far_id)
-            kept[1] = self._search
-        self._replay(cmd, threads, threshold, generation)
+            ), self._search)
+        if rec.search != self._search:  # recorded by an earlier search
+            rec.set(limit=self._limit, far_id=self._far_id)
+            rec.search = self._search
+        rec.launch(threads, threshold=threshold, generation=generation)
 
     def split(self, near: int, far: int, threads: int, previous: float, threshold: float, generation: int) -> None:
-        cmd = self._split.get((near, far))
-        fr, other = self._fr, 1 - far
-        if cmd is None:
-            a = self._arrays()
-            cmd = self._split[(near, far)] = wp.launch(
+        rec = self._split.get((near, far))
+        if rec is None:
+            fr, a, other = self._fr, self._arrays(), 1 - far
+            rec = self._split[(near, far)] = _Recorded(wp.launch(
                 _k.split_far_kernel,
                 dim=threads,
                 inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation,
                         a.stride, a.nw, near, 2 + other],
-                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[near],
-                         fr.lists[2 + other]],
+                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
                 record_cmd=True,
-            )
-        cmd.set_param_by_name("previous_threshold", previous)
-        self._replay(cmd, threads, threshold, generation)
-
-    @staticmethod
-    def _replay(cmd, threads: int, threshold: float, generation: int) -> None:
-        cmd.set_dim(threads)
-        cmd.set_param_by_name("threads", threads)
-        cmd.set_param_by_name("threshold", threshold)
-        cmd.set_param_by_name("generation", generation)
-        cmd.launch()
+            ), self._search)
+        rec.launch(threads, previous_threshold=previous, threshold=threshold, generation=generation)
 
 
 def _next_threshold(threshold: float, far_min: float, delta: float) -> float:
