@@ -78,6 +78,7 @@ def trace_kernel(
     state: wp.array(dtype=wp.uint64),
     root_id: int,
     visit_id: int,
+    zero_claimed: int,
     max_steps: int,
     aux: wp.array(dtype=wp.int32),
     new_nodes_out: wp.array(dtype=wp.int32),
@@ -94,7 +95,9 @@ def trace_kernel(
     a walk has claimed (or the dendrite being extended already holds),
     ``root_id`` on unclaimed generators. A walk stops at a root (a new node
     with predecessor -1) or at a claimed node, from where the path is
-    shared. New node ``j`` is ``new_nodes_out[j]``, its predecessor
+    shared. With ``zero_claimed`` (the dendrite's nodes are generators, which
+    the host then leaves unmarked), a node of cost 0 not marked a root counts
+    as claimed. New node ``j`` is ``new_nodes_out[j]``, its predecessor
     ``new_pred_out[j]``, its cost and label ``new_cost_out[j]``, ``new_label_out[j]``
     (walks start at nodes within the search's limit and only descend).
     """
@@ -106,9 +109,11 @@ def trace_kernel(
         seen = wp.atomic_exch(aux, stamp_index(node, stride, nw), visit_id)
         if seen == visit_id:
             return
+        word = state_at(state, stride, node)
+        if zero_claimed != 0 and seen != root_id and packed_cost(word) == 0.0:
+            return
         at = nonneg(wp.atomic_add(new_count, 0, 1))
         new_nodes_out[at] = node
-        word = state_at(state, stride, node)
         new_cost_out[at] = packed_cost(word)
         new_label_out[at] = packed_label(word)
         if seen == root_id:

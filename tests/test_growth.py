@@ -162,3 +162,21 @@ def test_a_start_dendrite_makes_its_edges_cheap_from_the_first_iteration():
     assert len(first)
     cf = wd.shortest_paths(lowered, [[48, 48]])
     np.testing.assert_array_equal(den.cost[first], cf.dist[tuple(den.nodes[first].T)])
+
+
+def test_new_generators_on_or_off_the_dendrite_become_roots_only_when_off_it():
+    # walks stop at nodes of cost 0 (the dendrite's nodes, all generators here) unless they are
+    # first generators not yet on the dendrite: those become roots, the others are never repeated
+    start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5], [90, 90]])
+    on_path = [int(v) for v in start.nodes[len(start) // 3]]  # a generator the start passes through
+    p = wd.FractalParams(count=6, d=90.0, alpha=1.5, beta=3.0, epsilon=20.0)
+    den = wd.grow(LAT, [[48, 48], on_path, [90, 5]], p, seed=4, start=start)
+    assert len({tuple(n) for n in den.nodes.tolist()}) == len(den), "a node appears twice"
+    np.testing.assert_array_equal(den.nodes[: len(start)], start.nodes)
+    roots = {tuple(n) for n in den.nodes[den.roots].tolist()}
+    assert tuple(on_path) not in roots and (48, 48) in roots
+    assert (90, 5) in roots  # reached from the far corner's band: its own tree
+    child = np.flatnonzero(den.parent >= 0)
+    step = np.abs(den.nodes[den.parent[child]] - den.nodes[child])
+    assert step.max() == 1 and step.sum(axis=1).min() >= 1
+    np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])

@@ -247,10 +247,20 @@ def trace(
         root_id = arrays.fresh_ids(2)
         visit_id = root_id + 1
         gen_rows = costfield.generators
-        if len(old) and len(gen_rows) >= len(old) and np.array_equal(gen_rows[len(gen_rows) - len(old):], extend.nodes):
-            # the generators end with the dendrite's nodes (growth with new generators): those get visit_id anyway
-            gen_rows = gen_rows[: len(gen_rows) - len(old)]
-        for nodes, mark in ((lattice.padded_indices(gen_rows), root_id), (old.astype(np.int32), visit_id)):
+        zero_claimed = len(old) and len(gen_rows) >= len(old) and np.array_equal(
+            gen_rows[len(gen_rows) - len(old):], extend.nodes)
+        if zero_claimed:
+            # the generators end with the dendrite's nodes (growth with new generators): those are the
+            # nodes of cost 0 apart from the first generators, so walks take a node of cost 0 as one
+            # on the dendrite unless it is marked a root, and only first generators on none of the
+            # dendrite's nodes are marked
+            roots = lattice.padded_indices(gen_rows[: len(gen_rows) - len(old)])
+            on = np.zeros(arrays.mask.shape[0], bool)
+            on[old] = True
+            marks = ((roots[~on[roots]], root_id),)
+        else:
+            marks = ((lattice.padded_indices(gen_rows), root_id), (old.astype(np.int32), visit_id))
+        for nodes, mark in marks:
             if len(nodes):
                 wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32), arrays.stride,
                                                                     arrays.nw, mark], outputs=[arrays.aux])
@@ -265,7 +275,7 @@ def trace(
             _kd.trace_kernel,
             dim=len(starts),
             inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw, arrays.hashed,
-                    arrays.mask, arrays.state, root_id, visit_id, arrays.mask.shape[0]],
+                    arrays.mask, arrays.state, root_id, visit_id, int(bool(zero_claimed)), arrays.mask.shape[0]],
             outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
         )
         n_new = int(new_count.numpy()[0])
