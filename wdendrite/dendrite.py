@@ -311,14 +311,15 @@ def trace(
         )
     coords = coords_of_padded(fresh, lattice.shape)
     def _cat(name, new, dtype):
-        return np.concatenate([getattr(extend, name), new]).astype(dtype) if extend is not None else new.astype(dtype)
+        new = new.astype(dtype, copy=False)
+        return new if extend is None else np.concatenate([getattr(extend, name), new]).astype(dtype, copy=False)
     return Dendrite(
         shape=lattice.shape,
         nodes=_cat("nodes", coords, np.int64).reshape(-1, lattice.ndim),
         parent=_cat("parent", new_parent, np.int64),
         cost=_cat("cost", cost, np.float32),
         label=_cat("label", label, np.int32),
-        generation=_cat("generation", np.full(len(fresh), generation), np.int32),
+        generation=_cat("generation", np.full(len(fresh), generation, np.int32), np.int32),
         endpoints=_endpoint_rows(extend, end_rows, len(all_padded)),
         _padded=all_padded,
         origin=None if extend is None else extend.origin,
