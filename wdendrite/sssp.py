@@ -231,7 +231,7 @@ def _default_delta(lattice: Lattice) -> float:
         # still see weights that vary across the lattice (tropisms, maps)
         w = lattice.weights
         rows = int(np.prod(w.shape[:-1]))
-        picks = np.linspace(0, rows - 1, min(rows, max(32, 65536 // w.shape[-1]))).astype(np.int64)
+        picks = np.linspace(0, rows - 1, min(rows, max(32, 16384 // w.shape[-1]))).astype(np.int64)
         sample = w[np.unravel_index(picks, w.shape[:-1])][:, :2048].reshape(-1)
     else:
         # weights of edges spread over the real lattice (fields such as maps need its shape)
