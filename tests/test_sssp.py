@@ -458,6 +458,20 @@ def test_searches_reusing_a_lattices_frontiers_and_launches_equal_fresh_ones():
         frontiers.far_min.fill_(-1.0)
 
 
+def test_big_lattices_keep_no_search_buffers_between_searches(monkeypatch):
+    from wdendrite.lattice import LatticeArrays
+
+    monkeypatch.setattr(LatticeArrays, "SCRATCH_LIMIT", 100)  # bytes: every buffer here is bigger
+    dist = wd.weights.Uniform(r=10, seed=6)
+    lat = wd.Lattice((30, 41), 8, weights=dist)
+    cf = wd.shortest_paths(lat, [[2, 3]], limit=60.0)
+    den = wd.trace(cf, np.argwhere(np.isfinite(cf.dist))[:5])
+    assert wd.endpoints.in_band(cf, 5, 30.0, 10.0, seed=1).shape == (5, 2)
+    assert lat.device_arrays().scratch == {}
+    again = wd.shortest_paths(lat, [[2, 3]], limit=60.0)
+    assert again.dist.tobytes() == cf.dist.tobytes() and len(wd.trace(again, den.nodes[den.endpoints])) == len(den)
+
+
 def test_a_searched_lattice_is_freed_by_reference_counting():
     # the records keep search buffers; nothing in them may point back, or every lattice's
     # records would wait for the cycle collector

@@ -282,12 +282,11 @@ def trace(
         listed = new_nodes.numpy()[:n_new]
         # new rows in ascending node order, whatever order the walks listed them in. A lattice-sized
         # table maps padded nodes to positions; only the entries written are read, so the records
-        # keep it for the next trace (a fresh one costs a page fault per page its scattered writes
-        # touch): first each new node's place in the list, which orders the walks' outputs as a
+        # keep it for the next trace when small (a fresh one costs a page fault per page its scattered
+        # writes touch): first each new node's place in the list, which orders the walks' outputs as a
         # sort of the nodes (cheaper than an argsort) ...
-        rows = arrays.scratch.get("rows")
-        if rows is None:
-            rows = arrays.scratch["rows"] = np.empty(arrays.mask.shape[0], np.int32)
+        size = arrays.mask.shape[0]
+        rows = arrays.kept("rows", lambda: np.empty(size, np.int32), 4 * size)
         rows[listed] = np.arange(n_new, dtype=np.int32)
         fresh = np.sort(listed)
         order = rows[fresh]

@@ -168,6 +168,21 @@ class LatticeArrays:
     """Buffers searches on these records keep for the next one (frontier lists and
     recorded launches, see :mod:`wdendrite.sssp`); used under ``stamps.lock``."""
 
+    SCRATCH_LIMIT = 64 * 2**20
+    """Bytes up to which a buffer is kept in :attr:`scratch`: a small lattice searched
+    many times (growth) saves the allocations; a big one does not hold more memory
+    between searches than it needs."""
+
+    def kept(self, key: str, make, nbytes: int):
+        """``scratch[key]``, made by ``make()`` when missing and kept when it takes at most
+        :attr:`SCRATCH_LIMIT` bytes (the caller holds ``stamps.lock``)."""
+        found = self.scratch.get(key)
+        if found is None:
+            found = make()
+            if nbytes <= self.SCRATCH_LIMIT:
+                self.scratch[key] = found
+        return found
+
     def fresh_ids(self, count: int) -> int:
         """The first of ``count`` new stamp ids (the caller holds ``stamps.lock``).
 

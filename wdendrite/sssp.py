@@ -476,12 +476,11 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
     device = arrays.aux.device
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
-        # the list's room (every usable node) is kept for the next band: growth asks for one per iteration
-        kept = arrays.scratch.get("band")
-        if kept is None:
-            kept = arrays.scratch["band"] = (wp.empty(max(1, lattice.num_usable), dtype=wp.int32),
-                                             wp.zeros(1, dtype=wp.int32))
-        out, count = kept
+        # the list's room (every usable node) is kept for the next band when small: growth asks for
+        # one per iteration
+        room = max(1, lattice.num_usable)
+        out, count = arrays.kept("band", lambda: (wp.empty(room, dtype=wp.int32), wp.zeros(1, dtype=wp.int32)),
+                                 4 * room)
         count.zero_()
         _records_pass(arrays, lattice, costfield.limit, band=(low, high), count=count, nodes=out)
         found = out.numpy()[: int(count.numpy()[0])].copy()
@@ -491,11 +490,13 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
 
 def _scratch(arrays, lattice: Lattice, device) -> tuple[_Frontiers, "_Launches"]:
     """The frontier lists and recorded launches of searches on ``arrays`` (the caller holds
-    their lock): made by the first search, emptied and reused by the next ones."""
-    kept = arrays.scratch.get("search")
-    if kept is None:
+    their lock): made by the first search, emptied and reused by the next ones (kept only
+    for lattices whose lists fit :attr:`LatticeArrays.SCRATCH_LIMIT`)."""
+    def make():
         fr = _Frontiers(arrays.mask.shape[0], device, capacity=lattice.num_usable)
-        kept = arrays.scratch["search"] = (fr, _Launches(arrays, fr))
+        return fr, _Launches(arrays, fr)
+
+    kept = arrays.kept("search", make, 16 * max(1, lattice.num_usable))
     kept[0].reset()
     return kept
 
