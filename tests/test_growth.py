@@ -180,3 +180,27 @@ def test_new_generators_on_or_off_the_dendrite_become_roots_only_when_off_it():
     step = np.abs(den.nodes[den.parent[child]] - den.nodes[child])
     assert step.max() == 1 and step.sum(axis=1).min() >= 1
     np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])
+
+
+def test_walks_do_not_stop_at_nodes_of_cost_zero_off_the_dendrite():
+    # edges of weight 0 in float32 (a vanishing constant plus a tropism that is 0 in column 0) give
+    # nodes of cost 0 that are not generators: the walks must not take them for dendrite nodes
+    lat = wd.Lattice((20, 20), 4, weights=wd.weights.Constant(1e-46) + wd.weights.Tropism("left", strength=1.0))
+    assert (lat.weights == 0).any()
+    gens = np.array([[0, 0]])  # walks cross a plateau of equal costs toward lower node indices only
+    den = wd.trace(wd.shortest_paths(lat, gens), [[10, 12]])
+    cf = wd.shortest_paths(lat, np.concatenate([gens, den.nodes]))
+    zero = np.argwhere(cf.dist == 0)
+    assert len(zero) > len(den)  # column 0 costs nothing beyond the dendrite's nodes
+    ends = [[2, 3], [18, 5]]
+    out = wd.trace(cf, ends, extend=den)
+    assert len({tuple(n) for n in out.nodes.tolist()}) == len(out), "a node appears twice"
+    child = np.flatnonzero(out.parent >= 0)
+    step = np.abs(out.nodes[out.parent[child]] - out.nodes[child]).sum(axis=1)
+    assert np.all(step == 1)
+    assert {tuple(n) for n in out.nodes[out.endpoints].tolist()} >= {tuple(e) for e in ends}
+    # every path ends at a generator of the cost field
+    g = {tuple(n) for n in cf.generators.tolist()}
+    for e in ends:
+        row = int(np.flatnonzero((out.nodes == e).all(axis=1))[0])
+        assert tuple(out.nodes[out.path(row)[-1]]) in g

@@ -243,58 +243,70 @@ def trace(
             raise ValueError(
                 f"'endpoints' row {row} = {tuple(pts[row].tolist())} is {why} ({int(bad.sum())} such endpoints)"
             )
-        # walks mark the records' stamps: generators first, then the nodes already on the dendrite
-        root_id = arrays.fresh_ids(2)
-        visit_id = root_id + 1
         gen_rows = costfield.generators
-        zero_claimed = len(old) and len(gen_rows) >= len(old) and np.array_equal(
-            gen_rows[len(gen_rows) - len(old):], extend.nodes)
-        if zero_claimed:
-            # the generators end with the dendrite's nodes (growth with new generators): those are the
-            # nodes of cost 0 apart from the first generators, so walks take a node of cost 0 as one
-            # on the dendrite unless it is marked a root, and only first generators on none of the
-            # dendrite's nodes are marked
-            roots = lattice.padded_indices(gen_rows[: len(gen_rows) - len(old)])
-            on = np.zeros(arrays.mask.shape[0], bool)
-            on[old] = True
-            marks = ((roots[~on[roots]], root_id),)
-        else:
-            marks = ((lattice.padded_indices(gen_rows), root_id), (old.astype(np.int32), visit_id))
-        for nodes, mark in marks:
-            if len(nodes):
-                wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32), arrays.stride,
-                                                                    arrays.nw, mark], outputs=[arrays.aux])
-        room = max(1, lattice.num_usable)
-        new_nodes = wp.empty(room, dtype=wp.int32)
-        new_pred = wp.empty(room, dtype=wp.int32)
-        new_count = wp.zeros(1, dtype=wp.int32)
-        status = wp.empty(len(starts), dtype=wp.int32)
-        new_cost = wp.empty(room, dtype=float)
-        new_label = wp.empty(room, dtype=wp.int32)
-        wp.launch(
-            _kd.trace_kernel,
-            dim=len(starts),
-            inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw, arrays.hashed,
-                    arrays.mask, arrays.state, root_id, visit_id, int(bool(zero_claimed)), arrays.mask.shape[0]],
-            outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
-        )
-        n_new = int(new_count.numpy()[0])
-        listed = new_nodes.numpy()[:n_new]
-        # new rows in ascending node order, whatever order the walks listed them in. A lattice-sized
-        # table maps padded nodes to positions; only the entries written are read, so the records
-        # keep it for the next trace when small (a fresh one costs a page fault per page its scattered
-        # writes touch): first each new node's place in the list, which orders the walks' outputs as a
-        # sort of the nodes (cheaper than an argsort) ...
+        # the generators end with the dendrite's nodes (growth with new generators): those are the nodes
+        # of cost 0 apart from the first generators, so walks may take a node of cost 0 as one on the
+        # dendrite (unless it is marked a root) instead of marking the dendrite's nodes first
+        claim_zero = bool(len(old) and len(gen_rows) >= len(old)
+                          and np.array_equal(gen_rows[len(gen_rows) - len(old):], extend.nodes))
         size = arrays.mask.shape[0]
-        rows = arrays.kept("rows", lambda: np.empty(size, np.int32), 4 * size)
-        rows[listed] = np.arange(n_new, dtype=np.int32)
-        fresh = np.sort(listed)
-        order = rows[fresh]
-        fresh = fresh.astype(np.int64)
-        fresh_pred = new_pred.numpy()[:n_new][order]
-        all_padded = np.concatenate([old, fresh])
-        # ... then the dendrite row of every node on it
-        rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
+        while True:
+            # walks mark the records' stamps: generators first, then the nodes already on the dendrite
+            root_id = arrays.fresh_ids(2)
+            visit_id = root_id + 1
+            if claim_zero:
+                # only first generators on none of the dendrite's nodes are marked roots
+                roots = lattice.padded_indices(gen_rows[: len(gen_rows) - len(old)])
+                on = np.zeros(size, bool)
+                on[old] = True
+                marks = ((roots[~on[roots]], root_id),)
+            else:
+                marks = ((lattice.padded_indices(gen_rows), root_id), (old.astype(np.int32), visit_id))
+            for nodes, mark in marks:
+                if len(nodes):
+                    wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32),
+                                                                        arrays.stride, arrays.nw, mark],
+                              outputs=[arrays.aux])
+            room = max(1, lattice.num_usable)
+            new_nodes = wp.empty(room, dtype=wp.int32)
+            new_pred = wp.empty(room, dtype=wp.int32)
+            new_count = wp.zeros(1, dtype=wp.int32)
+            status = wp.empty(len(starts), dtype=wp.int32)
+            new_cost = wp.empty(room, dtype=float)
+            new_label = wp.empty(room, dtype=wp.int32)
+            wp.launch(
+                _kd.trace_kernel,
+                dim=len(starts),
+                inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw,
+                        arrays.hashed, arrays.mask, arrays.state, root_id, visit_id, int(claim_zero), size],
+                outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
+            )
+            n_new = int(new_count.numpy()[0])
+            listed = new_nodes.numpy()[:n_new]
+            # new rows in ascending node order, whatever order the walks listed them in. A lattice-sized
+            # table maps padded nodes to positions; only the entries written are read, so the records
+            # keep it for the next trace when small (a fresh one costs a page fault per page its
+            # scattered writes touch): first each new node's place in the list, which orders the walks'
+            # outputs as a sort of the nodes (cheaper than an argsort) ...
+            rows = arrays.kept("rows", lambda: np.empty(size, np.int32), 4 * size)
+            rows[listed] = np.arange(n_new, dtype=np.int32)
+            fresh = np.sort(listed)
+            order = rows[fresh]
+            fresh = fresh.astype(np.int64)
+            fresh_pred = new_pred.numpy()[:n_new][order]
+            all_padded = np.concatenate([old, fresh])
+            # ... then the dendrite row of every node on it
+            rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
+            if claim_zero:
+                # a node of cost 0 is on the dendrite unless an edge weight is 0 in float32: then the
+                # table does not hold some node a walk stopped at, and the walks are made again
+                linked = np.concatenate([fresh_pred[fresh_pred >= 0], starts])
+                at = rows[linked]
+                held = (at >= 0) & (at < len(all_padded))
+                if not (held.all() and np.array_equal(all_padded[at], linked)):
+                    claim_zero = False
+                    continue
+            break
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
         cost = new_cost.numpy()[:n_new][order]
