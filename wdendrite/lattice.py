@@ -422,9 +422,10 @@ class Lattice:
 
     def search_bytes(self, device) -> int:
         """Bytes a shortest-path search allocates on ``device`` beyond the arrays it already has:
-        the first search on a device makes the records and mask, the frontier lists
-        later searches reuse, and room for the cost field's ``dist``/``label``
-        (made when first read); later searches allocate nothing lattice-sized (0)."""
+        the records and mask (the first search on a device), the frontier lists, and room
+        for the cost field's ``dist``/``label`` (made when first read). Lattices small
+        enough to keep their lists (:attr:`LatticeArrays.SCRATCH_LIMIT`) allocate nothing
+        lattice-sized in later searches: 0."""
         arrays = self._device_arrays.get(str(wp.get_device(device)))
         if arrays is not None and "search" in arrays.scratch:
             return 0
