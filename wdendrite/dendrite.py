@@ -236,8 +236,8 @@ def trace(
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
         # costs are read from the records: the cost field's dist array is not needed
-        bad = np.zeros(1, bool) if _drawn else ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
-        if bad.any():
+        bad = None if _drawn else ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
+        if bad is not None and bad.any():
             row = int(np.argmax(bad))
             why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"
             raise ValueError(
