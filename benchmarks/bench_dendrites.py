@@ -90,7 +90,8 @@ def scipy_fractal(lat, gens, params: wd.FractalParams, seed):
         # SciPy gets the same help as wdendrite: no costs beyond the band are searched
         dist, pred, _ = dijkstra(graph, directed=True, indices=sources, min_only=True,
                                  return_predecessors=True, limit=d + r)
-        band = np.flatnonzero((dist > d - r) & (dist < d + r))
+        # as wdendrite's growth: the band never reaches below cost 0 (the dendrite itself)
+        band = np.flatnonzero((dist > max(d - r, 0.0)) & (dist < d + r))
         pick = band[rng.choice(len(band), size=min(m, len(band)), replace=False)]
         count += len(pick)
         new = scipy_backtrack(pred, pick, visited)

@@ -228,6 +228,16 @@ def test_manual_validates():
     dist[5, 5] = np.inf
     with pytest.raises(ValueError, match=r"row 1 = \(5, 5\) is unreachable"):
         ep.manual(lat, [[2, 2], [5, 5]], cost=dist)
+    with pytest.raises(ValueError, match=r"'points' rows 0 and 4 are the same node \(1, 1\)"):
+        ep.manual(lat, [[1, 1], [4, 4], [2, 2], [4, 4], [1, 1]])
+
+
+def test_in_band_refuses_a_band_above_the_cost_fields_limit():
+    lat = wd.Lattice((30, 30), weights=wd.weights.Uniform(seed=3))
+    cf = wd.shortest_paths(lat, [[15, 15]], limit=50.0)
+    assert len(ep.in_band(cf, 5, 40.0, 10.0, seed=1)) == 5  # top at the limit: fine
+    with pytest.raises(ValueError, match=r"'d' \+ 'r' = 65.*'limit' 50"):
+        ep.in_band(cf, 5, 55.0, 10.0, seed=1)
 
 
 # ---------------------------------------------------------------------------

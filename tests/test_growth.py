@@ -69,6 +69,57 @@ def test_cheap_former_paths_lower_only_dendrite_edges():
     np.testing.assert_allclose(low.weights[tuple(changed.T)], LAT.weights[tuple(changed.T)] * 0.5)
 
 
+def _edge_weights(lat, a, b):
+    """Weights of the lattice edges a -> b (node coordinate arrays), from the weights array."""
+    step = b - a
+    w = np.empty(len(a), np.float32)
+    for k, off in enumerate(lat.offsets):
+        for sign in (1, -1):
+            hit = np.all(step == sign * off, axis=1)
+            low = a[hit] if sign == 1 else b[hit]  # an edge's weight sits at its lower end
+            w[hit] = lat.weights[(np.full(hit.sum(), k),) + tuple(low.T)]
+    return w
+
+
+@pytest.mark.parametrize("cheap", [0.0, 0.5])
+def test_costs_add_up_along_the_dendrite_from_every_root(cheap):
+    # whatever field each iteration searched (distance to the dendrite, or cheap former paths),
+    # a grown dendrite's cost is the sum of the lattice's own weights from the root, as for one trace
+    p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=cheap)
+    den = wd.grow(LAT, [[48, 48], [10, 80]], p, seed=5)
+    assert den.generation.max() >= 2
+    np.testing.assert_array_equal(den.cost[den.roots], 0.0)
+    child = np.flatnonzero(den.parent >= 0)
+    parent = den.parent[child]
+    w = _edge_weights(LAT, den.nodes[child], den.nodes[parent])
+    np.testing.assert_allclose(den.cost[child] - den.cost[parent], w, rtol=0, atol=2e-5 * den.cost.max())
+    assert np.all(den.cost[child] >= den.cost[parent])
+    # every branch of a later generation starts from the cost of the node it joins (not from 0)
+    joins = child[den.generation[child] > den.generation[parent]]
+    assert len(joins) and np.all(den.cost[joins] > den.cost[den.parent[joins]])
+
+
+@pytest.mark.parametrize("cheap", [0.0, 0.5])
+def test_no_endpoint_lands_on_the_dendrite_it_grows_from(cheap, monkeypatch):
+    # with the default r (a tenth of the first d) the last bands reach below cost 0: they must not
+    # offer the dendrite's own nodes, which would add no path
+    p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=5.0, cheap=cheap)
+    assert p.schedule()[-1][1] < p.band
+    drawn = []
+    real = growth.trace
+
+    def spy(cf, ends, *, extend=None, **kwargs):
+        drawn.append((np.asarray(ends).copy(), None if extend is None else extend.nodes.copy()))
+        return real(cf, ends, extend=extend, **kwargs)
+
+    monkeypatch.setattr(growth, "trace", spy)
+    wd.grow(LAT, [[48, 48]], p, seed=3)
+    assert len(drawn) == len(p.schedule())
+    for ends, before in drawn[1:]:
+        on = {tuple(v) for v in before.tolist()}
+        assert not [e for e in ends.tolist() if tuple(e) in on]
+
+
 def test_competition_keeps_dendrites_apart():
     den = wd.grow(LAT, [[20, 20], [75, 75]], PARAMS, seed=2)
     child = den.parent >= 0
@@ -104,12 +155,41 @@ def test_progress_callback_and_reproducibility():
         (dict(r=0.0), "'r'"),
         (dict(cheap=1.5), "cheap"),
         (dict(cheap=-0.1), "cheap"),
+        (dict(d=10.0, epsilon=20.0), "'d' (10.0) must exceed 'epsilon'"),
+        (dict(alpha=1 + 1e-7, beta=1.0), "30000000 iterations"),  # would run for ever, in effect
+        (dict(alpha=1 + 1e-9), "'alpha'"),
+        (dict(d=1e6, epsilon=1.0, beta=1e6), "'beta'"),  # 1e6^34 endpoints overflow
     ],
 )
 def test_parameters_that_cannot_terminate_or_make_sense(kwargs, words):
     with pytest.raises(ValueError) as info:
         wd.FractalParams(**kwargs)
+    assert words in str(info.value).replace("29957325", "30000000")
+
+
+@pytest.mark.parametrize(
+    "kwargs,error,words",
+    [
+        (dict(seed=-1), ValueError, "'seed'"),
+        (dict(seed=1.5), TypeError, "'seed'"),
+        (dict(progress="yes"), TypeError, "'progress'"),
+        (dict(start="x"), TypeError, "'start'"),
+        (dict(start=wd.trace(wd.shortest_paths(wd.Lattice((20, 20), 4), [[0, 0]]), [[5, 5]])), ValueError,
+         "'start' has shape (20, 20)"),
+    ],
+)
+def test_bad_growth_arguments_raise_before_any_search(kwargs, error, words, monkeypatch):
+    monkeypatch.setattr(growth, "shortest_paths", lambda *a, **k: pytest.fail("searched before checking"))
+    with pytest.raises(error) as info:
+        wd.grow(LAT, [[48, 48]], PARAMS, **kwargs)
     assert words in str(info.value)
+
+
+def test_a_start_whose_labels_do_not_index_the_generators_raises():
+    start = wd.trace(wd.shortest_paths(LAT, [[48, 48], [5, 5]]), [[90, 90], [6, 30]])
+    assert start.label.max() == 1
+    with pytest.raises(ValueError, match="labels range over"):
+        wd.grow(LAT, [[48, 48]], PARAMS, start=start)
 
 
 def test_empty_bands_raise():
@@ -156,12 +236,16 @@ def test_a_start_dendrite_makes_its_edges_cheap_from_the_first_iteration():
     p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=0.3)
     den = wd.grow(LAT, [[48, 48]], p, seed=2, start=start)
     np.testing.assert_array_equal(den.nodes[: len(start)], start.nodes)
-    # the first iteration's costs already use the lowered start edges
-    lowered = lower_dendrite_weights(LAT, start, 0.3)
+    # the first iteration searched with the lowered start edges: each new node's cost is the
+    # start node its branch joins plus the rise of the lowered field from there
+    lowered = wd.shortest_paths(lower_dendrite_weights(LAT, start, 0.3), [[48, 48]]).dist
     first = len(start) + np.flatnonzero(den.generation[len(start):] == 0)
     assert len(first)
-    cf = wd.shortest_paths(lowered, [[48, 48]])
-    np.testing.assert_array_equal(den.cost[first], cf.dist[tuple(den.nodes[first].T)])
+    join = den.parent[first].copy()
+    while np.any(join >= len(start)):
+        join = np.where(join >= len(start), den.parent[np.maximum(join, 0)], join)
+    field = lambda rows: lowered[tuple(den.nodes[rows].T)]  # noqa: E731
+    np.testing.assert_array_equal(den.cost[first], den.cost[join] + (field(first) - field(join)))
 
 
 def test_new_generators_on_or_off_the_dendrite_become_roots_only_when_off_it():

@@ -161,3 +161,14 @@ def fits_in_memory(need: int, device, what: str) -> None:
             f"{what} needs about {need / 2**30:.2f} GiB on device '{wp.get_device(device)}', "
             f"but only {have / 2**30:.2f} GiB are available"
         )
+
+
+def rng(seed, name: str = "seed") -> np.random.Generator:
+    """A NumPy generator from ``seed``: a non-negative int, or a ``np.random.Generator`` (used as is)."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"Expected an int or a numpy.random.Generator for '{name}', but got {seed!r}")
+    if seed < 0:
+        raise ValueError(f"Expected a non-negative '{name}', but got {seed!r}")
+    return np.random.default_rng(int(seed))

@@ -17,6 +17,7 @@ from typing import Literal
 
 import numpy as np
 
+from . import _checks
 from ._spec import UsageError
 from .dendry import DendryParams
 
@@ -84,7 +85,7 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     if generators < 1:
         raise UsageError(f"--generators must be at least 1, got {generators}")
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
-    gens = np.random.default_rng(seed).integers(0, size, size=(generators, 2))
+    gens = _checks.rng(seed).integers(0, size, size=(generators, 2))
     cf = shortest_paths(lat, gens)
     d = cf.dist
     # banded costs show the wavefronts; the label field tints each generator's region

@@ -204,14 +204,7 @@ class Image(Region):
 # sampling
 
 
-def _rng(seed) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"Expected an int or a numpy.random.Generator for 'seed', but got {seed!r}")
-    if seed < 0:
-        raise ValueError(f"Expected a non-negative 'seed', but got {seed!r}")
-    return np.random.default_rng(int(seed))
+_rng = _checks.rng
 
 
 def _count(count) -> int:
@@ -359,19 +352,19 @@ def _candidates(shape, mask, within) -> tuple[np.ndarray, list]:
     return usable, why
 
 
-def _band_candidates(cost, shape, mask, d: float, r: float, within) -> tuple[np.ndarray, list]:
+def _band_candidates(cost, shape, mask, low: float, high: float, within) -> tuple[np.ndarray, list]:
     """Ascending flat indices of the usable nodes (inside ``within``) whose cost lies in
-    ``(d - r, d + r)``, and the describers of :func:`_sample`.
+    ``(low, high)``, and the describers of :func:`_sample`.
 
     ``cost`` is a :class:`~wdendrite.CostField`, whose band is read from the
     lattice's records without making its ``dist`` array, or a flat float array.
     """
     if isinstance(cost, np.ndarray):
         usable, why = _candidates(shape, mask, within)
-        cand = np.flatnonzero(usable & (cost > d - r) & (cost < d + r))
+        cand = np.flatnonzero(usable & (cost > low) & (cost < high))
         costs = lambda: cost  # noqa: E731
     else:
-        cand = _sssp.band_nodes(cost, d - r, d + r)  # usable nodes only
+        cand = _sssp.band_nodes(cost, low, high)  # usable nodes only
         if within is None:
             # the band lists usable nodes only: the usable-node flags are needed for an error message only
             why = [_usable_count(shape, mask)]
@@ -384,7 +377,7 @@ def _band_candidates(cost, shape, mask, d: float, r: float, within) -> tuple[np.
         c = costs()
         finite = c[np.isfinite(c)]
         span = f"finite costs range over [{finite.min():g}, {finite.max():g}]" if finite.size else "no finite costs"
-        return f"{len(cand)} with cost in ({d - r:g}, {d + r:g}) ({span})"
+        return f"{len(cand)} with cost in ({low:g}, {high:g}) ({span})"
 
     why.append(told)
     return cand, why
@@ -509,7 +502,12 @@ def in_band(
     d = _finite("d", d)
     r = _checks.positive("r", r)
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
-    cand, why = _band_candidates(cost, shape, mask, d, r, within)
+    if isinstance(cost, _sssp.CostField) and d + r > cost.limit:
+        raise ValueError(
+            f"The band's top 'd' + 'r' = {d + r:g} lies above the cost field's 'limit' {cost.limit:g}: costs there "
+            "were not searched, so the band would be cut short; search with a limit of at least d + r"
+        )
+    cand, why = _band_candidates(cost, shape, mask, d - r, d + r, within)
     return _sample(shape, cand, count, rng, density, spacing, why)
 
 
@@ -526,12 +524,19 @@ def manual(lattice, points, *, cost=None) -> np.ndarray:
         ``(M, ndim)`` int64 copy of ``points``.
 
     Raises:
-        ValueError: a point outside the lattice, on a masked-out node or
-            unreachable (the message gives its row and coordinates).
+        ValueError: a point outside the lattice, on a masked-out node,
+            unreachable, or listed twice (the message gives its rows and coordinates).
         TypeError: non-integer coordinates.
     """
     shape, mask = _space(lattice)
     pts = _checks.node_coordinates("points", points, shape, mask)
+    flat = np.ravel_multi_index(tuple(pts.T), shape)
+    _, first, seen = np.unique(flat, return_index=True, return_counts=True)
+    if np.any(seen > 1):
+        row = int(np.sort(first[seen > 1])[0])
+        again = int(np.flatnonzero(flat == flat[row])[1])
+        raise ValueError(f"'points' rows {row} and {again} are the same node {tuple(pts[row].tolist())}; "
+                         "endpoints must be distinct")
     if cost is not None:
         dist = np.asarray(cost.dist if hasattr(cost, "dist") else cost)
         if dist.shape != shape:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -12,7 +13,7 @@ from . import _checks
 from . import endpoints as _endpoints
 from .dendrite import Dendrite, trace
 from .lattice import Lattice
-from .sssp import CostField, shortest_paths
+from .sssp import CostField, load_state, read_states, shortest_paths
 
 __all__ = ["FractalParams", "grow", "lower_dendrite_weights"]
 
@@ -45,6 +46,10 @@ class FractalParams:
     min_spacing: float | None = None
     """Least distance between endpoints drawn in one iteration (nodes), or None."""
 
+    MAX_ITERATIONS = 1000
+    """Schedules longer than this are refused: they come from an ``alpha`` so close to 1
+    that ``d`` barely shrinks, not from any growth a lattice could hold."""
+
     def __post_init__(self):
         if isinstance(self.count, bool) or not isinstance(self.count, (int, np.integer)) or self.count < 1:
             raise ValueError(f"Expected an integer 'count' >= 1, but got {self.count!r}")
@@ -62,6 +67,24 @@ class FractalParams:
         cheap = _checks.nonnegative("cheap", self.cheap, allow_none=False)
         if cheap > 1:
             raise ValueError(f"Expected 'cheap' (D) in [0, 1], but got {self.cheap!r}")
+        if not float(self.d) > float(self.epsilon):
+            raise ValueError(
+                f"'d' ({self.d!r}) must exceed 'epsilon' ({self.epsilon!r}): growth runs while d > epsilon, "
+                "so this schedule has no iteration"
+            )
+        # iterations k = 0, 1, ... while d / alpha^k > epsilon, counted without running the loop
+        iterations = math.floor(math.log(float(self.d) / float(self.epsilon)) / math.log(alpha)) + 1
+        if iterations > self.MAX_ITERATIONS:
+            raise ValueError(
+                f"'alpha' = {self.alpha!r} shrinks 'd' from {self.d!r} to 'epsilon' = {self.epsilon!r} in about "
+                f"{iterations} iterations (at most {self.MAX_ITERATIONS}); use a larger 'alpha' (the thesis shows 1.2-2)"
+            )
+        last = math.log10(self.count) + (iterations - 1) * math.log10(float(self.beta)) if self.beta > 1 else 0.0
+        if last > 15:
+            raise ValueError(
+                f"'count' = {self.count!r} times 'beta' = {self.beta!r} to the power {iterations - 1} asks for about "
+                f"1e{last:.0f} endpoints in the last iteration; lower 'beta' or 'count'"
+            )
 
     @property
     def band(self) -> float:
@@ -81,12 +104,22 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     """A lattice whose edges along ``dendrite`` (node to parent) cost ``factor`` times as much.
 
     Args:
-        lattice: the lattice the dendrite lives on.
+        lattice: the lattice the dendrite lives on (stored weights are copied).
         dendrite: its edges are the pairs (row, parent[row]).
-        factor: multiplier in (0, 1] (weights must stay positive).
+        factor: multiplier in (0, 1] (D of the thesis: weights stay positive and never rise).
         rows: only the edges leaving these rows (default: all).
+
+    Returns:
+        A new :class:`Lattice` with the same shape, connectivity and mask.
+
+    Raises:
+        ValueError: ``factor`` outside (0, 1], or a dendrite of another lattice shape.
     """
     factor = _checks.positive("factor", factor)
+    if factor > 1:
+        raise ValueError(f"Expected 'factor' in (0, 1], but got {factor!r}: former paths only get cheaper")
+    if tuple(dendrite.shape) != lattice.shape:
+        raise ValueError(f"'dendrite' has shape {tuple(dendrite.shape)}, but 'lattice' has shape {lattice.shape}")
     rows = np.arange(len(dendrite)) if rows is None else np.asarray(rows, dtype=np.int64)
     rows = rows[dendrite.parent[rows] >= 0]
     a, b = dendrite.nodes[rows], dendrite.nodes[dendrite.parent[rows]]
@@ -115,11 +148,72 @@ def _relabel(den: Dendrite, first: int, n_gens: int) -> Dendrite:
     return dataclasses.replace(den, label=label)
 
 
-def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing):
+def _check_start(start, lattice: Lattice, n_gens: int) -> None:
+    if not isinstance(start, Dendrite):
+        raise TypeError(f"Expected a wdendrite.Dendrite for 'start', but got {type(start).__name__}")
+    if tuple(start.shape) != lattice.shape:
+        raise ValueError(f"'start' has shape {tuple(start.shape)}, but 'lattice' has shape {lattice.shape}")
+    if len(start):
+        _checks.node_coordinates("start.nodes", start.nodes, lattice.shape, lattice.mask)
+        if start.label.min() < 0 or start.label.max() >= n_gens:
+            raise ValueError(
+                f"'start' labels range over [{start.label.min()}, {start.label.max()}], but they must index the "
+                f"{n_gens} 'generators'"
+            )
+
+
+def _field_costs(cf: CostField, padded: np.ndarray) -> np.ndarray:
+    """float32 costs of padded nodes in ``cf``, read from the records that hold it."""
+    arrays = cf.lattice.device_arrays(cf.device)
+    with arrays.stamps.lock:
+        load_state(cf, arrays)
+        return read_states(arrays, padded, cf.limit)[0]
+
+
+def _rebase_costs(den: Dendrite, first: int, field_cost_of) -> Dendrite:
+    """Make the costs of rows ``first:`` path costs from their first generator.
+
+    A trace stores each new node's cost in the iteration's own field: the cost
+    to the dendrite as it was (new generators), or with its edges made cheap.
+    Each new branch joins an older row ``a`` (or starts at a generator), so its
+    nodes get ``cost[a] + (c - c_a)``, with ``c`` and ``c_a`` their field costs:
+    costs then grow from every root outward through all generations, as they
+    do along a single trace (rendering tapers by them).
+
+    ``field_cost_of(rows)`` gives the field cost of older rows (0 for new generators).
+    """
+    parent = den.parent
+    # every new row's first older ancestor (or -1 at a root), by pointer jumping over the new rows
+    join = parent[first:].copy()
+    for _ in range(64):
+        inside = np.flatnonzero(join >= first)
+        if not len(inside):
+            break
+        join[inside] = join[join[inside] - first]
+    joined = join >= 0
+    cost = den.cost.copy()
+    new = cost[first:]
+    a = join[joined]
+    new[joined] = den.cost[a] + (new[joined] - field_cost_of(a))
+    cost[first:] = new
+    return dataclasses.replace(den, cost=cost)
+
+
+def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing, taken=None):
     """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
-    ``min_spacing`` apart) cannot hold that many; None when it holds none."""
+    ``min_spacing`` apart) cannot hold that many; None when it holds none.
+
+    The band never reaches below cost 0, where the generators (and with new
+    generators the whole dendrite) lie; ``taken`` (flat node indices) excludes
+    the dendrite's nodes where they cost more (cheap former paths): a new
+    endpoint on the dendrite would add no path.
+    """
     lattice = cf.lattice
-    cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, d, r, within)
+    cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, max(d - r, 0.0), d + r, within)
+    if taken is not None and len(taken) and len(cand):
+        off = np.ones(lattice.num_nodes, bool)
+        off[taken] = False
+        cand = cand[off[cand]]
     n = min(m, len(cand))
     while n > 0:
         try:
@@ -165,17 +259,31 @@ def grow(
         within: optional region (bool mask or an :mod:`wdendrite.endpoints`
             shape) endpoints must lie in.
         progress: True shows a tqdm bar; a callable gets
-            ``(iteration, iterations, dendrite)`` after each iteration.
+            ``(iteration, iterations, dendrite)`` after each iteration (the
+            dendrite is None until an iteration has found endpoints).
 
     Returns:
         The grown :class:`Dendrite`; ``generation`` numbers the iterations.
+        Its ``cost`` is the path cost from each node's generator along the
+        dendrite: every new branch continues the cost of the node it joins
+        (a single :func:`trace` gives the same: ``dist``).
+
+    Raises:
+        TypeError: ``lattice``, ``params``, ``start``, ``seed`` or ``progress`` of the wrong type.
+        ValueError: bad ``generators`` (empty, out of bounds, on masked nodes), a ``start``
+            from another lattice shape or whose labels do not index ``generators``, a
+            negative ``seed``, or a schedule whose bands hold no node at all.
     """
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
     if not isinstance(params, FractalParams):
         raise TypeError(f"Expected FractalParams for 'params', but got {type(params).__name__}")
     gens = _checks.node_coordinates("generators", generators, lattice.shape, lattice.mask)
-    rng = np.random.default_rng(seed)
+    rng = _checks.rng(seed)
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise TypeError(f"Expected a bool or a callable for 'progress', but got {progress!r}")
+    if start is not None:
+        _check_start(start, lattice, len(gens))
     plan = params.schedule()
     r = params.band
     new_generators = params.cheap == 0.0
@@ -196,12 +304,18 @@ def grow(
         if cf is None:
             base = gens if not (new_generators and den is not None) else np.concatenate([gens, den.nodes])
             cf = shortest_paths(lat, base, limit=d + r, device=device)
-        ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing)
+        # with cheap former paths the dendrite's nodes cost more than 0: they are kept out of the band
+        taken = None if new_generators or den is None else np.ravel_multi_index(tuple(den.nodes.T), lattice.shape)
+        ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing, taken)
         if ep is not None:
             first = 0 if den is None else len(den)
             den = trace(cf, ep, extend=den, generation=it, _drawn=True)
             if new_generators:
                 den = _relabel(den, first, len(gens))
+            if first:
+                # before the next search reuses the records that hold this field
+                den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
+                                    else (lambda rows: _field_costs(cf, den._padded[rows])))
             if it + 1 < len(plan):
                 # the next band lies below the next limit: nothing beyond it is searched
                 limit = plan[it + 1][1] + r

@@ -194,7 +194,7 @@ def _polynomial(shape, n: float, seed: int):
     if n <= 4:
         return _w.Polynomial(n=n, seed=seed)
     lengths = Lattice((2, 2), 8).lengths
-    v = np.random.default_rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
+    v = _checks.rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
     return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
 
 
@@ -357,7 +357,7 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     shape = _shape(shape, 2)
     if not isinstance(params, LightningParams):
         raise TypeError(f"Expected LightningParams for 'params', but got {type(params).__name__}")
-    rng = np.random.default_rng(seed)
+    rng = _checks.rng(seed)
     h, w = shape
     gen = np.array([[2, int(w * rng.uniform(0.4, 0.6))]])
     lat1 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
@@ -485,7 +485,7 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
 
 def _rock_field(shape, neighbours: int, seed: int):
     """Label segmentation with one generator in the middle and others around it (2007 paper, section 3.4)."""
-    rng = np.random.default_rng(seed)
+    rng = _checks.rng(seed)
     lat = Lattice(shape, 6, weights=_w.Uniform(r=10, seed=seed))
     c = (np.asarray(shape) - 1) / 2.0
     dirs = rng.normal(size=(neighbours, 3))
