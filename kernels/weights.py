@@ -89,11 +89,15 @@ class WeightParams:
     """Concatenated per-node map values in [0, 1] (at least one entry); REFINED: the
     coarse weights per unit length, node-major: ``(D, H, W, K)`` in C order."""
     grid: wp.vec3i
-    """REFINED: coarse lattice shape ``(D, H, W)``."""
+    """REFINED: coarse lattice shape ``(D, H, W)`` (interpolation is clamped to it)."""
     grid_start: wp.vec3i
     """REFINED: fine index of the window's first node in the whole fine lattice."""
     grid_k: int
     """REFINED: directions per coarse node in ``maps``."""
+    grid_lo: wp.vec3i
+    """REFINED: coarse index of the first coarse node held in ``maps``."""
+    grid_span: wp.vec3i
+    """REFINED: shape of the block of coarse nodes held in ``maps``."""
 
 
 @wp.func
@@ -154,15 +158,18 @@ def refined_base(params: WeightParams, node: int, coords: wp.vec3i, k: int) -> f
     cz = cell_of(c[0], half, inv_n, g[0])
     cy = cell_of(c[1], half, inv_n, g[1])
     cx = cell_of(c[2], half, inv_n, g[2])
-    # node-major coarse weights: the K directions of a coarse node sit side by side
+    # node-major coarse weights of a block of the coarse lattice: the K directions of a
+    # coarse node sit side by side
     nk = params.grid_k
     base = k
-    z0 = (int(cz[0]) * g[1]) * g[2] * nk
-    z1 = (int(cz[1]) * g[1]) * g[2] * nk
-    y0 = int(cy[0]) * g[2] * nk
-    y1 = int(cy[1]) * g[2] * nk
-    x0 = int(cx[0]) * nk
-    x1 = int(cx[1]) * nk
+    lo = params.grid_lo
+    s = params.grid_span
+    z0 = ((int(cz[0]) - lo[0]) * s[1]) * s[2] * nk
+    z1 = ((int(cz[1]) - lo[0]) * s[1]) * s[2] * nk
+    y0 = (int(cy[0]) - lo[1]) * s[2] * nk
+    y1 = (int(cy[1]) - lo[1]) * s[2] * nk
+    x0 = (int(cx[0]) - lo[2]) * nk
+    x1 = (int(cx[1]) - lo[2]) * nk
     m = params.maps
     tx = cx[2]
     ty = cy[2]

@@ -92,3 +92,59 @@ def test_boxes_too_large_for_stored_records_recompute_weights_in_the_kernels():
     assert len(fine.endpoints) == 1 and len(fine.roots) == 1
     steps = np.abs(fine.nodes[fine.parent[fine.parent >= 0]] - fine.nodes[fine.parent >= 0]).max(axis=1)
     assert steps.max() == 1
+
+
+def test_a_block_of_the_coarse_weights_gives_the_same_fine_weights():
+    # refined_lattice hands the kernels only the coarse nodes around the dendrite's box:
+    # interpolation is still clamped at the whole coarse lattice's edge, so weights match
+    from wdendrite.refine import Refined
+
+    lat = wd.Lattice((12, 14), 8, weights=wd.weights.Uniform(r=20, seed=2))
+    per_length = (lat.weights / lat.lengths[:, None, None]).astype(np.float32)
+    n, e = 3, 0.8
+    for lo, hi in [((0, 0), (5, 6)), ((4, 7), (12, 14)), ((3, 2), (9, 11))]:
+        near_lo = np.maximum(np.array(lo) - 1, 0)
+        near_hi = np.minimum(np.array(hi) + 1, lat.shape)
+        block = per_length[:, near_lo[0]:near_hi[0], near_lo[1]:near_hi[1]]
+        start = tuple(int(v) * n for v in lo)
+        fine_shape = tuple((b - a) * n for a, b in zip(lo, hi))
+        whole = Refined(per_length, n, e, start, seed=3).sample(fine_shape, lat.lengths, offsets=lat.offsets)
+        part = Refined(block, n, e, start, seed=3, lo=tuple(near_lo), grid=lat.shape).sample(
+            fine_shape, lat.lengths, offsets=lat.offsets)
+        np.testing.assert_array_equal(part, whole)
+
+
+def test_unstored_coarse_weights_give_the_same_refinement_as_stored_ones():
+    kw = dict(shape=(24, 30), connectivity=8, weights=wd.weights.Uniform(r=10, seed=8))
+    out = []
+    for store in (True, False):
+        lat = wd.Lattice(kw["shape"], kw["connectivity"], weights=kw["weights"], store_weights=store)
+        den = wd.trace(wd.shortest_paths(lat, [[12, 15]]), [[0, 0], [23, 29], [0, 29]])
+        out.append(wd.refine(den, lat, n=5, seed=1)[0])
+    for f in ("nodes", "parent", "cost"):
+        np.testing.assert_array_equal(getattr(out[0], f), getattr(out[1], f))
+
+
+@pytest.mark.parametrize("kwargs,error,words", [
+    (dict(n=2, e=0.75), ValueError, "odd"), (dict(n=3, e=-1.0), ValueError, "'e'"),
+    (dict(n=3, e=0.75, seed=-2), ValueError, "'seed'"), (dict(n=3, e=0.75, seed=0.5), TypeError, "'seed'")])
+def test_refined_lattice_checks_its_parameters_too(kwargs, error, words):
+    from wdendrite.refine import refined_lattice
+
+    lat, den = _coarse((10, 10), 4, 2)
+    with pytest.raises(error) as info:
+        refined_lattice(den, lat, **kwargs)
+    assert words in str(info.value)
+    if "seed" in kwargs:
+        with pytest.raises(error, match="'seed'"):
+            wd.refine(den, lat, seed=kwargs["seed"])
+
+
+def test_refined_weights_check_their_parameters():
+    from wdendrite.refine import Refined
+
+    w = np.ones((4, 5, 5), np.float32)
+    for kwargs, words in [(dict(n=4, e=0.75), "odd"), (dict(n=3, e=3.0), "'e'"),
+                          (dict(n=3, e=0.75, lo=(4, 0), grid=(6, 6)), "does not lie inside")]:
+        with pytest.raises(ValueError, match=words):
+            Refined(w, start=(0, 0), **kwargs)

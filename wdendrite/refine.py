@@ -31,6 +31,16 @@ from .weights import Distribution
 __all__ = ["Refined", "refine", "refined_lattice"]
 
 
+def _check_n_e(n, e) -> tuple[int, float]:
+    """The sublattice size ``n`` (odd, >= 3) and interpolation share ``e`` (in (0.5, 1)), validated."""
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 3 or n % 2 == 0:
+        raise ValueError(f"Expected an odd integer 'n' >= 3, but got {n!r}")
+    e = _checks.positive("e", e)
+    if not 0.5 < e < 1.0:
+        raise ValueError(f"Expected 'e' in the open interval (0.5, 1), but got {e!r}")
+    return int(n), e
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Refined(Distribution):
     """Sublattice weights ``W_sub = (e * W_int + (1 - e) * W_ran) * length / n`` (thesis 4.4).
@@ -42,7 +52,8 @@ class Refined(Distribution):
     """
 
     coarse: np.ndarray
-    """``(K, *coarse_shape)`` float32 coarse weights divided by their edge lengths."""
+    """``(K, *block)`` float32 coarse weights divided by their edge lengths, of the block of
+    coarse nodes starting at ``lo`` (the whole coarse lattice by default)."""
     n: int
     """Fine nodes per coarse node along each axis (odd, >= 3)."""
     e: float
@@ -51,6 +62,27 @@ class Refined(Distribution):
     """Fine index, in the whole fine lattice, of the window's node (0, ...)."""
     seed: int = 0
     """Hash seed of ``W_ran``."""
+    lo: tuple | None = None
+    """Coarse index of ``coarse``'s first node in the whole coarse lattice (default: the origin).
+    The block must hold every coarse node the window's fine nodes interpolate between."""
+    grid: tuple | None = None
+    """Shape of the whole coarse lattice, where interpolation stops (default: the block's)."""
+
+    def __post_init__(self):
+        _check_n_e(self.n, self.e)
+        coarse = np.asarray(self.coarse)
+        if coarse.ndim not in (3, 4):
+            raise ValueError(f"Expected 'coarse' of shape (K, H, W) or (K, D, H, W), but got shape {coarse.shape}")
+        ndim = coarse.ndim - 1
+        for name in ("start", "lo", "grid"):
+            value = getattr(self, name)
+            if value is not None and len(value) != ndim:
+                raise ValueError(f"Expected {ndim} entries in '{name}', but got {value!r}")
+        lo = np.zeros(ndim, int) if self.lo is None else np.asarray(self.lo)
+        grid = np.asarray(coarse.shape[1:]) if self.grid is None else np.asarray(self.grid)
+        if np.any(lo < 0) or np.any(lo + coarse.shape[1:] > grid):
+            raise ValueError(f"The block of 'coarse' (shape {coarse.shape[1:]} at 'lo' {tuple(lo)}) does not lie "
+                             f"inside 'grid' {tuple(grid)}")
 
     def _base(self):
         return _kw.REFINED, self.e, float(self.n), self.seed
@@ -61,13 +93,48 @@ class Refined(Distribution):
     def kernel_params(self, shape, device=None):
         params = super().kernel_params(shape, device)
         ndim = self.coarse.ndim - 1
+        pad = (1,) * (3 - ndim)
         # node-major, so that one fine node's directions read neighbouring words
         params.maps = wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(), dtype=float,
                                device=wp.get_device(device))
-        params.grid = wp.vec3i(*((1,) * (3 - ndim) + self.coarse.shape[1:]))
+        params.grid = wp.vec3i(*(pad + tuple(int(v) for v in (self.grid or self.coarse.shape[1:]))))
         params.grid_k = int(self.coarse.shape[0])
         params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in self.start)))
+        params.grid_lo = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in (self.lo or (0,) * ndim))))
+        params.grid_span = wp.vec3i(*(pad + self.coarse.shape[1:]))
         return params
+
+
+def _check_pair(dendrite, lattice) -> None:
+    if not isinstance(dendrite, Dendrite):
+        raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
+    if not isinstance(lattice, Lattice):
+        raise TypeError(f"Expected the wdendrite.Lattice the dendrite was traced on for 'lattice', but got "
+                        f"{type(lattice).__name__}")
+    if tuple(dendrite.shape) != lattice.shape:
+        raise ValueError(f"'dendrite' has shape {dendrite.shape}, but 'lattice' has shape {lattice.shape}")
+    if not len(dendrite):
+        raise ValueError("'dendrite' is empty: there is nothing to refine")
+
+
+def _coarse_block(lattice: Lattice, block: tuple) -> np.ndarray:
+    """``(K, *block)`` float32 weights per unit length of the coarse nodes in ``block`` (slices):
+    read from the records, or computed for those nodes only when the lattice holds none."""
+    if lattice._weights is not None:
+        w = lattice.weights[(slice(None),) + block]
+    else:
+        # only the block's edges: an edge leaving the lattice takes the nearest inside edge's
+        # weight, as fill_outside gives the whole array
+        idx = np.stack(np.meshgrid(*[np.arange(b.start, b.stop) for b in block], indexing="ij"), -1).reshape(-1, lattice.ndim)
+        shape = np.asarray(lattice.shape)
+        w = np.empty((len(lattice.offsets),) + tuple(b.stop - b.start for b in block), np.float32)
+        for k, off in enumerate(lattice.offsets):
+            src = np.where(off > 0, np.minimum(idx, np.maximum(shape - 2, 0)), np.where(off < 0, np.maximum(idx, 1), idx))
+            src = np.where(shape >= 2, src, idx)
+            flat = np.ravel_multi_index(tuple(src.T), lattice.shape)
+            w[k] = lattice.distribution.evaluate(lattice.shape, lattice.lengths, flat, np.full(len(flat), k),
+                                                 offsets=lattice.offsets).reshape(w.shape[1:])
+    return (w / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
 
 
 def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
@@ -93,13 +160,20 @@ def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
 def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, seed=0):
     """The masked fine lattice :func:`refine` plans on, with its roots and endpoints.
 
+    Args:
+        dendrite, lattice, n, e, seed: as for :func:`refine`.
+
     Returns:
         ``(fine_lattice, roots, endpoints, origin)``: roots and endpoints are
         ``(G, ndim)`` / ``(M, ndim)`` fine coordinates at the centres of the
         coarse ones' blocks; ``origin`` is the world position of fine node 0.
-        Parameters are as for :func:`refine` (validated there).
+
+    Raises:
+        ValueError, TypeError: as for :func:`refine`.
     """
-    rng = np.random.default_rng(seed)
+    n, e = _check_n_e(n, e)
+    _check_pair(dendrite, lattice)
+    rng = _checks.rng(seed)
 
     keep = _block_mask(dendrite, lattice)
     lo = np.argwhere(keep).min(axis=0)
@@ -110,11 +184,15 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
     for axis in range(lattice.ndim):
         fine_mask = np.repeat(fine_mask, n, axis=axis)
     start = lo * n
-    per_length = (lattice.weights / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
+    # the window's fine nodes interpolate between coarse nodes at most one beyond the window
+    near_lo = np.maximum(lo - 1, 0)
+    near_hi = np.minimum(hi + 1, lattice.shape)
+    per_length = _coarse_block(lattice, tuple(slice(int(a), int(b)) for a, b in zip(near_lo, near_hi)))
     # a kernel writes the usable nodes' fine weights into the records: no (K, *fine_shape) array.
     # Boxes whose stored records would pass the kernels' int32 indices recompute the weights
     # in the kernels instead (smaller records, each weight computed when relaxed)
-    dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)))
+    dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)),
+                   lo=tuple(int(v) for v in near_lo), grid=tuple(lattice.shape))
     store = record_words(fine_shape, len(lattice.offsets)) < 2**31
     fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=store)
 
@@ -154,20 +232,11 @@ def refine(
         dendrite's bounding box. Refine again for more detail.
 
     Raises:
-        ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), or a dendrite
-            from another lattice shape.
+        ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), an empty dendrite,
+            a dendrite from another lattice shape, or a negative ``seed``.
+        TypeError: ``dendrite`` or ``lattice`` of the wrong type, a ``seed`` that is
+            neither an int nor a ``np.random.Generator``.
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 3 or n % 2 == 0:
-        raise ValueError(f"Expected an odd integer 'n' >= 3, but got {n!r}")
-    e = _checks.positive("e", e)
-    if not 0.5 < e < 1.0:
-        raise ValueError(f"Expected 'e' in the open interval (0.5, 1), but got {e!r}")
-    if not isinstance(dendrite, Dendrite) or not isinstance(lattice, Lattice):
-        raise TypeError("Expected a Dendrite and the Lattice it was traced on for 'dendrite' and 'lattice'")
-    if tuple(dendrite.shape) != lattice.shape:
-        raise ValueError(f"'dendrite' has shape {dendrite.shape}, but 'lattice' has shape {lattice.shape}")
-    if not len(dendrite):
-        raise ValueError("'dendrite' is empty: there is nothing to refine")
     fine_lat, roots, ends, origin = refined_lattice(dendrite, lattice, n=n, e=e, seed=seed)
     cf = shortest_paths(fine_lat, roots, device=device)
     fine = trace(cf, ends)
