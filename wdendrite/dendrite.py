@@ -25,12 +25,19 @@ class Dendrite:
     call, sorted by lattice index within a block), so a dendrite grown further
     keeps the rows it had.
 
+    Paths that meet at a node share the rest of the way down, so branches never
+    cross at a node. On 8- and 26-connected lattices two diagonal edges of
+    different branches can still cross inside one lattice cell without a node
+    in common (shortest paths on such lattices allow it; the papers' lattices do too).
+
     Attributes:
         shape: the lattice shape.
         nodes: ``(N, ndim)`` int64 node coordinates.
         parent: ``(N,)`` int64 row of the next node toward the root; -1 at roots
             (generator nodes).
-        cost: ``(N,)`` float32 least path cost from the node's generator.
+        cost: ``(N,)`` float32 path cost from the node's generator along the
+            dendrite: the cost field's ``dist`` for a traced dendrite; for a grown
+            one each new branch continues the cost of the node it joins.
         label: ``(N,)`` int32 row of the generator (in the cost field's
             generator list) the node's path leads to.
         generation: ``(N,)`` int32 growth iteration that added the node (0 first).
@@ -161,14 +168,14 @@ class Dendrite:
         return count
 
     def path(self, row: int) -> np.ndarray:
-        """Rows from node ``row`` to its root (inclusive)."""
+        """``(L,)`` int64 rows from node ``row`` to its root (both included)."""
         out = [int(row)]
         while self.parent[out[-1]] >= 0:
             out.append(int(self.parent[out[-1]]))
         return np.asarray(out, dtype=np.int64)
 
     def paths(self) -> Iterator[np.ndarray]:
-        """The path of every endpoint, as rows from the endpoint to its root."""
+        """The path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the endpoint to its root."""
         for e in self.endpoints:
             yield self.path(e)
 
