@@ -148,3 +148,24 @@ def test_refined_weights_check_their_parameters():
                           (dict(n=3, e=0.75, lo=(4, 0), grid=(6, 6)), "does not lie inside")]:
         with pytest.raises(ValueError, match=words):
             Refined(w, start=(0, 0), **kwargs)
+
+
+def test_refined_nodes_keep_their_generation_and_their_generators_label():
+    lat = wd.Lattice((40, 40), 8, weights=wd.weights.Uniform(r=10, seed=3))
+    den = wd.grow(lat, [[8, 8], [31, 30]], wd.FractalParams(count=3, d=60.0, alpha=2.0, beta=2.0, epsilon=12.0), seed=1)
+    assert den.generation.max() >= 2 and set(den.label.tolist()) == {0, 1}
+    n = 3
+    fine, _ = wd.refine(den, lat, n=n, seed=2)
+    # the coarse node a fine node stands over (world positions), when that is a dendrite node
+    coarse = np.rint(fine.positions).astype(int)
+    where = {tuple(v): i for i, v in enumerate(den.nodes.tolist())}
+    rows = np.array([where.get(tuple(c), -1) for c in coarse.tolist()])
+    on = rows >= 0
+    assert on.mean() > 0.5
+    np.testing.assert_array_equal(fine.generation[on], den.generation[rows[on]])
+    # each fine tree carries the label of the coarse generator it descends to
+    for r in fine.roots:
+        c = tuple(np.rint(fine.positions[r]).astype(int).tolist())
+        tree = fine.label == fine.label[r]
+        assert np.all(fine.label[tree] == den.label[where[c]])
+    assert set(fine.label.tolist()) == {0, 1}

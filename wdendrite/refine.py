@@ -137,12 +137,12 @@ def _coarse_block(lattice: Lattice, block: tuple) -> np.ndarray:
     return (w / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
 
 
-def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
-    """Coarse nodes whose blocks make the refined graph: the dendrite, plus for each
-    diagonal step the nodes it passes along its first axes, so consecutive blocks touch
-    along a face in 2D and at least an edge in 3D (connected for every connectivity in use)."""
-    keep = np.zeros(lattice.shape, bool)
-    keep[tuple(den.nodes.T)] = True
+def _block_rows(den: Dendrite, lattice: Lattice) -> np.ndarray:
+    """Coarse nodes whose blocks make the refined graph, as the dendrite row each stands for
+    (-1 elsewhere): the dendrite's nodes, plus for each diagonal step the nodes it passes
+    along its first axes (standing for the step's child), so consecutive blocks touch along
+    a face in 2D and at least an edge in 3D (connected for every connectivity in use)."""
+    rows = np.full(lattice.shape, -1, np.int64)
     child = np.flatnonzero(den.parent >= 0)
     a, b = den.nodes[child], den.nodes[den.parent[child]]
     step = b - a
@@ -151,10 +151,11 @@ def _block_mask(den: Dendrite, lattice: Lattice) -> np.ndarray:
         if np.any(moved & (np.abs(step).sum(axis=1) > 1)):
             c = a[moved].copy()
             c[:, axis] = b[moved, axis]
-            keep[tuple(c.T)] = True
+            rows[tuple(c.T)] = child[moved]
+    rows[tuple(den.nodes.T)] = np.arange(len(den))  # a dendrite node stands for itself
     if lattice.mask is not None:
-        keep &= lattice.mask
-    return keep
+        rows[~lattice.mask] = -1
+    return rows
 
 
 def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, seed=0):
@@ -171,11 +172,18 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
     Raises:
         ValueError, TypeError: as for :func:`refine`.
     """
+    return _refined(dendrite, lattice, n, e, seed)[:4]
+
+
+def _refined(dendrite: Dendrite, lattice: Lattice, n, e, seed):
+    """:func:`refined_lattice`, plus the window's first coarse node and the dendrite row each
+    coarse node of the window stands for (see :func:`_block_rows`)."""
     n, e = _check_n_e(n, e)
     _check_pair(dendrite, lattice)
     rng = _checks.rng(seed)
 
-    keep = _block_mask(dendrite, lattice)
+    rows = _block_rows(dendrite, lattice)
+    keep = rows >= 0
     lo = np.argwhere(keep).min(axis=0)
     hi = np.argwhere(keep).max(axis=0) + 1
     window = tuple(slice(a, b) for a, b in zip(lo, hi))
@@ -196,11 +204,11 @@ def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, s
     store = record_words(fine_shape, len(lattice.offsets)) < 2**31
     fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=store)
 
-    centre = lambda rows: (dendrite.nodes[rows] - lo) * n + n // 2  # noqa: E731
+    centre = lambda r: (dendrite.nodes[r] - lo) * n + n // 2  # noqa: E731
     roots = np.unique(centre(dendrite.roots), axis=0)
     ends = np.unique(centre(dendrite.endpoints), axis=0)
     origin = np.asarray(dendrite.origin, float) + dendrite.spacing * (start - n // 2) / n
-    return fine_lat, roots, ends, origin
+    return fine_lat, roots, ends, origin, lo, rows[window]
 
 
 def refine(
@@ -226,10 +234,11 @@ def refine(
     Returns:
         ``(fine, fine_lattice)``: the refined :class:`Dendrite` (its roots and
         endpoints sit at the centres of the coarse ones' blocks; its
-        ``origin``/``spacing`` place it over the coarse one; its ``label``
-        numbers the fine roots in the order of their coordinates, not the
-        coarse generators) and the masked fine lattice, cropped to the
-        dendrite's bounding box. Refine again for more detail.
+        ``origin``/``spacing`` place it over the coarse one; every node keeps
+        the ``generation`` of the coarse node whose block it lies in and the
+        ``label`` of the coarse root its path leads to) and the masked fine
+        lattice, cropped to the dendrite's bounding box. Refine again for more
+        detail.
 
     Raises:
         ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), an empty dendrite,
@@ -237,7 +246,13 @@ def refine(
         TypeError: ``dendrite`` or ``lattice`` of the wrong type, a ``seed`` that is
             neither an int nor a ``np.random.Generator``.
     """
-    fine_lat, roots, ends, origin = refined_lattice(dendrite, lattice, n=n, e=e, seed=seed)
+    fine_lat, roots, ends, origin, lo, rows = _refined(dendrite, lattice, n, e, seed)
     cf = shortest_paths(fine_lat, roots, device=device)
     fine = trace(cf, ends)
-    return dataclasses.replace(fine, origin=tuple(origin.tolist()), spacing=dendrite.spacing / n), fine_lat
+    # each fine node keeps the generation of the coarse row its block stands for, and the
+    # label of the coarse root its path ends at
+    block = rows[tuple((fine.nodes // n).T)]
+    coarse_root = rows[tuple((roots // n).T)]
+    return dataclasses.replace(fine, origin=tuple(origin.tolist()), spacing=dendrite.spacing / n,
+                               generation=dendrite.generation[block].astype(np.int32),
+                               label=dendrite.label[coarse_root][fine.label].astype(np.int32)), fine_lat
