@@ -450,7 +450,10 @@ def biased(
         toward: which end of ``axis`` is denser.
 
     Returns:
-        ``(M, ndim)`` int64 node coordinates.
+        ``(M, ndim)`` int64 node coordinates, distinct, in the order drawn.
+
+    Raises:
+        ValueError, TypeError: as for :func:`random`, and a bad ``power``, ``axis`` or ``toward``.
     """
     shape, mask = _space(lattice)
     power = _checks.nonnegative("power", power, allow_none=False)
@@ -489,7 +492,13 @@ def in_band(
         seed, within, density, min_spacing: as for :func:`random`.
 
     Returns:
-        ``(M, ndim)`` int64 node coordinates.
+        ``(M, ndim)`` int64 node coordinates, distinct, in the order drawn.
+
+    Raises:
+        ValueError: a band holding fewer candidates than asked for, a band reaching
+            above a :class:`~wdendrite.CostField`'s ``limit``, a non-finite ``d``,
+            ``r`` <= 0, or as for :func:`random`.
+        TypeError: ``cost`` neither a CostField nor a float array, or as for :func:`random`.
     """
     if isinstance(cost, _sssp.CostField):
         shape, mask = _space(cost.lattice)

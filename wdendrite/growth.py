@@ -242,7 +242,10 @@ def grow(
     traces them to it, and updates the cost field with a warm start: the
     dendrite's nodes become generators (``params.cheap == 0``) or its edges get
     cheaper (``0 < cheap <= 1``). Costs are searched only up to the
-    iteration's ``d + r``.
+    iteration's ``d + r``. The band never reaches below cost 0 nor offers the
+    dendrite's own nodes. Cheap former paths change stored weights: a lattice
+    that stores none (``store_weights=False``) has its weights stored once for
+    the growth, so it must fit in memory with them.
 
     Several generators grow competing dendrites: every node's ``label`` names
     the generator whose dendrite it belongs to, and the dendrites never share

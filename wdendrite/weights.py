@@ -191,6 +191,10 @@ class Distribution:
 
         Returns:
             ``(K, *shape)`` float32; entry ``[k][idx]`` is the edge ``idx <-> idx + offsets[k]``.
+
+        Raises:
+            ValueError: a bad ``shape``, ``lengths`` or ``offsets`` that do not match it,
+                or a distribution whose weights could exceed 1e30 (see :meth:`kernel_params`).
         """
         device = wp.get_device(device if device is not None else "cpu")
         shape, params, shape3, off, lens = self._launch_args(shape, lengths, offsets, device)
@@ -211,6 +215,10 @@ class Distribution:
 
         Returns:
             ``(E,)`` float32, equal to ``sample(...)[directions, nodes]`` (flattened).
+
+        Raises:
+            ValueError: as for :meth:`sample`; ``nodes`` and ``directions`` of different
+                lengths or out of range.
         """
         device = wp.get_device(device if device is not None else "cpu")
         shape, params, shape3, off, lens = self._launch_args(shape, lengths, offsets, device)
