@@ -34,7 +34,30 @@ def test_lichtenberg_bowl_inside_and_outside(device):
     c = control.lichtenberg()
     pts = np.array([[0, 0], [0.5, -1], [-1, 1], [1.5, 0], [0, -1.01]], np.float32)
     np.testing.assert_allclose(c.evaluate(pts, device=device), [1.0, 0.25, 5.0, 16.0, 16.0], atol=1e-6)
-    assert c.bounded and (c.minimum, c.maximum) == (0.0, 16.0)
+    assert c.bounded
+    # the declared extremes are those on the domain [-1, 1]^2 (the 16 outside is not the function's)
+    inside = _grid_points(c.domain, 201)
+    want = inside[:, 0].astype(float) ** 2 + (inside[:, 1].astype(float) + 1) ** 2
+    got = c.evaluate(inside, device=device)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+    assert (c.minimum, c.maximum) == (0.0, 5.0) == (want.min(), want.max())
+
+
+def test_declared_extremes_bracket_the_samples_on_the_domain(device):
+    rng = np.random.default_rng(2)
+    controls = [control.plane((0.5, -2.0), offset=1.0, domain=((0, 0), (2, 1))),
+                control.radial((0.3, 1.5), radius=0.7, domain=((-1, 0), (1, 2))),
+                control.lichtenberg(),
+                control.image(rng.random((5, 7)), domain=((0, 0), (7, 5))),
+                control.perlin(seed=3, octaves=2, domain=((-0.2, -0.4), (1.4, 0.7))),
+                control.ridged(seed=3, octaves=3, domain=((0, 0), (2, 2)))]
+    for c in controls:
+        v = c.evaluate(_grid_points(c.domain, 301), device=device)
+        # every sample lies within the extremes, and the extremes are nearly reached (ridged crests are
+        # sharp: a 301^2 grid misses its maximum by about 0.3 % of the range)
+        assert c.minimum - 1e-6 <= v.min() and v.max() <= c.maximum + 1e-6, c.kind
+        span = c.maximum - c.minimum
+        assert v.min() - c.minimum < 5e-3 * span and c.maximum - v.max() < 5e-3 * span, c.kind
 
 
 def test_image_reproduces_pixels_and_linear_ramps(device):
@@ -99,6 +122,38 @@ def test_perlin_equals_a_numpy_gradient_noise(device):
     # zero (0.5 once mapped) at every lattice point
     lattice = np.stack(np.meshgrid(np.arange(-3, 5), np.arange(-2, 4)), -1).reshape(-1, 2).astype(np.float32)
     np.testing.assert_allclose(c.evaluate(lattice, device=device), 0.5, atol=1e-7)
+
+
+def _octave_shift(o):
+    # the kernels' per-octave offset (golden ratio and sqrt(2) - 1 fractions, times 7)
+    return np.array([o * 0.6180339887, o * 0.4142135624]) * 7.0
+
+
+def ridged_reference(seed, p, *, frequency=1.0, octaves=8, gain=0.5, lacunarity=2.0, offset=1.0):
+    """Ridged multifractal in float64: octaves of (offset - |noise|)^2, each weighted by the last one."""
+    from wdendrite.control import _permutation
+
+    perm = _permutation(seed)
+    q = np.asarray(p, float) * frequency
+    total, norm, amp, weight = 0.0, 0.0, 1.0, 1.0
+    for o in range(octaves):
+        s = (offset - np.abs(_perlin_reference(perm, q + _octave_shift(o)))) ** 2 * weight
+        weight = np.clip(2.0 * s, 0.0, 1.0)
+        total, norm, amp, q = total + amp * s, norm + amp, amp * gain, q * lacunarity
+    return total / norm
+
+
+def test_ridged_equals_a_numpy_ridged_multifractal(device):
+    c = control.ridged(seed=6, frequency=1.3, octaves=4, gain=0.6, lacunarity=2.1, offset=0.9,
+                       domain=((-1.0, 0.0), (2.0, 2.0)))
+    pts = np.random.default_rng(1).uniform((-1, 0), (2, 2), (400, 2)).astype(np.float32)
+    want = ridged_reference(6, pts.astype(float), frequency=1.3, octaves=4, gain=0.6, lacunarity=2.1, offset=0.9)
+    np.testing.assert_allclose(c.evaluate(pts, device=device), want, atol=2e-5)
+    # the declared extremes hold a dense sampling of the reference and are nearly reached
+    dense = ridged_reference(6, _grid_points(c.domain, 401).astype(float), frequency=1.3, octaves=4, gain=0.6,
+                             lacunarity=2.1, offset=0.9)
+    assert c.minimum <= dense.min() + 1e-5 and dense.max() <= c.maximum + 1e-5
+    assert dense.min() - c.minimum < 5e-3 and c.maximum - dense.max() < 5e-3
 
 
 def test_noise_extremes_are_refined_beyond_the_sampling_grid(device):

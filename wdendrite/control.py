@@ -55,9 +55,10 @@ class Control:
     domain: Rect
     """The rectangle ``((x0, y0), (x1, y1))`` of the function's own coordinates that Dendry's query maps onto."""
     minimum: float
-    """Smallest value the function takes on ``domain``."""
+    """Smallest value the function takes on ``domain`` (values outside ``domain`` are not counted)."""
     maximum: float
-    """Largest value the function takes on ``domain``."""
+    """Largest value the function takes on ``domain``; with ``minimum`` it normalises the terrain's
+    slopes (:class:`wdendrite.dendry.DendryParams` ``beta``, eq. 7)."""
     params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
     """Kind-specific numbers (plane: offset, gx, gy; radial: cx, cy, radius; noise: frequency, gain, lacunarity, offset)."""
     seed: int = 0
@@ -248,8 +249,14 @@ def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 
 
 
 def lichtenberg() -> Control:
-    """The Lichtenberg bowl ``x^2 + (y + 1)^2`` on [-1, 1]^2 and 16 outside (bounded)."""
-    return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 16.0, bounded=True)
+    """The Lichtenberg bowl ``x^2 + (y + 1)^2`` on [-1, 1]^2 and 16 outside (bounded).
+
+    Its minimum and maximum are those on the domain: 0 at (0, -1) and 5 at (+-1, 1). The
+    value 16 outside the square is not counted: points there are outside the function, so
+    Dendry drops their segments, and the terrain's slopes (eq. 7) are normalised over the
+    range the tree's elevations take, [0, 5].
+    """
+    return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0, bounded=True)
 
 
 def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
