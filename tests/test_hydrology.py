@@ -101,8 +101,26 @@ def test_d8_accumulation_equals_brute_force_and_conserves_area():
     # D-infinity splits flow but ends in the same cells (those without a lower neighbour)
     dinf = hydrology.flow_accumulation(z, method="dinf")
     assert np.isclose(dinf[ends].sum(), z.size) and (dinf >= 1).all()
-    filled = hydrology.flow_accumulation(z, filled=True)
-    assert filled.max() <= z.size and filled[ends].sum() >= 1
+
+
+
+def test_d8_on_the_filled_surface_equals_brute_force_routing_after_a_priority_flood():
+    rng = np.random.default_rng(4)
+    z = rng.random((14, 17))
+    area = hydrology.flow_accumulation(z, filled=True)
+    surface = _priority_flood(z)
+    want, rec = _d8_reference(surface)
+    np.testing.assert_array_equal(area, want)
+    # filling changes the routing (pits become flats at their spill level), so the test sees the fill
+    assert not np.array_equal(area, hydrology.flow_accumulation(z))
+    # the area still ends somewhere, now only on the border or on the flats the fill made
+    ends = [(r, c) for (r, c), to in rec.items() if to is None]
+    assert sum(area[e] for e in ends) == z.size
+    for r, c in ends:
+        border = r in (0, 13) or c in (0, 16)
+        flat = any(surface[r + dr, c + dc] == surface[r, c] for dr in (-1, 0, 1) for dc in (-1, 0, 1)
+                   if (dr or dc) and 0 <= r + dr < 14 and 0 <= c + dc < 17)
+        assert border or flat, (r, c)
 
 
 def test_dinf_splits_flow_by_angle_and_conserves_area():
@@ -139,6 +157,25 @@ def test_d8_on_a_tilted_plane_collects_along_rows():
     assert area[2, -1] == area.max() == z.size  # everything ends in the lowest cell of the last column
     img = hydrology.drainage_image(area)
     assert img.dtype == np.float32 and img.min() == 0.0 and img.max() == 1.0
+
+
+def test_noise_baselines_equal_numpy_noise_on_pixel_centres(device):
+    from test_control import _octave_shift, _perlin_reference, ridged_reference
+
+    from wdendrite.control import _permutation
+
+    shape = (24, 20)
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    centres = np.stack([(cols.ravel() + 0.5) / shape[1], (rows.ravel() + 0.5) / shape[0]], 1)
+    ridged = hydrology.ridged_terrain(shape, seed=3, device=device)
+    np.testing.assert_allclose(ridged.ravel(), ridged_reference(3, centres, frequency=4.0, octaves=8), atol=3e-5)
+    # fBm: 0.5 + 0.5 * sum(gain^o * noise(lacunarity^o * p + shift_o)) / sum(gain^o)
+    perm = _permutation(3)
+    total = sum(0.5**o * _perlin_reference(perm, 4.0 * 2.0**o * centres + _octave_shift(o)) for o in range(8))
+    fbm = hydrology.fbm_terrain(shape, seed=3, device=device)
+    np.testing.assert_allclose(fbm.ravel(), 0.5 + 0.5 * total / sum(0.5**o for o in range(8)), atol=3e-5)
+    # ridged crests: the ridged baseline's sharp maxima make it rougher than fBm at the pixel scale
+    assert np.abs(np.diff(ridged, axis=1)).mean() > np.abs(np.diff(fbm, axis=1)).mean()
 
 
 def test_dendry_terrain_drains_better_than_fbm(device):
