@@ -152,8 +152,11 @@ def test_refined_weights_check_their_parameters():
 
 def test_refined_nodes_keep_their_generation_and_their_generators_label():
     lat = wd.Lattice((40, 40), 8, weights=wd.weights.Uniform(r=10, seed=3))
-    den = wd.grow(lat, [[8, 8], [31, 30]], wd.FractalParams(count=3, d=60.0, alpha=2.0, beta=2.0, epsilon=12.0), seed=1)
-    assert den.generation.max() >= 2 and set(den.label.tolist()) == {0, 1}
+    # generator rows in another order than their coordinates: a fine root's own row (its place among the
+    # fine roots, sorted by coordinates) would not be the coarse label
+    gens = [[31, 30], [8, 8], [30, 5]]
+    den = wd.grow(lat, gens, wd.FractalParams(count=3, d=60.0, alpha=2.0, beta=2.0, epsilon=12.0), seed=1)
+    assert den.generation.max() >= 2 and set(den.label.tolist()) == {0, 1, 2}
     n = 3
     fine, _ = wd.refine(den, lat, n=n, seed=2)
     # the coarse node a fine node stands over (world positions), when that is a dendrite node
@@ -163,9 +166,49 @@ def test_refined_nodes_keep_their_generation_and_their_generators_label():
     on = rows >= 0
     assert on.mean() > 0.5
     np.testing.assert_array_equal(fine.generation[on], den.generation[rows[on]])
-    # each fine tree carries the label of the coarse generator it descends to
-    for r in fine.roots:
-        c = tuple(np.rint(fine.positions[r]).astype(int).tolist())
-        tree = fine.label == fine.label[r]
-        assert np.all(fine.label[tree] == den.label[where[c]])
-    assert set(fine.label.tolist()) == {0, 1}
+    # every fine node carries the label of the coarse generator its own path ends at
+    root_of = {i: tuple(np.rint(fine.positions[fine.path(i)[-1]]).astype(int).tolist()) for i in range(len(fine))}
+    want = np.array([gens.index(list(root_of[i])) for i in range(len(fine))])
+    np.testing.assert_array_equal(fine.label, want)
+    assert set(fine.label.tolist()) == {0, 1, 2}
+
+
+@pytest.mark.parametrize("shape,conn", [((30, 34), 8), ((14, 16, 15), 26)])
+def test_the_refined_lattice_weighs_edges_as_the_whole_coarse_array_would(shape, conn):
+    # refined_lattice hands the kernels only the coarse nodes around the dendrite: every usable fine
+    # edge must weigh what interpolating the whole coarse array gives (a margin too narrow fails this)
+    from wdendrite.refine import Refined, refined_lattice
+
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Uniform(r=10, seed=4))
+    mid = [s // 2 for s in shape]
+    ends = [[s // 2 + 3 for s in shape], [s // 2 - 3 for s in shape]]
+    den = wd.trace(wd.shortest_paths(lat, [mid]), ends)
+    fine_lat, *_ = refined_lattice(den, lat, n=5, e=0.7, seed=np.random.default_rng(9))
+    per_length = (lat.weights / lat.lengths.reshape((-1,) + (1,) * lat.ndim)).astype(np.float32)
+    dist = fine_lat.distribution
+    assert dist.lo != (0,) * lat.ndim and dist.coarse.shape[1:] != lat.shape  # a block, away from the border
+    whole = Refined(per_length, dist.n, dist.e, dist.start, seed=dist.seed).sample(fine_lat.shape, fine_lat.lengths,
+                                                                                   offsets=fine_lat.offsets)
+    # the edges searches use: both ends inside the box and usable
+    from wdendrite.lattice import edge_slices
+
+    for k, off in enumerate(fine_lat.offsets):
+        src, dst = edge_slices(off, fine_lat.shape)
+        used = fine_lat.mask[src] & fine_lat.mask[dst]
+        assert used.sum() > 100
+        np.testing.assert_array_equal(fine_lat.weights[k][src][used], whole[k][src][used])
+
+
+def test_refined_weights_refuse_a_window_beyond_their_block():
+    from wdendrite.refine import Refined
+
+    lat = wd.Lattice((12, 14), 8, weights=wd.weights.Uniform(r=20, seed=2))
+    per_length = (lat.weights / lat.lengths[:, None, None]).astype(np.float32)
+    part = Refined(per_length[:, 5:8, 5:8], 3, 0.8, (15, 15), lo=(5, 5), grid=(12, 14))
+    # fine nodes 15-20 sit between coarse nodes 4.67 and 6.33: node 4 is not in the block
+    with pytest.raises(ValueError, match=r"coarse nodes \(4, 4\) to \(7, 7\), but 'coarse' holds \(5, 5\) to \(7, 7\)"):
+        part.sample((6, 6), lat.lengths, offsets=lat.offsets)
+    inside = Refined(per_length[:, 4:8, 4:8], 3, 0.8, (15, 15), lo=np.array([4, 4]), grid=np.array([12, 14]))
+    whole = Refined(per_length, 3, 0.8, (15, 15))
+    np.testing.assert_array_equal(inside.sample((6, 6), lat.lengths, offsets=lat.offsets),
+                                  whole.sample((6, 6), lat.lengths, offsets=lat.offsets))

@@ -24,7 +24,9 @@ class FractalParams:
 
     Each iteration places ``count`` endpoints whose path cost from the
     current dendrite lies in ``(d - r, d + r)`` and traces them to it; then
-    ``count *= beta`` and ``d /= alpha``, while ``d > epsilon``.
+    ``count *= beta`` and ``d /= alpha``, while ``d > epsilon``. The band
+    never reaches below cost 0 (``(max(d - r, 0), d + r)``, once ``d < r``)
+    and never offers the dendrite's own nodes.
     """
 
     count: int = 8
@@ -72,19 +74,24 @@ class FractalParams:
                 f"'d' ({self.d!r}) must exceed 'epsilon' ({self.epsilon!r}): growth runs while d > epsilon, "
                 "so this schedule has no iteration"
             )
-        # iterations k = 0, 1, ... while d / alpha^k > epsilon, counted without running the loop
-        iterations = math.floor(math.log(float(self.d) / float(self.epsilon)) / math.log(alpha)) + 1
-        if iterations > self.MAX_ITERATIONS:
-            raise ValueError(
-                f"'alpha' = {self.alpha!r} shrinks 'd' from {self.d!r} to 'epsilon' = {self.epsilon!r} in about "
-                f"{iterations} iterations (at most {self.MAX_ITERATIONS}); use a larger 'alpha' (the thesis shows 1.2-2)"
-            )
-        last = math.log10(self.count) + (iterations - 1) * math.log10(float(self.beta)) if self.beta > 1 else 0.0
-        if last > 15:
-            raise ValueError(
-                f"'count' = {self.count!r} times 'beta' = {self.beta!r} to the power {iterations - 1} asks for about "
-                f"1e{last:.0f} endpoints in the last iteration; lower 'beta' or 'count'"
-            )
+        # the schedule's own loop, stopped as soon as it runs too long or asks for too much
+        # (the length is checked first: an alpha near 1 is the cause even when counts overflow sooner)
+        about = (math.log(float(self.d)) - math.log(float(self.epsilon))) / math.log(alpha)
+        m, d, iterations = float(self.count), float(self.d), 0
+        while d > self.epsilon:
+            iterations += 1
+            if iterations > self.MAX_ITERATIONS or about > self.MAX_ITERATIONS + 1:
+                raise ValueError(
+                    f"'alpha' = {self.alpha!r} shrinks 'd' from {self.d!r} to 'epsilon' = {self.epsilon!r} in about "
+                    f"{about:.0f} iterations (at most {self.MAX_ITERATIONS}); use a larger 'alpha' (the thesis shows "
+                    "1.2-2)"
+                )
+            if m > 1e15:
+                raise ValueError(
+                    f"'count' = {self.count!r} times 'beta' = {self.beta!r} to the power {iterations - 1} asks for "
+                    f"{m:.3g} endpoints in iteration {iterations}; lower 'beta' or 'count'"
+                )
+            m, d = m * self.beta, d / alpha
 
     @property
     def band(self) -> float:
@@ -263,7 +270,8 @@ def grow(
             shape) endpoints must lie in.
         progress: True shows a tqdm bar; a callable gets
             ``(iteration, iterations, dendrite)`` after each iteration (the
-            dendrite is None until an iteration has found endpoints).
+            dendrite so far: ``start``, or None until an iteration has found
+            endpoints).
 
     Returns:
         The grown :class:`Dendrite`; ``generation`` numbers the iterations.
@@ -275,7 +283,8 @@ def grow(
         TypeError: ``lattice``, ``params``, ``start``, ``seed`` or ``progress`` of the wrong type.
         ValueError: bad ``generators`` (empty, out of bounds, on masked nodes), a ``start``
             from another lattice shape or whose labels do not index ``generators``, a
-            negative ``seed``, or a schedule whose bands hold no node at all.
+            ``within`` of another shape, a negative ``seed``, or a schedule whose bands
+            hold no node at all (none grows, with or without ``start``).
     """
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
@@ -283,10 +292,14 @@ def grow(
         raise TypeError(f"Expected FractalParams for 'params', but got {type(params).__name__}")
     gens = _checks.node_coordinates("generators", generators, lattice.shape, lattice.mask)
     rng = _checks.rng(seed)
-    if not (isinstance(progress, bool) or callable(progress)):
+    if progress is None or isinstance(progress, (bool, np.bool_)):
+        progress = bool(progress)
+    elif not callable(progress):
         raise TypeError(f"Expected a bool or a callable for 'progress', but got {progress!r}")
     if start is not None:
         _check_start(start, lattice, len(gens))
+    if within is not None:
+        within = _endpoints._within(within, lattice.shape)  # checked (and a region drawn) once, before any search
     plan = params.schedule()
     r = params.band
     new_generators = params.cheap == 0.0
@@ -303,6 +316,7 @@ def grow(
     if start is not None and not new_generators:
         lat = lower_dendrite_weights(base_lat, start, params.cheap)
     cf: CostField | None = None
+    grew = False
     for it, (m, d) in enumerate(plan):
         if cf is None:
             base = gens if not (new_generators and den is not None) else np.concatenate([gens, den.nodes])
@@ -311,6 +325,7 @@ def grow(
         taken = None if new_generators or den is None else np.ravel_multi_index(tuple(den.nodes.T), lattice.shape)
         ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing, taken)
         if ep is not None:
+            grew = True
             first = 0 if den is None else len(den)
             den = trace(cf, ep, extend=den, generation=it, _drawn=True)
             if new_generators:
@@ -336,10 +351,10 @@ def grow(
             progress(it + 1, len(plan), den)
     if bar is not None:
         bar.close()
-    if den is None:
+    if not grew:
         raise ValueError(
-            f"no node has a path cost in any band (d - r, d + r) of the schedule {plan} with r = {r:g}; "
-            "lower 'd' or raise 'r'"
+            f"no node off the dendrite has a path cost in any band (max(d - r, 0), d + r) of the schedule {plan} "
+            f"with r = {r:g}; lower 'd' or raise 'r'"
         )
     return den
 

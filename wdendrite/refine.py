@@ -66,7 +66,7 @@ class Refined(Distribution):
     """Coarse index of ``coarse``'s first node in the whole coarse lattice (default: the origin).
     The block must hold every coarse node the window's fine nodes interpolate between."""
     grid: tuple | None = None
-    """Shape of the whole coarse lattice, where interpolation stops (default: the block's)."""
+    """Shape of the whole coarse lattice, where interpolation stops (default: ``lo`` plus the block's)."""
 
     def __post_init__(self):
         _check_n_e(self.n, self.e)
@@ -78,11 +78,31 @@ class Refined(Distribution):
             value = getattr(self, name)
             if value is not None and len(value) != ndim:
                 raise ValueError(f"Expected {ndim} entries in '{name}', but got {value!r}")
-        lo = np.zeros(ndim, int) if self.lo is None else np.asarray(self.lo)
-        grid = np.asarray(coarse.shape[1:]) if self.grid is None else np.asarray(self.grid)
-        if np.any(lo < 0) or np.any(lo + coarse.shape[1:] > grid):
-            raise ValueError(f"The block of 'coarse' (shape {coarse.shape[1:]} at 'lo' {tuple(lo)}) does not lie "
-                             f"inside 'grid' {tuple(grid)}")
+        object.__setattr__(self, "start", tuple(int(v) for v in self.start))
+        lo = (0,) * ndim if self.lo is None else tuple(int(v) for v in self.lo)
+        grid = tuple(a + b for a, b in zip(lo, coarse.shape[1:])) if self.grid is None else tuple(int(v) for v in self.grid)
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "grid", grid)
+        if min(lo) < 0 or any(a + b > g for a, b, g in zip(lo, coarse.shape[1:], grid)):
+            raise ValueError(f"The block of 'coarse' (shape {coarse.shape[1:]} at 'lo' {lo}) does not lie "
+                             f"inside 'grid' {grid}")
+
+    def _needed(self, shape) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """First and last coarse index a fine window of ``shape`` interpolates between, per axis,
+        found as the kernels find them (float32 arithmetic; interpolation cells grow with the index)."""
+        n = np.float32(self.n)
+        inv_n = np.float32(1.0) / n
+        half = np.float32(self.n // 2)
+        first, last = [], []
+        for c0, size, g in zip(self.start, shape, self.grid):
+            lo_hi = []
+            for c in (c0, c0 + size - 1):
+                x = np.clip((np.float32(c) - half) * inv_n, np.float32(0.0), np.float32(g - 1))
+                i = min(int(np.floor(x)), max(g - 2, 0))
+                lo_hi.append((i, min(i + 1, g - 1)))
+            first.append(lo_hi[0][0])
+            last.append(lo_hi[1][1])
+        return tuple(first), tuple(last)
 
     def _base(self):
         return _kw.REFINED, self.e, float(self.n), self.seed
@@ -91,16 +111,29 @@ class Refined(Distribution):
         return float(self.coarse.max(initial=1.0)) / self.n + 1.0
 
     def kernel_params(self, shape, device=None):
-        params = super().kernel_params(shape, device)
+        """As for :class:`~wdendrite.weights.Distribution`, for a fine window of ``shape``
+        starting at ``start``; raises ValueError when the window interpolates between coarse
+        nodes the block does not hold (the kernels would read outside it)."""
         ndim = self.coarse.ndim - 1
+        shape = _checks.lattice_shape(shape)
+        if len(shape) != ndim:
+            raise ValueError(f"Expected a {ndim}D 'shape' for these refined weights, but got {shape}")
+        first, last = self._needed(shape)
+        end = tuple(a + b - 1 for a, b in zip(self.lo, self.coarse.shape[1:]))
+        if any(f < a for f, a in zip(first, self.lo)) or any(l_ > e for l_, e in zip(last, end)):
+            raise ValueError(
+                f"A fine window of shape {shape} at 'start' {self.start} interpolates between coarse nodes {first} to "
+                f"{last}, but 'coarse' holds {self.lo} to {end} only"
+            )
+        params = super().kernel_params(shape, device)
         pad = (1,) * (3 - ndim)
         # node-major, so that one fine node's directions read neighbouring words
         params.maps = wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(), dtype=float,
                                device=wp.get_device(device))
-        params.grid = wp.vec3i(*(pad + tuple(int(v) for v in (self.grid or self.coarse.shape[1:]))))
+        params.grid = wp.vec3i(*(pad + self.grid))
         params.grid_k = int(self.coarse.shape[0])
-        params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in self.start)))
-        params.grid_lo = wp.vec3i(*((0,) * (3 - ndim) + tuple(int(v) for v in (self.lo or (0,) * ndim))))
+        params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + self.start))
+        params.grid_lo = wp.vec3i(*((0,) * (3 - ndim) + self.lo))
         params.grid_span = wp.vec3i(*(pad + self.coarse.shape[1:]))
         return params
 
