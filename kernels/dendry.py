@@ -88,7 +88,9 @@ class Setup:
     noise: float
     steps: int  # the primitives sit on the grid of level `levels + steps`
     rule: int  # 0: join the nearest of a, midpoint, b; 1: join at 45 degrees downstream
-    r1: int  # query neighbourhood radius at level 1 (3 when levels == 1, else 2)
+    r1: int  # query neighbourhood radius at level 1 (see wdendrite.dendry.DendryParams.radii)
+    rq: int  # query neighbourhood radius at levels 2..n
+    rl: int  # link neighbourhood radius: new key points join pieces owned within rl cells of their ancestors
     need_z: int  # 0: elevations of finer key points are not needed (distance, level), skip the control there
     # query domain -> control coordinates: c = c_lo + (x - d_lo) * scale
     d_lo: wp.vec2
@@ -438,7 +440,8 @@ def nearest_on_tree(
     q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ) -> wp.mat33:
     """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
-    the 3 x 3 cells around the ancestors of ``c`` (finest level first, centre cell first).
+    the (2 rl + 1)^2 cells around the ancestors of ``c`` (finest level first, centre cell first;
+    ``rl`` is 1 in the paper's 3 x 3 rule, see wdendrite.dendry.DendryParams.radii).
 
     Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
@@ -448,7 +451,7 @@ def nearest_on_tree(
     for i in range(1, level):
         l = level - i
         anc = wp.vec2i(c[0] >> i, c[1] >> i)
-        hit = scan(blocks, bases, slot * SLOT + l, l, anc, 1, q, keyp, verts, hit)
+        hit = scan(blocks, bases, slot * SLOT + l, l, anc, s.rl, q, keyp, verts, hit)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
     a = verts[nonneg(hit.o * NV + hit.j)]
@@ -520,6 +523,14 @@ def fill_levelk(
 
 
 @wp.func
+def query_radius(s: Setup, level: int) -> int:
+    """Radius of the query neighbourhood at ``level``: ``(2r + 1)^2`` cells around the query's cell."""
+    if level == 1:
+        return s.r1
+    return s.rq
+
+
+@wp.func
 def query(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
@@ -527,16 +538,13 @@ def query(
     """(distance in domain units, elevation at the nearest tree point, its level) at ``u``.
 
     The candidates are the segments owned by the (2r+1)^2 cells around ``u`` at every
-    level (r = ``s.r1`` at level 1, else 2), searched finest level first (see :func:`scan`).
+    level (r from :func:`query_radius`), searched finest level first (see :func:`scan`).
     Distance is inf and level 0 when there is no candidate.
     """
     hit = no_hit()
     for i in range(s.levels):
         l = s.levels - i
-        r = 2
-        if l == 1:
-            r = s.r1
-        hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), r, u, keyp, verts, hit)
+        hit = scan(blocks, bases, slot * SLOT + l, l, cell_of(u, l), query_radius(s, l), u, keyp, verts, hit)
     if hit.o < 0:
         return wp.vec3(wp.inf, 0.0, 0.0)
     a = verts[nonneg(hit.o * NV + hit.j)]
@@ -677,9 +685,7 @@ def query_short(
             break  # this piece and all later ones (sorted by distance to u) lie farther than the best
         ent = nearby[nonneg(first + e)]
         l = ent[1] >> 3
-        r = 2
-        if l == 1:
-            r = s.r1
+        r = query_radius(s, l)
         shift = s.levels - l
         d = wp.vec2i(ent[2] - (top[0] >> shift), ent[3] - (top[1] >> shift))
         if wp.abs(d[0]) <= r and wp.abs(d[1]) <= r:
@@ -703,7 +709,7 @@ def query_short(
 def elevation(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int, prims: wp.array(dtype=wp.vec3),
-    sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
+    sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ) -> float:
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
@@ -727,7 +733,10 @@ def elevation(
     if cached != 0:
         corner = block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] - 2, pc[1] - 2))
         if corner < 0 or block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] + 2, pc[1] + 2)) < 0:
-            return wp.nan  # the window's primitive block was planned too small (never expected)
+            # the window's primitive block was planned too small (never expected within the coordinate
+            # bound the host checks): flag it, so that the host raises instead of returning NaN
+            wp.atomic_max(overflow_out, 0, 1)
+            return wp.nan
         width = blocks[nonneg(slot * SLOT + PRIM)][2]
     bound = float(0.0)
     for dy in range(5):
@@ -794,7 +803,7 @@ def plan(
 ) -> int:
     """Blocks that answer queries in level-n cells qlo..qhi (and primitives in plo..phi).
 
-    Level l needs the cells around the query (radius r) and 1 cell around every
+    Level l needs the cells around the query (radius r) and ``rl`` cells around every
     ancestor of the level-(l+1) block (the segments its new key points may join).
     Level-1 key points need 2 more cells (lowest neighbour, and its lowest neighbour
     for the spline tangent). Returns 1 when a block exceeds the slot capacity ``cap``
@@ -803,9 +812,8 @@ def plan(
     n = s.levels
     lo = qlo
     hi = qhi
-    r = 2
-    if n == 1:
-        r = s.r1
+    r = query_radius(s, n)
+    rl = s.rl
     lo = wp.vec2i(lo[0] - r, lo[1] - r)
     hi = wp.vec2i(hi[0] + r, hi[1] + r)
     total = int(0)
@@ -814,11 +822,9 @@ def plan(
         l = n - i
         if l < n:
             shift = n - l
-            r = 2
-            if l == 1:
-                r = s.r1
-            lo = wp.vec2i(wp.min((lo[0] >> 1) - 1, (qlo[0] >> shift) - r), wp.min((lo[1] >> 1) - 1, (qlo[1] >> shift) - r))
-            hi = wp.vec2i(wp.max((hi[0] >> 1) + 1, (qhi[0] >> shift) + r), wp.max((hi[1] >> 1) + 1, (qhi[1] >> shift) + r))
+            r = query_radius(s, l)
+            lo = wp.vec2i(wp.min((lo[0] >> 1) - rl, (qlo[0] >> shift) - r), wp.min((lo[1] >> 1) - rl, (qlo[1] >> shift) - r))
+            hi = wp.vec2i(wp.max((hi[0] >> 1) + rl, (qhi[0] >> shift) + r), wp.max((hi[1] >> 1) + rl, (qhi[1] >> shift) + r))
         total += set_block(slot, l, lo, hi, base + total, blocks_out, bases_out)
     over = int(0)
     if total > cap[1]:
@@ -913,7 +919,9 @@ def evaluate(
             return wp.nan
         build(s, ctl, blocks, bases, slot, pts1, keyp, verts)
     if output == OUT_ELEVATION:
-        return elevation(s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps)
+        return elevation(
+            s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps, overflow_out
+        )
     r = query(s, blocks, bases, slot, u, keyp, verts)
     if output == OUT_LEVEL:
         return r[2]

@@ -1,16 +1,22 @@
-"""Dendry against a brute-force NumPy construction of the whole tree, plus locality properties.
+"""Dendry against brute-force NumPy constructions of the whole tree, plus locality properties.
 
-The reference re-implements the counter-based hash in NumPy, builds the key
+The references re-implement the counter-based hash in NumPy. One builds the key
 points and straight segments of every cell of a region (no smoothing, no
-subdivision), and measures distances to all of them.
+subdivision) and measures distances to all of them. The other rebuilds every
+polyline the cached mode made over a region from its key points: level 1 from
+the lowest neighbours, finer levels from the nearest piece of all coarser
+polylines of the region (not only those the kernel searches), each as a chordal
+Catmull-Rom spline (Barry-Goldman pyramid) displaced sideways.
 """
+
+import importlib
 
 import numpy as np
 import pytest
 import warp as wp
 
 from wdendrite import control
-from wdendrite.dendry import DendryParams, dendry, dendry_points
+from wdendrite.dendry import DendryParams, _cached_tree, dendry, dendry_points
 from wdendrite.kernels import dendry as _kd
 
 # ------------------------------------------------------------------ NumPy reference
@@ -81,6 +87,7 @@ class _Tree:
         self.segs = [np.array(segs)]
         self.zs = [np.array(zs)]
         self.points = {1: {(lo + i, lo + j): pts[i, j] for i in range(n) for j in range(n)}}
+        self.z = {1: {(lo + i, lo + j): z[i, j] for i in range(n) for j in range(n)}}
         self.lo, self.hi = lo, hi
 
     def add_level(self, level, slope):
@@ -89,12 +96,13 @@ class _Tree:
         lo, hi = (self.lo + 2) * f, (self.hi - 2) * f
         allseg = np.concatenate(self.segs)
         allz = np.concatenate(self.zs)
-        segs, zs, pts = [], [], {}
+        segs, zs, pts, zpts = [], [], {}, {}
         for ci in range(lo, hi):
             for cj in range(lo, hi):
                 parent = self.points[level - 1].get((ci >> 1, cj >> 1))
                 if parent is not None and tuple(np.floor(parent * f).astype(int)) == (ci, cj):
                     pts[(ci, cj)] = parent
+                    zpts[(ci, cj)] = self.z[level - 1][(ci >> 1, cj >> 1)]
                     continue
                 q = _key_points(self.p.seed, self.p.eps, level, np.array(ci), np.array(cj))
                 pts[(ci, cj)] = q
@@ -108,7 +116,9 @@ class _Tree:
                 zq = max(float(self.ctl.evaluate(q[None] / self.p.resolution)[0]), zx + slope * np.linalg.norm(q - x) / self.p.resolution)
                 segs.append((q, x))
                 zs.append((zq, zx))
+                zpts[(ci, cj)] = zq
         self.points[level] = pts
+        self.z[level] = zpts
         self.segs.append(np.array(segs))
         self.zs.append(np.array(zs))
 
@@ -132,6 +142,184 @@ class _Tree:
 
 
 CTL = control.perlin(seed=4, frequency=1.5, domain=((0.0, 0.0), (2.0, 2.0)))
+
+
+# ------------------------------------------------------------------ reference polylines
+
+_PIECES = (4, 3, 2, 1, 1, 1)
+_NONE, _INHERITED, _SEGMENT = 0.0, 1.0, 2.0
+
+
+def _catmull_rom(p0, p1, p2, p3, t):
+    """Chordal Catmull-Rom point between p1 and p2 (apart) at fraction t, by the Barry-Goldman pyramid.
+
+    A repeated end point (p3 = p2, where a branch joins a sink) is the pyramid's limit: a3 = p2,
+    which makes the curve's derivative zero there.
+    """
+    k1 = np.linalg.norm(p1 - p0)
+    k2 = k1 + np.linalg.norm(p2 - p1)
+    k3 = k2 + np.linalg.norm(p3 - p2)
+    s = k1 + t * (k2 - k1)
+    a1 = ((k1 - s) * p0 + s * p1) / k1 if k1 > 0 else p1
+    a2 = ((k2 - s) * p1 + (s - k1) * p2) / (k2 - k1)
+    a3 = ((k3 - s) * p2 + (s - k2) * p3) / (k3 - k2) if k3 > k2 else p2
+    b1 = ((k2 - s) * a1 + s * a2) / k2
+    b2 = ((k3 - s) * a2 + (s - k1) * a3) / (k3 - k1)
+    return ((k2 - s) * b1 + (s - k1) * b2) / (k2 - k1)
+
+
+def _polyline(p, level, cell, a, b, p0, p3, *, displaced=True):
+    """(pieces + 1, 3) vertices of segment a -> b ((x, y, z) each): the level's pieces along the spline
+    through p0, a, b, p3, inner vertices moved sideways by U(-delta, delta) * length."""
+    pieces = _PIECES[level - 1] if p.subdivision else 1
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    d = b[:2] - a[:2]
+    length = np.linalg.norm(d)
+    out = [a]
+    for j in range(1, pieces):
+        t = j / pieces
+        if length == 0.0:
+            pos = a[:2]
+        elif p.smoothing:
+            pos = _catmull_rom(np.asarray(p0, float), a[:2], b[:2], np.asarray(p3, float), t)
+        else:
+            pos = a[:2] + t * d
+        if displaced and length > 0.0:
+            u = float(_cell_rand(p.seed, level, cell[0], cell[1], 8 + j))
+            pos = pos + (2.0 * u - 1.0) * p.deltas()[level - 1] * length * np.array([-d[1], d[0]]) / length
+        out.append(np.array([pos[0], pos[1], a[2] + t * (b[2] - a[2])]))
+    out.append(b)
+    return np.array(out)
+
+
+def _spline_tolerance(a, b, p3):
+    """How closely float32 vertices of the spline a -> b with far neighbour p3 follow the float64 ones.
+
+    The chordal tangent at b divides by |p3 - b|: a short last span (a join just before a piece's
+    end) amplifies the float32 rounding of the coordinates (about 1e-6 here) by |b - a| / |p3 - b|.
+    """
+    span = np.linalg.norm(np.asarray(b)[:2] - np.asarray(a)[:2])
+    d3 = np.linalg.norm(np.asarray(p3) - np.asarray(b)[:2])
+    return 2e-5 + (4e-6 * span / d3 if d3 > 0 else 0.0)
+
+
+def _region_tree(p, size, ctl=CTL):
+    """The cached mode's cells over [0, size]^2, mapped 1:1 onto the control's coordinates."""
+    assert p.resolution == 1.0  # then grid units, domain units and control coordinates coincide
+    dom = ((0.0, 0.0), (float(size), float(size)))
+    return _cached_tree((8, 8), domain=dom, control_domain=dom, params=p, control=ctl)
+
+
+def _lowest(z, index, c):
+    """The cell of the lowest of the 3 x 3 around c (c itself on ties, then row by row)."""
+    best, bz = c, z[index[c]]
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            n = (c[0] + dx, c[1] + dy)
+            if z[index[n]] < bz:
+                best, bz = n, z[index[n]]
+    return best
+
+
+def _pieces_of(p, tree, below):
+    """Every piece of the segments of levels < ``below``: a, b (x, y, z), the vertex after b (NaN
+    where b ends its polyline). Polylines of fewer than 4 pieces end in zero-length pieces at
+    their last vertex (a join there may take either: they are equally near)."""
+    a, b, nxt = [], [], []
+    for level in range(1, below):
+        _, keyp, verts = tree[level - 1]
+        v = verts[keyp[:, 3] == _SEGMENT].astype(float)
+        n = _PIECES[level - 1] if p.subdivision else 1
+        for j in range(4):
+            a.append(v[:, min(j, n)])
+            b.append(v[:, min(j + 1, n)])
+            nxt.append(v[:, j + 2, :2] if j + 1 < n else np.full((len(v), 2), np.nan))
+    return np.concatenate(a), np.concatenate(b), np.concatenate(nxt)
+
+
+def _piece_distance(q, a, b):
+    """(Q, P) distances from points q (Q, 2) to pieces a -> b (P, 2), and the projections' fractions."""
+    ab = b - a
+    den = (ab * ab).sum(-1)
+    t = ((q[:, None] - a[None]) * ab[None]).sum(-1) / np.where(den > 0, den, 1.0)
+    t = np.where(den > 0, np.clip(t, 0.0, 1.0), 0.0)
+    return np.linalg.norm(q[:, None] - (a[None] + t[..., None] * ab[None]), axis=-1), t
+
+
+def _joins(p, q, a, b, tproj):
+    """The fractions along piece a -> b where key point q may join it (near-ties of the terrain rule all count)."""
+    if p.rule == "lichtenberg":
+        length = np.linalg.norm(b - a)
+        if length == 0.0:
+            return [0.0]
+        h = np.linalg.norm(q - (a + tproj * (b - a)))
+        return [min(tproj + h / length, 1.0)]
+    d = [np.linalg.norm(q - (a + t * (b - a))) for t in (0.0, 0.5, 1.0)]
+    return [t for t, dt in zip((0.0, 0.5, 1.0), d) if dt <= min(d) + 1e-6]
+
+
+def _check_tree(p, size, ctl=CTL, margin=4):
+    """Rebuild every cell of the cached mode's tree over [0, size]^2 in NumPy; return
+    (links checked, links that joined no nearest piece of the whole region).
+
+    Key points, inheritance, level-1 polylines and elevations are asserted to match. A new
+    key point of level k >= 2 whose level-1 ancestor lies ``margin`` cells inside the region
+    counts as checked; it is a miss unless its polyline (join point, elevation, spline through
+    the piece's next vertex, displacement) is the one built on a piece nearest to it among all
+    pieces of levels < k (up to rounding: every piece within 1e-5 of the least distance counts).
+    """
+    tree = _region_tree(p, size, ctl)
+    cells, keyp, verts = tree[0]
+    index = {tuple(c): i for i, c in enumerate(cells.tolist())}
+    np.testing.assert_allclose(keyp[:, :2], _key_points(p.seed, p.eps, 1, cells[:, 0], cells[:, 1]), atol=2e-6)
+    z = ctl.evaluate(keyp[:, :2])
+    np.testing.assert_array_equal(keyp[:, 2], z)
+    lo1, hi1 = cells.min(0), cells.max(0)
+    for i, c in enumerate(map(tuple, cells.tolist())):
+        if min(c[0] - lo1[0], c[1] - lo1[1], hi1[0] - c[0], hi1[1] - c[1]) < 2:
+            continue  # the block's rim: the lowest neighbour's lowest neighbour lies outside
+        t = _lowest(z, index, c)
+        tt = _lowest(z, index, t)
+        qc, qt = keyp[i, :2].astype(float), keyp[index[t], :2].astype(float)
+        p3 = keyp[index[tt], :2].astype(float) if tt != t else 2 * qt - qc
+        want = _polyline(p, 1, c, keyp[i, :3], keyp[index[t], :3], 2 * qc - qt, p3)
+        np.testing.assert_allclose(verts[i, : len(want)], want, atol=_spline_tolerance(qc, qt, p3), err_msg=str(c))
+    checked = missed = 0
+    for level in range(2, p.levels + 1):
+        cells, keyp, verts = tree[level - 1]
+        pcells, pkeyp, _ = tree[level - 2]
+        pindex = {tuple(c): i for i, c in enumerate(pcells.tolist())}
+        parent = pkeyp[[pindex[(ci >> 1, cj >> 1)] for ci, cj in cells.tolist()]]
+        inherits = (parent[:, 3] != _NONE) & (np.floor(parent[:, :2] * 2 ** (level - 1)) == cells).all(1)
+        np.testing.assert_array_equal(keyp[:, 3] == _INHERITED, inherits)
+        np.testing.assert_array_equal(keyp[inherits, :3], parent[inherits, :3])
+        new = keyp[:, 3] == _SEGMENT
+        assert (new == ~inherits).all()  # an unbounded control: every other cell joins the tree
+        q = keyp[new, :2].astype(float)
+        np.testing.assert_allclose(q, _key_points(p.seed, p.eps, level, cells[new, 0], cells[new, 1]), atol=2e-6)
+        inner = ((cells[new] >> (level - 1) >= lo1 + margin) & (cells[new] >> (level - 1) <= hi1 - margin)).all(1)
+        a, b, nxt = _pieces_of(p, tree, level)
+        control_z = ctl.evaluate(keyp[new, :2])
+        ks = np.flatnonzero(inner)
+        # distances to every piece, 256 key points at a time
+        dist, tproj = (np.concatenate(v) for v in zip(*(_piece_distance(q[ks[i : i + 256]], a[:, :2], b[:, :2])
+                                                        for i in range(0, len(ks), 256))))
+        for row, k in enumerate(ks):
+            cell = tuple(cells[new][k])
+            got = verts[new][k]
+            near = np.flatnonzero(dist[row] <= dist[row].min() + 1e-5)
+            ok = False
+            for m in near:
+                for tc in _joins(p, q[k], a[m, :2], b[m, :2], tproj[row, m]):
+                    x = a[m] + tc * (b[m] - a[m])
+                    p3 = b[m, :2] if tc < 1.0 else (nxt[m] if np.isfinite(nxt[m, 0]) else 2 * x[:2] - q[k])
+                    zq = max(float(control_z[k]), x[2] + p.min_slopes()[level - 1] * np.linalg.norm(q[k] - x[:2]))
+                    want = _polyline(p, level, cell, (q[k, 0], q[k, 1], zq), x, 2 * q[k] - x[:2], p3)
+                    ok = ok or np.allclose(got[: len(want)], want, rtol=0, atol=_spline_tolerance(q[k], x, p3))
+            checked += 1
+            missed += not ok
+    return checked, missed
+
 DOMAIN = ((0.0, 0.0), (2.0, 2.0))
 
 
@@ -162,34 +350,12 @@ def test_level1_distance_equals_bruteforce_tree(device, eps):
     np.testing.assert_allclose(got, want, atol=2e-5)
 
 
-def test_level2_distance_matches_global_tree(device):
-    p = _straight(levels=2, eps=0.25, resolution=2.0, seed=1)
-    tree = _tree(p)
-    tree.add_level(2, DendryParams.min_slopes()[1])
-    u = _pixel_grid_units((48, 48), p)
-    want_d, want_z, want_l = tree.nearest(u)
-    got_d = dendry((48, 48), domain=DOMAIN, params=p, control=CTL, device=device).ravel()
-    got_l = dendry((48, 48), domain=DOMAIN, params=p, control=CTL, output="level", device=device).ravel()
-    # the kernel searches the 3 x 3 cells around each ancestor, not the whole tree: nearly always the same
-    same = np.abs(got_d - want_d) < 2e-5
-    assert same.mean() > 0.97, same.mean()
-    # the level is only defined where one level is clearly nearer (junctions are ties)
-    clear = same & (np.abs(tree.per_level[0] - tree.per_level[1]) > 1e-4)
-    assert clear.mean() > 0.9
-    assert np.mean(got_l[clear] == want_l[clear]) > 0.995
-    assert set(np.unique(got_l)) <= {1.0, 2.0}
-
-
-@pytest.mark.parametrize("beta", [0.7, 0.5])
-def test_level1_elevation_equals_bruteforce_primitives(device, beta):
-    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=beta, noise=0.2, primitive_steps=2)
-    tree = _tree(p)
-    rng = np.random.default_rng(1)
-    pts = rng.uniform(0.3, 1.7, (25, 2))
-    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output="elevation", device=device)
+def _terrain(p, tree, pts):
+    """Eq. 4-7 at domain points ``pts`` (N, 2): the blend of the primitives on the 5 x 5 finest cells
+    around each point, each from the brute-force nearest tree point of its key point."""
     pl = p.levels + p.primitive_steps
     f = 2 ** (pl - 1)
-    want = []
+    out = []
     for u in pts * p.resolution:
         c = np.floor(u * f).astype(int)
         ci, cj = np.meshgrid(np.arange(c[0] - 2, c[0] + 3), np.arange(c[1] - 2, c[1] + 3), indexing="ij")
@@ -202,8 +368,153 @@ def test_level1_elevation_equals_bruteforce_primitives(device, beta):
         h = z + tan * d * wobble
         r2 = ((q - u) ** 2).sum(1) / (2.0 / f) ** 2
         g = np.where(r2 < 1, (1 - r2) ** 3, 0)
-        want.append((g * h).sum() / g.sum())
-    np.testing.assert_allclose(got, want, atol=5e-5)
+        out.append((g * h).sum() / g.sum())
+    return np.array(out)
+
+
+def test_level2_distance_matches_global_tree(device):
+    p = _straight(levels=2, eps=0.25, resolution=2.0, seed=1, beta=0.5, noise=0.1, primitive_steps=2)
+    tree = _tree(p)
+    tree.add_level(2, DendryParams.min_slopes()[1])
+    u = _pixel_grid_units((48, 48), p)
+    want_d, _, want_l = tree.nearest(u)
+    got_d = dendry((48, 48), domain=DOMAIN, params=p, control=CTL, device=device).ravel()
+    got_l = dendry((48, 48), domain=DOMAIN, params=p, control=CTL, output="level", device=device).ravel()
+    # the kernel searches the 3 x 3 cells around each ancestor, the reference the whole tree
+    np.testing.assert_allclose(got_d, want_d, atol=2e-5)
+    # the level is only defined where one level is clearly nearer (junctions are ties)
+    clear = np.abs(tree.per_level[0] - tree.per_level[1]) > 1e-4
+    assert clear.mean() > 0.9
+    np.testing.assert_array_equal(got_l[clear], want_l[clear])
+    assert set(np.unique(got_l)) <= {1.0, 2.0}
+    # key point elevations: the control at level 1, max(control, z_join + min_slope * distance) at level 2
+    for level, (cells, keyp, _) in enumerate(_cached_tree((48, 48), domain=DOMAIN, params=p, control=CTL,
+                                                          device=device), start=1):
+        known = [i for i, c in enumerate(map(tuple, cells.tolist())) if c in tree.z[level]]
+        assert len(known) >= 100
+        want = [tree.z[level][tuple(cells[i])] for i in known]
+        np.testing.assert_allclose(keyp[known, 2], want, atol=1e-5)
+    # the terrain: primitives on the elevations of their nearest tree points
+    pts = np.random.default_rng(2).uniform(0.3, 1.7, (25, 2))
+    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output="elevation", device=device)
+    np.testing.assert_allclose(got, _terrain(p, tree, pts), atol=5e-5)
+
+
+@pytest.mark.parametrize("beta", [0.7, 0.5])
+def test_level1_elevation_equals_bruteforce_primitives(device, beta):
+    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=beta, noise=0.2, primitive_steps=2)
+    pts = np.random.default_rng(1).uniform(0.3, 1.7, (25, 2))
+    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output="elevation", device=device)
+    np.testing.assert_allclose(got, _terrain(p, _tree(p), pts), atol=5e-5)
+
+
+def test_level1_polylines_are_displaced_chordal_catmull_rom_splines(device):
+    p = DendryParams(levels=1, eps=0.1, delta=0.3, seed=8)
+    cells, keyp, verts = _region_tree(p, 9)[0]
+    index = {tuple(c): i for i, c in enumerate(cells.tolist())}
+    z = keyp[:, 2]
+    lo, hi = cells.min(0) + 2, cells.max(0) - 2
+    ratios = []
+    for i, c in enumerate(map(tuple, cells.tolist())):
+        if not (lo <= c).all() or not (c <= hi).all():
+            continue
+        t = _lowest(z, index, c)
+        tt = _lowest(z, index, t)
+        a, b = keyp[i, :3].astype(float), keyp[index[t], :3].astype(float)
+        # the spline continues into the target's own segment, else mirrors the far end; the
+        # near end always mirrors (no segment ends at a key point's start)
+        p3 = keyp[index[tt], :2].astype(float) if tt != t else 2 * b[:2] - a[:2]
+        p0 = 2 * a[:2] - b[:2]
+        np.testing.assert_allclose(verts[i, :5], _polyline(p, 1, c, a, b, p0, p3), atol=_spline_tolerance(a, b, p3), err_msg=str(c))
+        # the inner vertices leave the smooth spline sideways, by at most delta * length
+        length = np.linalg.norm(b[:2] - a[:2])
+        if length > 0:
+            offset = verts[i, 1:4, :2] - _polyline(p, 1, c, a, b, p0, p3, displaced=False)[1:4, :2]
+            np.testing.assert_allclose(offset @ (b[:2] - a[:2]) / length, 0.0, atol=1e-5)
+            ratios += list(np.linalg.norm(offset, axis=1) / (p.delta * length))
+    assert len(ratios) > 3 * 40
+    # |offset| <= delta * L, and the offsets fill that range (uniform draws)
+    assert max(ratios) <= 1.0 + 1e-4 and max(ratios) > 0.95 and np.mean(ratios) == pytest.approx(0.5, abs=0.1)
+
+
+def test_deltas_and_min_slopes_per_level():
+    assert DendryParams(levels=6, delta=0.2).deltas() == (0.2, 0.05, 0.0125, 0.0, 0.0, 0.0)
+    assert DendryParams(levels=2, delta=0.2).deltas() == (0.2, 0.05, 0.0, 0.0, 0.0, 0.0)
+    assert DendryParams(levels=3, delta=(0.3, 0.2, 0.1)).deltas() == (0.3, 0.2, 0.1, 0.0, 0.0, 0.0)
+    # Flint's law as the paper gives it: 0.09, 0.18, 0.38, 1.0 at levels 2-5; level 6 as level 5
+    slopes = DendryParams.min_slopes()
+    np.testing.assert_allclose(slopes[1:5], (0.09, 0.18, 0.38, 1.0), atol=0.005)
+    assert slopes[5] == slopes[4] == 1.0 and slopes[0] < slopes[1]
+
+
+def test_lichtenberg_branches_join_at_45_degrees(device):
+    p = DendryParams(levels=3, eps=0.25, delta=0.05, rule="lichtenberg", seed=4)
+    tree = _region_tree(p, 9)
+    lo1, hi1 = tree[0][0].min(0), tree[0][0].max(0)
+    unclamped = 0
+    for level in (2, 3):
+        cells, keyp, verts = tree[level - 1]
+        new = keyp[:, 3] == _SEGMENT
+        inner = ((cells[new] >> (level - 1) >= lo1 + 3) & (cells[new] >> (level - 1) <= hi1 - 3)).all(1)
+        q = keyp[new][inner, :2].astype(float)
+        x = verts[new][inner, _PIECES[level - 1], :2].astype(float)  # the polyline's end: its join
+        a, b, _ = _pieces_of(p, tree, level)
+        dist, tproj = _piece_distance(q, a[:, :2], b[:, :2])
+        for k in range(len(q)):
+            m = int(np.argmin(dist[k]))
+            if np.sort(dist[k])[1] - dist[k, m] < 1e-4:
+                continue  # two pieces nearly as near: the join's piece is ambiguous
+            pa, pb = a[m, :2], b[m, :2]
+            length = np.linalg.norm(pb - pa)
+            t = tproj[k, m]
+            # clamped joins: the projection at an end, or 45 degrees would run past the piece's end
+            if length == 0 or not 1e-4 < t < 1 - 1e-4 or t + dist[k, m] / length >= 1 - 1e-4:
+                continue
+            chord = x[k] - q[k]
+            cos = chord @ (pb - pa) / (np.linalg.norm(chord) * length)
+            # float32 vertices (about 1e-6 here) turn short chords by up to 1e-6 / |chord| radians
+            tol = np.degrees(4e-6 / np.linalg.norm(chord)) + 1e-3
+            assert np.degrees(np.arccos(cos)) == pytest.approx(45.0, abs=tol), (level, k, np.linalg.norm(chord))
+            # and the join lies on that piece, downstream of the projection
+            side = (pb - pa)[0] * (x[k] - pa)[1] - (pb - pa)[1] * (x[k] - pa)[0]
+            assert abs(side) / length < 1e-5 and (x[k] - pa) @ (pb - pa) / length**2 > t
+            unclamped += 1
+    assert unclamped > 150
+
+
+@pytest.mark.parametrize(
+    "seed, kw",
+    [
+        # the paper's regime: the 3 x 3 link search
+        (3, dict(eps=0.25, delta=0.1)),
+        # outside it, on seeds where a 3 x 3 search misses 2, 5, 2 and 21 of these links:
+        (1, dict(eps=0.0, delta=0.0, smoothing=False, subdivision=False)),  # free jitter, straight segments
+        (3, dict(eps=0.0, delta=0.3)),  # free jitter, large displacement
+        (6, dict(eps=0.25, delta=0.1, rule="lichtenberg")),  # branches join downstream: they reach farther
+        (3, dict(eps=0.1, delta=1.0)),  # the largest displacement
+    ],
+)
+def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, kw):
+    # a brute-force reference over every piece of the region: no key point may miss its nearest piece
+    p = DendryParams(levels=3, seed=seed, **kw)
+    checked, missed = _check_tree(p, 12)
+    assert checked > 900 and missed == 0, (checked, missed)
+
+
+@pytest.mark.parametrize("kw", [dict(eps=0.25, delta=0.1, levels=2), dict(eps=0.0, delta=1.0, levels=1),
+                                dict(eps=0.0, delta=1.0, levels=3), dict(eps=0.1, delta=0.5, levels=2,
+                                                                         rule="lichtenberg")])
+def test_pixels_measure_the_nearest_piece_of_the_whole_tree(device, kw):
+    p = DendryParams(seed=6, **kw)
+    size = 12
+    dom = ((0.0, 0.0), (float(size), float(size)))
+    a, b, _ = _pieces_of(p, _region_tree(p, size), p.levels + 1)
+    got = dendry((72, 72), domain=dom, control_domain=dom, params=p, control=CTL, device=device).ravel()
+    u = _pixel_grid_units((72, 72), p, dom)
+    inner = ((u > 4) & (u < size - 4)).all(1)
+    want = np.concatenate([_piece_distance(u[inner][i : i + 256], a[:, :2], b[:, :2])[0].min(1)
+                           for i in range(0, inner.sum(), 256)])
+    np.testing.assert_allclose(got[inner], want, atol=2e-5)
 
 
 @wp.kernel
@@ -265,23 +576,93 @@ def test_cached_equals_per_pixel_where_cells_have_no_segment(device):
     assert np.isfinite(a).all()
 
 
+@pytest.mark.parametrize("levels", [1, 2, 3, 4, 5, 6])
 @pytest.mark.parametrize("mode", ["cached", "pixel"])
 @pytest.mark.parametrize("output", ["distance", "elevation", "level"])
-def test_windows_equal_the_whole_image_at_tile_borders(device, output, mode):
-    p = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2)
-    kw = dict(domain=((0.0, 0.0), (3.0, 3.0)), params=p, control=CTL, output=output, mode=mode, device=device)
-    whole = dendry((64, 64), **kw)
-    for win in ((0, 0, 32, 32), (32, 32, 32, 32), (31, 30, 3, 5), (0, 63, 64, 1), (16, 8, 40, 48)):
+def test_windows_equal_the_whole_image_at_tile_borders(device, output, mode, levels):
+    p = DendryParams(levels=levels, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2)
+    # a smaller domain at levels 5-6, whose cached windows build every primitive cell they span
+    side = 3.0 if levels <= 4 else 1.25
+    kw = dict(domain=((0.1, 0.2), (0.1 + side, 0.2 + side)), params=p, control=CTL, output=output, device=device)
+    whole = dendry((40, 40), **kw)
+    for win in ((0, 0, 20, 20), (20, 20, 20, 20), (19, 18, 3, 5), (0, 39, 40, 1), (10, 5, 12, 30)):
         r, c, h, w = win
-        assert np.array_equal(dendry((64, 64), window=win, **kw), whole[r : r + h, c : c + w]), win
+        assert np.array_equal(dendry((40, 40), window=win, mode=mode, **kw), whole[r : r + h, c : c + w]), win
 
 
-def test_points_equal_pixels(device):
-    p = DendryParams(levels=3, eps=0.25, delta=0.08, seed=9)
-    img = dendry((24, 24), domain=DOMAIN, params=p, control=CTL, device=device)
-    pts = _pixel_grid_units((24, 24), p) / p.resolution
-    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, device=device)
-    np.testing.assert_allclose(got, img.ravel(), atol=1e-5)
+@pytest.mark.parametrize("levels, output", [(1, "distance"), (6, "level"), (2, "elevation"), (4, "elevation")])
+def test_modes_and_windows_agree_just_inside_the_coordinate_bound(device, levels, output):
+    p = DendryParams(levels=levels, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=5)
+    finest = levels + (p.primitive_steps if output == "elevation" else 0)
+    edge = 2.0**22 / 2 ** (finest - 1)  # the bound on |x| (resolution 1)
+    kw = dict(params=p, control=CTL, output=output, control_domain=((0.0, 0.0), (2.0, 2.0)), device=device)
+    # pixel centres reach 0.999 of the bound at +x and at -y (12 x 12 pixels over 8 x 8 units)
+    lo, hi = edge * 0.999 - 8.0 + 1.0 / 3.0, edge * 0.999 + 1.0 / 3.0
+    dom = ((lo, -hi), (hi, -lo))
+    a = dendry((12, 12), domain=dom, **kw)
+    assert np.isfinite(a).all()
+    assert np.array_equal(dendry((12, 12), domain=dom, mode="pixel", **kw), a)
+    for win in ((0, 0, 5, 7), (4, 6, 8, 6), (11, 11, 1, 1)):
+        r, c, h, w = win
+        for mode in ("cached", "pixel"):
+            assert np.array_equal(dendry((12, 12), domain=dom, window=win, mode=mode, **kw), a[r : r + h, c : c + w])
+    # just outside: refused before any kernel runs, naming what reached too far
+    out = ((edge - 7.0, -hi), (edge + 1.0, -lo))  # only the last column's centres lie beyond the bound
+    with pytest.raises(ValueError, match="'domain'"):
+        dendry((12, 12), domain=out, **kw)
+    with pytest.raises(ValueError, match="'window'"):
+        dendry((12, 12), domain=out, window=(0, 11, 1, 1), **kw)
+    assert dendry((12, 12), domain=out, window=(0, 0, 12, 1), **kw).shape == (12, 1)
+    with pytest.raises(ValueError, match="'points'"):
+        dendry_points([[0.0, 0.0], [-edge * 1.001, 0.0]], domain=dom, **kw)
+
+
+def test_far_coordinates_are_refused_not_crashed_on():
+    # cell indices near 3e9 overflow int32: the per-pixel mode wrote outside its blocks
+    far = ((3.0e9, 3.0e9), (3.0e9 + 4.0, 3.0e9 + 4.0))
+    with pytest.raises(ValueError, match="domain"):
+        dendry((8, 8), domain=far, params=DendryParams(levels=2), control=CTL, mode="pixel")
+    with pytest.raises(ValueError, match="points"):
+        dendry_points([[3.0e9, 1.0]], domain=DOMAIN, params=DendryParams(levels=2), control=CTL)
+    # a mapping onto control coordinates that float32 cannot hold
+    with pytest.raises(ValueError, match="control_domain"):
+        dendry((8, 8), domain=DOMAIN, params=DendryParams(), control=CTL, control_domain=((0, 0), (1e39, 1)))
+    with pytest.raises(ValueError, match="domain"):
+        dendry((8, 8), domain=((0, 0), (1e-40, 1)), params=DendryParams(), control=CTL)
+
+
+def test_a_primitive_block_planned_too_small_raises_instead_of_returning_nan(device, monkeypatch):
+    wdd = importlib.import_module("wdendrite.dendry")  # the package's name `dendry` is the function
+    plan = wdd._cached_slots
+
+    def first_pixel_only(s, params, output, u_first, u_last, device):
+        return plan(s, params, output, u_first, u_first, device)
+
+    monkeypatch.setattr(wdd, "_cached_slots", first_pixel_only)
+    with pytest.raises(RuntimeError, match="primitive block"):
+        dendry((16, 16), domain=DOMAIN, params=DendryParams(levels=2), control=CTL, output="elevation", device=device)
+
+
+@pytest.mark.parametrize("output", ["distance", "elevation", "level"])
+def test_points_equal_pixels(device, output):
+    p = DendryParams(levels=3, eps=0.25, delta=0.08, seed=9, resolution=1.7, beta=0.5, noise=0.05)
+    dom, (h, w) = ((0.1, -0.3), (2.3, 1.9)), (24, 20)
+    img = dendry((h, w), domain=dom, params=p, control=CTL, output=output, device=device)
+    # the points where the kernel puts the pixel centres: x0 + (col + 0.5) * step in float32 grid
+    # units, with x0 and step rounded to float32 first (the host rounds points only once)
+    f32 = np.float32
+    x0 = f32(np.array([dom[0][0], dom[0][1]]) * p.resolution)
+    step = f32(np.array([(dom[1][0] - dom[0][0]) / w, (dom[1][1] - dom[0][1]) / h]) * p.resolution)
+    rows, cols = np.mgrid[0:h, 0:w].astype(f32)
+    u = np.stack([x0[0] + (cols.ravel() + f32(0.5)) * step[0], x0[1] + (rows.ravel() + f32(0.5)) * step[1]], 1)
+    pts = u.astype(np.float64) / p.resolution
+    assert np.array_equal((pts * p.resolution).astype(f32), u)
+    got = dendry_points(pts, domain=dom, params=p, control=CTL, output=output, device=device)
+    if wp.get_device(device).is_cuda:
+        # CUDA may fuse the pixel centre's multiply-add (one rounding instead of two)
+        np.testing.assert_allclose(got, img.ravel(), atol=1e-5)
+    else:
+        assert np.array_equal(got, img.ravel())
 
 
 def test_seed_determines_the_output(device):
@@ -299,14 +680,19 @@ def test_more_levels_bring_branches_closer(device):
 
 
 def test_dem_amplification_follows_the_coarse_map(device):
+    # 16x amplification: a 16^2 DEM becomes a 256^2 terrain
     rng = np.random.default_rng(0)
     coarse = rng.random((16, 16)).astype(np.float32)
     dem = control.image(coarse, domain=((0.0, 0.0), (1.0, 1.0)))
-    p = DendryParams(levels=2, eps=0.25, delta=0.05, resolution=1.0, beta=0.75)
-    fine = dendry((128, 128), domain=((0.0, 0.0), (16.0, 16.0)), params=p, control=dem, output="elevation",
+    p = DendryParams(levels=3, eps=0.25, delta=0.05, resolution=1.0, beta=0.75)
+    fine = dendry((256, 256), domain=((0.0, 0.0), (16.0, 16.0)), params=p, control=dem, output="elevation",
                   device=device)
-    down = fine.reshape(16, 8, 16, 8).mean(axis=(1, 3))
+    assert np.isfinite(fine).all()
+    down = fine.reshape(16, 16, 16, 16).mean(axis=(1, 3))
     assert np.corrcoef(down.ravel(), coarse.ravel())[0, 1] > 0.7
+    # and it adds detail the bicubic DEM does not have: valleys cut below it
+    smooth = dem.grid((256, 256), device=device)
+    assert np.mean(fine < smooth - 0.01) > 0.05
 
 
 def test_lichtenberg_tree_stays_in_its_bowl(device):
@@ -354,6 +740,49 @@ def test_bad_params_raise(kw, match):
         DendryParams(**kw)
 
 
+@pytest.mark.parametrize("field", ["levels", "seed", "eps", "delta", "resolution", "beta", "noise", "primitive_steps",
+                                   "smoothing", "subdivision"])
+def test_text_is_refused_for_every_number_field(field):
+    # float("0.1") would parse, and "0.1" * length fails only much later in a kernel launch
+    with pytest.raises(TypeError, match=field):
+        DendryParams(**{field: "1"})
+    with pytest.raises(TypeError, match="delta"):
+        DendryParams(levels=2, delta=(0.1, "0.1"))
+
+
+def test_params_are_stored_as_plain_python_values():
+    p = DendryParams(levels=np.int64(2), seed=np.uint32(7), eps=np.float32(0.25), delta=[np.float64(0.1), 0],
+                     resolution=np.int32(2), smoothing=np.bool_(False), beta=np.float16(0.5), noise=0,
+                     primitive_steps=np.int8(2), rule=np.str_("lichtenberg"))
+    kinds = {"levels": int, "seed": int, "eps": float, "delta": tuple, "resolution": float, "smoothing": bool,
+             "subdivision": bool, "beta": float, "noise": float, "primitive_steps": int, "rule": str}
+    for name, kind in kinds.items():
+        assert type(getattr(p, name)) is kind, name
+    assert [type(d) for d in p.delta] == [float, float]
+    assert p == DendryParams(levels=2, seed=7, eps=0.25, delta=(0.1, 0.0), resolution=2.0, smoothing=False,
+                             primitive_steps=2, rule="lichtenberg")
+    assert type(DendryParams(delta=np.float32(0.5)).delta) is float
+
+
+@pytest.fixture
+def launches(monkeypatch):
+    """The kernels launched while a test runs (by name): Warp's launch, recording its calls."""
+    seen = []
+    real = wp.launch
+
+    def recording(kernel, *args, **kwargs):
+        seen.append(kernel.key)
+        return real(kernel, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", recording)
+    return seen
+
+
+def test_the_launch_recorder_sees_dendry_kernels(launches):
+    dendry((4, 4), domain=DOMAIN, params=DendryParams(), control=CTL)
+    assert launches  # so an empty record below means that no kernel ran
+
+
 @pytest.mark.parametrize(
     "kw, match",
     [
@@ -372,21 +801,28 @@ def test_bad_params_raise(kw, match):
         (dict(control=np.zeros((4, 4))), "control"),
         (dict(shape=(0, 16)), "shape"),
         (dict(shape=(4, 4, 4)), "shape"),
+        (dict(domain=((0.0, 0.0), (5.0e6, 1.0))), "domain"),
+        (dict(domain=((0.0, 0.0), (5.0e6, 1.0)), window=(0, 15, 1, 1)), "window"),
+        (dict(domain=((0.0, 0.0), (6.0e5, 1.0)), output="elevation"), "domain"),
+        (dict(control_domain=((0.0, 0.0), (1.0e39, 1.0))), "control_domain"),
     ],
 )
-def test_bad_dendry_input_raises_before_any_kernel(kw, match):
+def test_bad_dendry_input_raises_before_any_kernel(kw, match, launches):
     args = dict(shape=(16, 16), domain=DOMAIN, params=DendryParams(), control=CTL)
     args.update(kw)
     shape = args.pop("shape")
     with pytest.raises((ValueError, TypeError), match=match):
         dendry(shape, **args)
+    assert launches == []
 
 
 @pytest.mark.parametrize("pts, match", [([[0.0, np.nan]], "points"), ([[0.0, 1.0, 2.0]], "points"),
-                                        ([[np.inf, 0.0]], "points")])
-def test_bad_points_raise(pts, match):
+                                        ([[np.inf, 0.0]], "points"), ([[1.0, 1.0], [0.0, 5.0e6]], "points"),
+                                        (np.array([["a", "b"]]), "points")])
+def test_bad_points_raise_before_any_kernel(pts, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         dendry_points(pts, domain=DOMAIN, params=DendryParams(), control=CTL)
+    assert launches == []
 
 
 def test_default_control_is_the_authors_interactive_perlin(device):
