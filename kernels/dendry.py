@@ -112,7 +112,11 @@ def cell_size(level: int) -> float:
 
 @wp.func
 def cell_of(u: wp.vec2, level: int) -> wp.vec2i:
-    """The cell of ``level`` holding point ``u`` (grid units)."""
+    """The cell of ``level`` holding point ``u`` (grid units).
+
+    The host keeps ``|u| * 2^(level - 1)`` below 2^22 at the finest level used (see
+    ``wdendrite.dendry._check_reach``): the index fits int32 and float32 holds it exactly.
+    """
     f = level_factor(level)
     return wp.vec2i(int(wp.floor(u[0] * f)), int(wp.floor(u[1] * f)))
 

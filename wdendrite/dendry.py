@@ -9,8 +9,9 @@ The tree. Level 1 puts one jittered key point in every cell of a grid with
 and links every point to the lowest point of its 3 x 3 neighbourhood. Each finer
 level halves the cells; a cell either inherits its parent's key point (when it
 falls inside it) or draws a new one and joins it to the nearest polyline piece of
-the coarser levels owned within the 3 x 3 cells around its ancestors (5 x 5 or
-7 x 7 outside the regime where that was measured exact, see ``DendryParams``). New points
+the coarser levels owned within the 3 x 3 cells around its ancestors (the paper's
+rule, for straight segments; 5 x 5 or 7 x 7 cells where segments reach farther,
+see ``DendryParams``). New points
 get the elevation ``max(control, z_join + min_slope * length)`` with Flint's
 minimum slopes. Every segment is a chordal Catmull-Rom spline, split into 4, 3,
 2, 1 pieces at levels 1, 2, 3, 4+, whose inner vertices move sideways by
@@ -53,11 +54,10 @@ _OUTPUTS = {"distance": 0, "elevation": 1, "level": 2}
 _MODES = ("cached", "pixel")
 _RULES = ("terrain", "lichtenberg")
 _PIECES = (4, 3, 2, 1, 1, 1)
-# the link searches' regimes (DendryParams.radii): key points packed by their jitter, little
-# displacement and few levels (the paper's 3 x 3 search measured exact there for the terrain rule),
+# the link searches' regimes (DendryParams.radii): straight segments between key points packed by
+# their jitter, up to 3 levels (the paper's 3 x 3 search measured exact there for the terrain rule),
 # and the largest displacement a 5 x 5 search measured exact at for the terrain rule
 _PACKED_EPS = 0.25
-_PACKED_DELTA = 0.1
 _PACKED_LEVELS = 3
 _WIDE_DELTA = 0.5
 _STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
@@ -87,40 +87,45 @@ class DendryParams:
 
     Neighbourhoods (:meth:`radii`). A new key point of level k joins the nearest polyline
     piece among the segments of levels < k owned by the ``(2 rl + 1)^2`` cells around its
-    ancestor at each coarser level. The paper searches 3 x 3 cells (``rl = 1``; its eq. 3
-    and the argument that jitter keeps key points packed). Against a brute-force search over
-    every piece of a region, that rule missed no link with the terrain rule, ``eps >= 0.25``,
-    every displacement ``<= 0.1`` and ``levels <= 3`` (the paper recommends ``delta <= 0.08``),
-    and there it is kept. Elsewhere segments reach farther than a neighbouring cell and it
-    misses some links: about 0.1-0.3 % at ``eps = 0``, 0.01 % at levels 4-6, 0.2-0.5 % at
-    ``delta = 0.3``, 4-7 % at ``delta = 1``, and 0.02-0.4 % with the Lichtenberg rule, whose
-    branches join downstream of their projections. There links search 5 x 5 cells
-    (``rl = 2``; no miss in about 220 000 links, terrain rule, displacements up to 0.5) or
-    7 x 7 cells (``rl = 3``: displacements above 0.5, and the Lichtenberg rule outside the
-    packed regime, where it needs one ring more than the terrain rule; no miss in about
-    250 000 links, up to ``delta = 1``). A wider search gives the same tree except where the
-    narrower one missed. It costs the cached mode about nothing, and the per-pixel mode 1.5x
-    the time at 2 levels to 3.8x at 6, as each pixel builds more cells. Queries search 5 x 5
-    cells around the point at every level (7 x 7 at level 1 when it is the only level).
+    ancestor at each coarser level. The paper searches 3 x 3 cells (``rl = 1``; eq. 3, and
+    the argument that jitter keeps key points packed). Against a brute-force search over every
+    piece of a region, that rule missed no link (in 470 000) with straight segments
+    (``subdivision=False``, or no smoothing and no displacement), ``eps >= 0.25``, up to 3
+    levels and the terrain rule, and there it is kept. Curved and displaced segments reach
+    farther, and it missed links even in the paper's recommended regime: 1 to 2 in 10 000 at
+    ``eps = 0.25, delta = 0.1`` (also with ``delta = 0`` but smoothing on, or ``eps = 0.3``),
+    0.1-0.3 % at ``eps = 0``, 0.2-0.5 % at ``delta = 0.3``, 4-7 % at ``delta = 1``, and
+    0.02-0.4 % with the Lichtenberg rule, whose branches join downstream of their
+    projections. So links search 5 x 5 cells (``rl = 2``: no miss in about 730 000 links,
+    displacements up to 0.5, 2 to 5 levels) or 7 x 7 cells (``rl = 3``: displacements above
+    0.5; no miss in about 350 000 links, up to ``delta = 1``). The Lichtenberg rule's branches
+    reach a ring farther: it searches one ring more than the terrain rule would (5 x 5 for
+    straight packed segments, else 7 x 7). A wider search gives the same tree except where the
+    narrower one missed. Queries search the ``(2 rq + 1)^2``
+    cells around the point at every level: 5 x 5 (7 x 7 at level 1 when it is the only
+    level), and 7 x 7 where links search 7 x 7, because segments reach as far there (5 x 5
+    queries got up to 2 pixels in 10 000 wrong, by up to 0.03 cell). Wider searches cost the
+    cached mode about nothing; the per-pixel mode builds more cells per pixel: 5 x 5 links
+    take about 1.5x the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6.
     """
 
     levels: int = 1
-    """Number of tree levels n, 1-6; each level halves the cell size. Beyond 3 levels links search
-    5 x 5 cells or more (see the class docstring)."""
+    """Number of tree levels n, 1-6; each level halves the cell size."""
     seed: int = 0
     """Seed of every random number (key points, displacements, terrain noise)."""
     eps: float = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid.
-    Below 0.25 links search wider neighbourhoods (see the class docstring)."""
+    The paper's 3 x 3 link search needs at least 0.25 (see the class docstring)."""
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
-    none finer; a tuple gives one value per level. Above 0.1 links search 5 x 5 cells, above 0.5
+    none finer; a tuple gives one value per level. Above 0.5 (at any level) links and queries search
     7 x 7 cells (see the class docstring)."""
     resolution: float = 1.0
     """Level-1 cells per domain unit (> 0): the spacing of the main branches."""
     smoothing: bool = True
-    """Bend segments along Catmull-Rom splines through their neighbours (section 4.2)."""
+    """Bend segments along Catmull-Rom splines through their neighbours (section 4.2). Bent segments
+    reach farther: links search 5 x 5 cells instead of 3 x 3 (see the class docstring)."""
     subdivision: bool = True
     """Split segments into 4, 3, 2, 1 pieces at levels 1, 2, 3, 4+ (False: straight, no displacement)."""
     beta: float = 0.5
@@ -172,16 +177,20 @@ class DendryParams:
         """Neighbourhood radii ``(r1, rq, rl)``: ``(2r + 1)^2`` cells are searched around a cell.
 
         ``r1``: queries at level 1; ``rq``: queries at levels 2..n; ``rl``: links, around each
-        ancestor of a new key point. See the class docstring for which regime uses which.
+        ancestor of a new key point. ``(2, 2, 1)`` (``(3, 2, 1)`` at one level) is the paper's
+        rule; see the class docstring for the other regimes and why.
         """
-        r1 = 3 if self.levels == 1 else 2
         widest = max(self.deltas())
-        if self.eps >= _PACKED_EPS and widest <= _PACKED_DELTA and self.levels <= _PACKED_LEVELS:
+        straight = not self.subdivision or (not self.smoothing and widest == 0.0)
+        if straight and self.eps >= _PACKED_EPS and self.levels <= _PACKED_LEVELS:
             rl = 1
         else:
             rl = 2 if widest <= _WIDE_DELTA else 3
         # Lichtenberg branches join downstream of their projections, so they reach one ring farther
-        return r1, 2, min(rl + (self.rule == "lichtenberg"), 3)
+        rl = min(rl + (self.rule == "lichtenberg"), 3)
+        # where segments reach 3 cells, a pixel's nearest piece may too
+        rq = max(rl, 2)
+        return (3 if self.levels == 1 else rq), rq, rl
 
     @staticmethod
     def min_slopes() -> tuple[float, ...]:
