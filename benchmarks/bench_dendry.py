@@ -7,14 +7,18 @@ cached mode computes whole images; the per-pixel mode, whose cost per pixel
 does not depend on the image size, is timed on a ``--pixel-window`` square
 window of the image. Each case is run once after a warm-up that compiles the
 kernels. Peer: the authors' C++ (-O3) on a machine like ours, one core.
+``--search`` picks the neighbourhoods (DendryParams.search): ``exact``, our
+default, searches as wide as measured to miss no link; ``paper`` searches the
+paper's 3 x 3 cells for links, as the peer does.
 
 Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
-       [--device cpu]
+       [--search exact paper] [--device cpu]
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import logging
 import time
 
@@ -29,11 +33,11 @@ PEER = {("table1", 1, "elevation", 512): 10.7, ("table1", 2, "elevation", 512): 
         ("lichtenberg", 6, "distance", 1024): 113.0}
 
 
-def _case(kind: str, levels: int):
+def _case(kind: str, levels: int, search: str = "exact"):
     if kind == "lichtenberg":
-        p = DendryParams(levels=levels, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0)
+        p = DendryParams(levels=levels, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, search=search)
         return dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=p, control=control.lichtenberg())
-    p = DendryParams(levels=levels, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0)
+    p = DendryParams(levels=levels, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0, search=search)
     ctl = control.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
     return dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl)
 
@@ -51,6 +55,7 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
     ap.add_argument("--levels", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
     ap.add_argument("--pixel-window", type=int, default=96)
+    ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
     wp.config.quiet = True
@@ -60,21 +65,22 @@ def main() -> None:
     # warm-up: compile every kernel once
     for out in ("distance", "elevation"):
         for mode in ("cached", "pixel"):
-            dendry((16, 16), output=out, mode=mode, device=device, **_case("table1", 2))
+            for search in args.search:
+                dendry((16, 16), output=out, mode=mode, device=device, **_case("table1", 2, search))
     print(f"# Dendry throughput on {device} ({device.name}), one launch stream, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
-    print("| workload | size | levels | output | mode | px/s | peer px/s | ratio |")
-    print("| --- | ---: | ---: | --- | --- | ---: | ---: | ---: |")
+    print("| workload | size | levels | output | search | mode | px/s | peer px/s | ratio |")
+    print("| --- | ---: | ---: | --- | --- | --- | ---: | ---: | ---: |")
     cases = [("table1", size, lv, out) for size in args.sizes for lv in args.levels for out in ("distance", "elevation")]
     cases.append(("lichtenberg", 1024, 6, "distance"))
-    for kind, size, levels, out in cases:
-        kw = _case(kind, levels)
+    for (kind, size, levels, out), search in itertools.product(cases, args.search):
+        kw = _case(kind, levels, search)
         for mode in ("cached", "pixel"):
             rate = _rate(size, mode, args.pixel_window, device, output=out, **kw)
             peer = PEER.get((kind, levels, out, size))
             peer_rate = size * size / peer if peer else None
             ratio = f"{rate / peer_rate:.1f}x" if peer_rate else "-"
             peer_txt = f"{peer_rate:,.0f}" if peer_rate else "-"
-            print(f"| {kind} | {size}^2 | {levels} | {out} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
+            print(f"| {kind} | {size}^2 | {levels} | {out} | {search} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -502,6 +502,36 @@ def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, size, kw):
     assert checked > 900 and missed == 0, (checked, missed)
 
 
+def test_the_papers_search_is_what_search_paper_runs_and_it_misses_links(device):
+    # the seed where a 3 x 3 link search misses links at the paper's recommended parameters
+    p = DendryParams(levels=3, seed=146, eps=0.25, delta=0.1, search="paper")
+    assert p.radii() == (2, 2, 1)
+    checked, missed = _check_tree(p, 14)
+    assert checked > 900 and missed > 0, (checked, missed)
+
+
+@pytest.mark.parametrize(
+    "kw, want",
+    [
+        (dict(levels=1, smoothing=False), (3, 2, 1)),  # straight packed segments: the paper's rule
+        (dict(levels=3, subdivision=False, delta=0.4), (2, 2, 1)),
+        (dict(levels=1), (3, 2, 2)),  # splines bend segments
+        (dict(levels=2, eps=0.2, smoothing=False), (2, 2, 2)),  # free enough jitter
+        (dict(levels=2, delta=0.1), (2, 2, 2)),  # curved
+        (dict(levels=2, delta=0.6), (3, 3, 3)),  # displaced far
+        (dict(levels=4, smoothing=False, delta=0.0), (2, 2, 2)),  # straight but beyond 3 levels
+        (dict(levels=3, delta=0.1, rule="lichtenberg"), (2, 2, 2)),
+        (dict(levels=4, delta=0.1, rule="lichtenberg"), (3, 3, 3)),  # 5 x 5 missed 1 link in 60 000 there
+        (dict(levels=3, delta=0.2, rule="lichtenberg"), (3, 3, 3)),
+        (dict(levels=3, eps=0.2, rule="lichtenberg"), (3, 3, 3)),
+        (dict(levels=6, delta=1.0, rule="lichtenberg", search="paper"), (2, 2, 1)),
+        (dict(levels=1, search="paper"), (3, 2, 1)),
+    ],
+)
+def test_radii_follow_the_measured_regimes(kw, want):
+    assert DendryParams(**kw).radii() == want
+
+
 @pytest.mark.parametrize(
     "seed, kw, window",
     [
@@ -740,6 +770,8 @@ def test_lichtenberg_tree_stays_in_its_bowl(device):
         (dict(noise=float("nan")), "noise"),
         (dict(primitive_steps=0), "primitive_steps"),
         (dict(rule="diagonal"), "rule"),
+        (dict(search="fast"), "search"),
+        (dict(search=1), "search"),
         (dict(smoothing=1), "smoothing"),
     ],
 )
@@ -761,14 +793,15 @@ def test_text_is_refused_for_every_number_field(field):
 def test_params_are_stored_as_plain_python_values():
     p = DendryParams(levels=np.int64(2), seed=np.uint32(7), eps=np.float32(0.25), delta=[np.float64(0.1), 0],
                      resolution=np.int32(2), smoothing=np.bool_(False), beta=np.float16(0.5), noise=0,
-                     primitive_steps=np.int8(2), rule=np.str_("lichtenberg"))
+                     primitive_steps=np.int8(2), rule=np.str_("lichtenberg"), search=np.str_("paper"))
     kinds = {"levels": int, "seed": int, "eps": float, "delta": tuple, "resolution": float, "smoothing": bool,
-             "subdivision": bool, "beta": float, "noise": float, "primitive_steps": int, "rule": str}
+             "subdivision": bool, "beta": float, "noise": float, "primitive_steps": int, "rule": str,
+             "search": str}
     for name, kind in kinds.items():
         assert type(getattr(p, name)) is kind, name
     assert [type(d) for d in p.delta] == [float, float]
     assert p == DendryParams(levels=2, seed=7, eps=0.25, delta=(0.1, 0.0), resolution=2.0, smoothing=False,
-                             primitive_steps=2, rule="lichtenberg")
+                             primitive_steps=2, rule="lichtenberg", search="paper")
     assert type(DendryParams(delta=np.float32(0.5)).delta) is float
 
 

@@ -53,12 +53,14 @@ Mode = Literal["cached", "pixel"]
 _OUTPUTS = {"distance": 0, "elevation": 1, "level": 2}
 _MODES = ("cached", "pixel")
 _RULES = ("terrain", "lichtenberg")
+_SEARCHES = ("exact", "paper")
 _PIECES = (4, 3, 2, 1, 1, 1)
 # the link searches' regimes (DendryParams.radii): straight segments between key points packed by
 # their jitter, up to 3 levels (the paper's 3 x 3 search measured exact there for the terrain rule),
 # and the largest displacement a 5 x 5 search measured exact at for the terrain rule
 _PACKED_EPS = 0.25
 _PACKED_LEVELS = 3
+_PACKED_DELTA = 0.1
 _WIDE_DELTA = 0.5
 _STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
 
@@ -97,16 +99,20 @@ class DendryParams:
     0.1-0.3 % at ``eps = 0``, 0.2-0.5 % at ``delta = 0.3``, 4-7 % at ``delta = 1``, and
     0.02-0.4 % with the Lichtenberg rule, whose branches join downstream of their
     projections. So links search 5 x 5 cells (``rl = 2``: no miss in about 730 000 links,
-    displacements up to 0.5, 2 to 5 levels) or 7 x 7 cells (``rl = 3``: displacements above
-    0.5; no miss in about 350 000 links, up to ``delta = 1``). The Lichtenberg rule's branches
-    reach a ring farther: it searches one ring more than the terrain rule would (5 x 5 for
-    straight packed segments, else 7 x 7). A wider search gives the same tree except where the
-    narrower one missed. Queries search the ``(2 rq + 1)^2``
-    cells around the point at every level: 5 x 5 (7 x 7 at level 1 when it is the only
-    level), and 7 x 7 where links search 7 x 7, because segments reach as far there (5 x 5
-    queries got up to 2 pixels in 10 000 wrong, by up to 0.03 cell). Wider searches cost the
-    cached mode about nothing; the per-pixel mode builds more cells per pixel: 5 x 5 links
-    take about 1.5x the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6.
+    terrain rule, displacements up to 0.5, 2 to 5 levels) or 7 x 7 cells (``rl = 3``:
+    displacements above 0.5; no miss in about 350 000 links, up to ``delta = 1``, either
+    rule). The Lichtenberg rule searches 5 x 5 cells between packed key points (``eps >=
+    0.25``, displacements up to 0.1) up to 3 levels (no miss in 38 000 links); beyond 3
+    levels about 1 link in 60 000 joined a piece next to the nearest one with 5 x 5, so it
+    searches 7 x 7 cells there and everywhere else. A wider search gives the same tree
+    except where the narrower one missed. Queries search the ``(2 rq + 1)^2`` cells around
+    the point at every level: 5 x 5 (7 x 7 at level 1 when it is the only level), and 7 x 7
+    where links search 7 x 7, because segments reach as far there (5 x 5 queries got up to
+    2 pixels in 10 000 wrong, by up to 0.03 cell). Wider searches cost the cached mode
+    about nothing; the per-pixel mode builds more cells per pixel: 5 x 5 links take about
+    1.5x the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6, 7 x 7 about 3x that of 5 x 5.
+    ``search="paper"`` keeps the paper's 3 x 3 links and 5 x 5 queries everywhere (the
+    authors' implementation does the same): faster per pixel, at the miss rates above.
     """
 
     levels: int = 1
@@ -138,8 +144,12 @@ class DendryParams:
     """Terrain primitives sit on the grid of level ``levels + primitive_steps`` (1-4)."""
     rule: Literal["terrain", "lichtenberg"] = "terrain"
     """How a new key point joins the tree: ``"terrain"`` to the nearest of the piece's ends and
-    midpoint; ``"lichtenberg"`` downstream of its projection, at 45 degrees (its links search one
-    ring of cells more, see the class docstring)."""
+    midpoint; ``"lichtenberg"`` downstream of its projection, at 45 degrees (its links search wider,
+    see the class docstring)."""
+    search: Literal["exact", "paper"] = "exact"
+    """Neighbourhoods searched (:meth:`radii`): ``"exact"`` as wide as measured to miss no link
+    in each regime; ``"paper"`` the paper's 3 x 3 links everywhere, faster per pixel but missing
+    the rare links the class docstring counts."""
 
     def __post_init__(self):
         # every field is checked, then stored as a plain Python value (int, float, bool, str, tuple)
@@ -164,6 +174,9 @@ class DendryParams:
         if not isinstance(self.rule, str) or self.rule not in _RULES:
             raise ValueError(f"Expected 'rule' in {_RULES}, but got {self.rule!r}")
         put("rule", str(self.rule))
+        if not isinstance(self.search, str) or self.search not in _SEARCHES:
+            raise ValueError(f"Expected 'search' in {_SEARCHES}, but got {self.search!r}")
+        put("search", str(self.search))
 
     def deltas(self) -> tuple[float, ...]:
         """Displacement per level (6 values, unused levels 0)."""
@@ -178,16 +191,23 @@ class DendryParams:
 
         ``r1``: queries at level 1; ``rq``: queries at levels 2..n; ``rl``: links, around each
         ancestor of a new key point. ``(2, 2, 1)`` (``(3, 2, 1)`` at one level) is the paper's
-        rule; see the class docstring for the other regimes and why.
+        rule, which ``search="paper"`` keeps everywhere; see the class docstring for the other
+        regimes and why.
         """
+        if self.search == "paper":
+            return (3 if self.levels == 1 else 2), 2, 1
         widest = max(self.deltas())
+        packed = self.eps >= _PACKED_EPS
         straight = not self.subdivision or (not self.smoothing and widest == 0.0)
-        if straight and self.eps >= _PACKED_EPS and self.levels <= _PACKED_LEVELS:
-            rl = 1
+        if self.rule == "terrain":
+            if packed and straight and self.levels <= _PACKED_LEVELS:
+                rl = 1
+            else:
+                rl = 2 if widest <= _WIDE_DELTA else 3
+        elif packed and widest <= _PACKED_DELTA and self.levels <= _PACKED_LEVELS:
+            rl = 2  # Lichtenberg branches join downstream of their projections: they reach a ring farther
         else:
-            rl = 2 if widest <= _WIDE_DELTA else 3
-        # Lichtenberg branches join downstream of their projections, so they reach one ring farther
-        rl = min(rl + (self.rule == "lichtenberg"), 3)
+            rl = 3
         # where segments reach 3 cells, a pixel's nearest piece may too
         rq = max(rl, 2)
         return (3 if self.levels == 1 else rq), rq, rl
