@@ -485,14 +485,16 @@ def test_lichtenberg_branches_join_at_45_degrees(device):
 @pytest.mark.parametrize(
     "seed, size, kw",
     [
-        # straight segments between packed key points: the paper's 3 x 3 link search
+        # straight segments between packed key points: the authors' 3 x 3 link search
         (1, 12, dict(eps=0.25, delta=0.0, smoothing=False, subdivision=False)),
-        # wider searches, on seeds where a 3 x 3 search misses 1, 2, 5, 2 and 44 of these links:
-        (146, 14, dict(eps=0.25, delta=0.1)),  # the paper's recommended parameters (curved segments)
-        (1, 12, dict(eps=0.0, delta=0.0, smoothing=False, subdivision=False)),  # free jitter
-        (3, 12, dict(eps=0.0, delta=0.3)),  # free jitter, large displacement
-        (6, 12, dict(eps=0.25, delta=0.1, rule="lichtenberg")),  # branches join downstream: they reach farther
-        (3, 12, dict(eps=0.1, delta=1.0)),  # the largest displacement
+        # wider searches, on seeds where a 3 x 3 search misses links (the count after each case):
+        (146, 14, dict(eps=0.25, delta=0.1)),  # 1; the paper's recommended parameters (curved segments)
+        (1, 12, dict(eps=0.0, delta=0.0, smoothing=False, subdivision=False)),  # 2; free jitter
+        (3, 12, dict(eps=0.0, delta=0.3)),  # 5; free jitter, large displacement
+        (6, 12, dict(eps=0.25, delta=0.1, rule="lichtenberg")),  # 2; branches join downstream of projections
+        # 7 x 7 searches, on seeds where a 5 x 5 search misses links too:
+        (6, 12, dict(eps=0.1, delta=1.0)),  # 37 (5 x 5: 1); the largest displacement
+        (21, 12, dict(eps=0.0, delta=0.3, rule="lichtenberg")),  # 1 (5 x 5: 1); they reach farther
     ],
 )
 def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, size, kw):
@@ -526,10 +528,35 @@ def test_the_papers_search_is_what_search_paper_runs_and_it_misses_links(device)
         (dict(levels=3, eps=0.2, rule="lichtenberg"), (3, 3, 3)),
         (dict(levels=6, delta=1.0, rule="lichtenberg", search="paper"), (2, 2, 1)),
         (dict(levels=1, search="paper"), (3, 2, 1)),
+        # boundaries of the measured regimes, and displacements that bend nothing
+        (dict(levels=2, delta=0.5), (2, 2, 2)),
+        (dict(levels=2, delta=(0.0, 0.51)), (3, 3, 3)),
+        (dict(levels=3, delta=0.1, eps=0.25, rule="lichtenberg"), (2, 2, 2)),
+        (dict(levels=3, delta=0.11, rule="lichtenberg"), (3, 3, 3)),
+        (dict(levels=3, delta=0.0, eps=0.25, smoothing=False), (2, 2, 1)),
+        (dict(levels=3, delta=0.0, eps=0.2499, smoothing=False), (2, 2, 2)),
+        (dict(levels=5, delta=(0.05, 0.0, 0.0, 0.0, 0.9)), (2, 2, 2)),  # levels 4+ have one piece each
+        (dict(levels=4, subdivision=False, delta=0.6), (2, 2, 2)),  # no split, no displacement
     ],
 )
 def test_radii_follow_the_measured_regimes(kw, want):
     assert DendryParams(**kw).radii() == want
+
+
+@pytest.mark.parametrize(
+    "kw, idle",
+    [
+        (dict(levels=5, delta=(0.05, 0.02, 0.0, 0.0, 0.0)), dict(delta=(0.05, 0.02, 0.0, 0.9, 0.9))),
+        (dict(levels=3, subdivision=False, delta=0.0), dict(delta=0.6)),
+    ],
+)
+def test_displacements_that_radii_ignore_change_nothing(device, kw, idle):
+    # radii() leaves out displacements of unsplit segments: they must not move a single pixel
+    p, q = DendryParams(seed=3, **kw), DendryParams(seed=3, **{**kw, **idle})
+    for mode in ("cached", "pixel"):
+        a, b = (dendry((128, 128), domain=DOMAIN, params=r, control=CTL, mode=mode, window=(40, 40, 24, 24),
+                       device=device) for r in (p, q))
+        np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize(

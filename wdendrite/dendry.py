@@ -89,30 +89,32 @@ class DendryParams:
 
     Neighbourhoods (:meth:`radii`). A new key point of level k joins the nearest polyline
     piece among the segments of levels < k owned by the ``(2 rl + 1)^2`` cells around its
-    ancestor at each coarser level. The paper searches 3 x 3 cells (``rl = 1``; eq. 3, and
-    the argument that jitter keeps key points packed). Against a brute-force search over every
-    piece of a region, that rule missed no link (in 470 000) with straight segments
-    (``subdivision=False``, or no smoothing and no displacement), ``eps >= 0.25``, up to 3
-    levels and the terrain rule, and there it is kept. Curved and displaced segments reach
-    farther, and it missed links even in the paper's recommended regime: 1 to 2 in 10 000 at
-    ``eps = 0.25, delta = 0.1`` (also with ``delta = 0`` but smoothing on, or ``eps = 0.3``),
-    0.1-0.3 % at ``eps = 0``, 0.2-0.5 % at ``delta = 0.3``, 4-7 % at ``delta = 1``, and
-    0.02-0.4 % with the Lichtenberg rule, whose branches join downstream of their
-    projections. So links search 5 x 5 cells (``rl = 2``: no miss in about 730 000 links,
-    terrain rule, displacements up to 0.5, 2 to 5 levels) or 7 x 7 cells (``rl = 3``:
+    ancestor at each coarser level. The authors' implementation searches 3 x 3 cells
+    (``rl = 1``; the paper argues that jitter keeps key points packed, so that links reach at
+    most two cells). Against a brute-force search over every piece of a region, that rule
+    missed no link (in 470 000) with straight segments (``subdivision=False``, or no
+    smoothing and no displacement), ``eps >= 0.25``, up to 3 levels and the terrain rule, and
+    there it is kept. Curved and displaced segments reach farther, and it missed links even in
+    the paper's recommended regime: 1 to 2 in 10 000 at ``eps = 0.25, delta = 0.1`` (also
+    with ``delta = 0`` but smoothing on, or ``eps = 0.3``), 0.1-0.3 % at ``eps = 0``,
+    0.2-0.5 % at ``delta = 0.3``, 4-7 % at ``delta = 1``, and 0.02-0.4 % with the
+    Lichtenberg rule, whose branches join downstream of their projections. So the terrain
+    rule's links search 5 x 5 cells (``rl = 2``: no miss in about 730 000 links,
+    displacements up to 0.5, 2 to 5 levels; also used at 6) or 7 x 7 cells (``rl = 3``:
     displacements above 0.5; no miss in about 350 000 links, up to ``delta = 1``, either
     rule). The Lichtenberg rule searches 5 x 5 cells between packed key points (``eps >=
-    0.25``, displacements up to 0.1) up to 3 levels (no miss in 38 000 links); beyond 3
-    levels about 1 link in 60 000 joined a piece next to the nearest one with 5 x 5, so it
-    searches 7 x 7 cells there and everywhere else. A wider search gives the same tree
-    except where the narrower one missed. Queries search the ``(2 rq + 1)^2`` cells around
-    the point at every level: 5 x 5 (7 x 7 at level 1 when it is the only level), and 7 x 7
-    where links search 7 x 7, because segments reach as far there (5 x 5 queries got up to
-    2 pixels in 10 000 wrong, by up to 0.03 cell). Wider searches cost the cached mode
-    about nothing; the per-pixel mode builds more cells per pixel: 5 x 5 links take about
-    1.5x the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6, 7 x 7 about 3x that of 5 x 5.
-    ``search="paper"`` keeps the paper's 3 x 3 links and 5 x 5 queries everywhere (the
-    authors' implementation does the same): faster per pixel, at the miss rates above.
+    0.25``, displacements up to 0.1) up to 3 levels (no miss in 38 000 links); elsewhere 5 x 5
+    missed links (about 1 in 60 000 beyond 3 levels, and at ``eps = 0``), so it searches 7 x 7
+    cells. Displacements count only where they bend something: at levels 1-3 (one piece from
+    level 4 on) and with subdivision on. A wider search gives the same tree except where the
+    narrower one missed. Queries search the ``(2 rq + 1)^2`` cells around the point at every
+    level: 5 x 5 (7 x 7 at level 1 when it is the only level), and 7 x 7 where links search
+    7 x 7, because segments reach as far there (5 x 5 queries got up to 2 pixels in 10 000
+    wrong, by up to 0.03 cell). Wider searches cost the cached mode little; the per-pixel mode
+    builds more cells per pixel: 5 x 5 links take about 1.5x the time of 3 x 3 at 2 levels and
+    2.3-3.8x at 4-6, 7 x 7 about 3x that of 5 x 5. ``search="paper"`` keeps the authors' 3 x 3
+    links (and 5 x 5 queries, 7 x 7 at one level) everywhere: faster per pixel, at the miss
+    rates above.
     """
 
     levels: int = 1
@@ -121,17 +123,17 @@ class DendryParams:
     """Seed of every random number (key points, displacements, terrain noise)."""
     eps: float = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid.
-    The paper's 3 x 3 link search needs at least 0.25 (see the class docstring)."""
+    Below 0.25 links search 5 x 5 or 7 x 7 cells (see ``search``)."""
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
-    none finer; a tuple gives one value per level. Above 0.5 (at any level) links and queries search
-    7 x 7 cells (see the class docstring)."""
+    none finer; a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
+    Lichtenberg rule) links and queries search 7 x 7 cells (see ``search``)."""
     resolution: float = 1.0
     """Level-1 cells per domain unit (> 0): the spacing of the main branches."""
     smoothing: bool = True
     """Bend segments along Catmull-Rom splines through their neighbours (section 4.2). Bent segments
-    reach farther: links search 5 x 5 cells instead of 3 x 3 (see the class docstring)."""
+    reach farther, so links search at least 5 x 5 cells (see ``search``)."""
     subdivision: bool = True
     """Split segments into 4, 3, 2, 1 pieces at levels 1, 2, 3, 4+ (False: straight, no displacement)."""
     beta: float = 0.5
@@ -144,12 +146,14 @@ class DendryParams:
     """Terrain primitives sit on the grid of level ``levels + primitive_steps`` (1-4)."""
     rule: Literal["terrain", "lichtenberg"] = "terrain"
     """How a new key point joins the tree: ``"terrain"`` to the nearest of the piece's ends and
-    midpoint; ``"lichtenberg"`` downstream of its projection, at 45 degrees (its links search wider,
-    see the class docstring)."""
+    midpoint; ``"lichtenberg"`` downstream of its projection, at 45 degrees (its links search 7 x 7
+    cells unless key points are packed, displacements small and levels at most 3; see ``search``)."""
     search: Literal["exact", "paper"] = "exact"
-    """Neighbourhoods searched (:meth:`radii`): ``"exact"`` as wide as measured to miss no link
-    in each regime; ``"paper"`` the paper's 3 x 3 links everywhere, faster per pixel but missing
-    the rare links the class docstring counts."""
+    """Cells searched around a new key point for the piece it joins: ``"exact"`` as many as were
+    measured to miss no link in each regime (3 x 3, 5 x 5 or 7 x 7 cells); ``"paper"`` the 3 x 3 of
+    the authors' implementation everywhere, faster per pixel but missing about 1 link in 10 000 at
+    the paper's parameters and more at larger jitter or displacement (DendryParams' docstring has
+    the measured rates)."""
 
     def __post_init__(self):
         # every field is checked, then stored as a plain Python value (int, float, bool, str, tuple)
@@ -196,7 +200,8 @@ class DendryParams:
         """
         if self.search == "paper":
             return (3 if self.levels == 1 else 2), 2, 1
-        widest = max(self.deltas())
+        # displacements bend only split segments: levels 1-3, subdivision on
+        widest = max((d for d, n in zip(self.deltas(), _PIECES) if n > 1 and self.subdivision), default=0.0)
         packed = self.eps >= _PACKED_EPS
         straight = not self.subdivision or (not self.smoothing and widest == 0.0)
         if self.rule == "terrain":
