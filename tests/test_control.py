@@ -213,3 +213,58 @@ def test_drained_control_has_no_interior_minimum(device):
     assert lower[1:-1, 1:-1].all()
     with pytest.raises(ValueError, match="samples"):
         control.drained(base, samples=2)
+
+
+@pytest.mark.parametrize(
+    "shape, exc, match",
+    [
+        ((0, 0), ValueError, r"positive sizes in 'shape', but got \(0, 0\)"),
+        ((-2, 3), ValueError, r"positive sizes in 'shape', but got \(-2, 3\)"),
+        ((2.7, 3), TypeError, r"integer sizes in 'shape', but got \(2\.7, 3\)"),
+        ((4, 4, 4), ValueError, r"2D grid shape \(H, W\) for 'shape', but got \(4, 4, 4\)"),
+        ((4,), ValueError, r"'shape'.*\(4,\)"),
+        (None, TypeError, "'shape', but got None"),
+    ],
+)
+def test_bad_grid_shape_names_shape(shape, exc, match):
+    with pytest.raises(exc, match=match):
+        control.plane().grid(shape)
+
+
+def test_grid_larger_than_free_memory_raises(monkeypatch):
+    from wdendrite import _checks
+
+    monkeypatch.setattr(_checks, "available_bytes", lambda device: 4 * 64 * 64 - 1)
+    with pytest.raises(MemoryError, match=r"'shape' \(64, 64\)"):
+        control.plane().grid((64, 64))
+    assert control.plane().grid((32, 32)).shape == (32, 32)
+
+
+@pytest.mark.parametrize(
+    "make, exc, match",
+    [
+        (lambda: control.plane(offset="a"), TypeError, "'offset', but got 'a'"),
+        (lambda: control.plane(offset=np.nan), ValueError, "'offset', but got nan"),
+        (lambda: control.plane(offset=True), TypeError, "'offset', but got True"),
+        (lambda: control.plane(("a", 1.0)), TypeError, r"'gradient', but got \('a', 1\.0\)"),
+        (lambda: control.plane((1.0, np.nan)), ValueError, r"'gradient', but got \(1\.0, nan\)"),
+        (lambda: control.plane(1.0), TypeError, "'gradient', but got 1.0"),
+        (lambda: control.radial(("x", 0.5)), TypeError, r"'center', but got \('x', 0\.5\)"),
+        (lambda: control.radial(radius="1"), TypeError, "'radius', but got '1'"),
+        (lambda: control.perlin(frequency="2"), TypeError, "'frequency', but got '2'"),
+        (lambda: control.perlin(gain=True), TypeError, "'gain', but got True"),
+        (lambda: control.perlin(lacunarity=np.inf), ValueError, "'lacunarity', but got inf"),
+        (lambda: control.ridged(offset="1"), TypeError, "'offset', but got '1'"),
+        (lambda: control.perlin(octaves=2.0), TypeError, "'octaves', but got 2.0"),
+        (lambda: control.perlin(octaves=17), ValueError, "'octaves' in \\[1, 16\\], but got 17"),
+        (lambda: control.perlin(seed=1.5), TypeError, "'seed', but got 1.5"),
+        (lambda: control.perlin(domain=((0, 0), (1, "1"))), TypeError, r"'domain', but got \(\(0, 0\), \(1, '1'\)\)"),
+        (lambda: control.perlin(domain=((0, 0), (1, np.nan))), ValueError, r"'domain', but got .*nan"),
+        (lambda: control.drained(control.plane(), samples=3.0), TypeError, "'samples', but got 3.0"),
+        (lambda: control.drained(control.plane(), slope="x"), TypeError, "'slope', but got 'x'"),
+        (lambda: control.plane().evaluate([["a", "b"]]), TypeError, "'points', but got dtype <U1"),
+    ],
+)
+def test_bad_numbers_name_the_parameter_and_value(make, exc, match):
+    with pytest.raises(exc, match=match):
+        make()

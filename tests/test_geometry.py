@@ -208,3 +208,37 @@ def test_warp_marching_cubes_branch_matches_scikit_image():
     assert b.volume > 0
     assert b.volume == pytest.approx(a.volume, rel=1e-3)
     np.testing.assert_allclose(b.bounds, a.bounds, atol=1e-4)
+
+
+def _nan_warp_field():
+    import warp as wp
+
+    return wp.array(np.full((4, 4, 4), np.nan, np.float32), dtype=float, device="cpu")
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: isosurface(DEN, smooth=-1), ValueError, "'smooth' >= 0, but got -1"),
+        (lambda: isosurface(DEN, smooth=1.5), ValueError, "'smooth' >= 0, but got 1.5"),
+        (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 0, smooth=-1), ValueError, "'smooth' >= 0, but got -1"),
+        (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 0, spacing=0), ValueError, "'spacing', but got 0"),
+        (lambda: field_mesh(np.full((4, 4, 4), np.nan), 0.5), ValueError, r"'field' must be finite.*\(0, 0, 0\): nan"),
+        (lambda: field_mesh(_nan_warp_field(), 0.5), ValueError, "'field' must be finite"),
+        (lambda: field_mesh(np.full((4, 4, 4), "a"), 0.5), TypeError, "'field', but got dtype <U1"),
+        (lambda: field_mesh(np.zeros((0, 4, 4)), 0.5), ValueError, r"'field', but got shape \(0, 4, 4\)"),
+        (lambda: field_mesh(np.random.default_rng(0).random((4, 4, 4)), np.nan), ValueError, "'level', but got nan"),
+        (lambda: field_mesh(np.random.default_rng(0).random((4, 4, 4)), "0.5"), TypeError, "'level', but got '0.5'"),
+        (lambda: field_mesh(np.zeros((4, 4, 4)), 0.5, origin=(0, 0, np.inf)), ValueError, "'origin' must be finite"),
+        (lambda: field_mesh(np.zeros((4, 4, 4)), 0.5, band=-1), ValueError, "'band', but got -1"),
+        (lambda: preview(spheres(DEN, 1.0), elevation=np.nan), ValueError, "'elevation', but got nan"),
+        (lambda: preview(spheres(DEN, 1.0), azimuth="east"), TypeError, "'azimuth', but got 'east'"),
+        (lambda: preview(spheres(DEN, 1.0), background="white"), TypeError, "'background', but got dtype <U5"),
+    ],
+)
+def test_bad_scalars_and_fields_raise_before_any_kernel(call, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        call()
+    assert launches == []
+    isosurface(DEN, 1.0)
+    assert launches  # so the empty record above means that no kernel ran

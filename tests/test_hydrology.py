@@ -193,3 +193,31 @@ def test_bad_elevation_raises(bad):
         hydrology.depressions(bad)
     with pytest.raises((ValueError, TypeError), match="elevation"):
         hydrology.flow_accumulation(bad)
+
+
+@pytest.mark.parametrize("make", [hydrology.fbm_terrain, hydrology.ridged_terrain])
+@pytest.mark.parametrize(
+    "shape, exc, match",
+    [
+        ((0, 0), ValueError, r"'shape', but got \(0, 0\)"),
+        ((4, 4, 4), ValueError, r"'shape', but got \(4, 4, 4\)"),
+        ((-5, 5), ValueError, r"'shape', but got \(-5, 5\)"),
+        ((2.7, 3), TypeError, r"'shape', but got \(2\.7, 3\)"),
+        (None, TypeError, "'shape', but got None"),
+    ],
+)
+def test_bad_terrain_shape_raises_before_any_kernel(make, shape, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        make(shape)
+    assert launches == []
+    make((2, 3), octaves=1)
+    assert launches  # so the empty record above means that no kernel ran
+
+
+def test_terrain_larger_than_free_memory_raises_before_any_kernel(monkeypatch, launches):
+    from wdendrite import _checks
+
+    monkeypatch.setattr(_checks, "available_bytes", lambda device: 1024)
+    with pytest.raises(MemoryError, match=r"'shape' \(64, 64\)"):
+        hydrology.fbm_terrain((64, 64))
+    assert launches == []

@@ -212,3 +212,95 @@ def test_written_files_follow_the_umask(tmp_path):
     finally:
         os.umask(old)
     assert (out.stat().st_mode & 0o777) == 0o644
+
+
+@pytest.mark.parametrize(
+    "image, exc, match",
+    [
+        (np.full((4, 4), np.nan), ValueError, r"'image' must be finite, but has 16 NaN/inf entries .*\(0, 0\): nan"),
+        (np.array([[0.0, np.inf]]), ValueError, r"'image' must be finite.*\(0, 1\): inf"),
+        ("abc", TypeError, "'image', but got dtype <U3"),
+        (np.zeros((0, 0)), ValueError, r"'image', but got shape \(0, 0\)"),
+        (np.zeros((4, 4, 2)), ValueError, r"'image', but got shape \(4, 4, 2\)"),
+    ],
+)
+def test_bad_png_images_name_image_and_leave_the_old_file(tmp_path, image, exc, match):
+    p = save_png(tmp_path / "a.png", np.zeros((4, 4)))
+    before = p.read_bytes()
+    with pytest.raises(exc, match=match):
+        save_png(p, image, overwrite=True)
+    assert p.read_bytes() == before and os.listdir(tmp_path) == ["a.png"]
+
+
+def test_bool_png_images_are_fine(tmp_path):
+    p = save_png(tmp_path / "m.png", np.eye(3, dtype=bool))
+    np.testing.assert_array_equal(np.asarray(Image.open(p)), np.eye(3) * 255)
+
+
+@pytest.mark.parametrize(
+    "write",
+    [
+        lambda p: save_png(p, np.zeros((4, 4)), overwrite=True),
+        lambda p: save_mesh(p, _box(), format="obj", overwrite=True),
+        lambda p: save_dendrite(p, DEN2, format="npz", overwrite=True),
+        lambda p: save_svg(p, DEN2, overwrite=True),
+    ],
+    ids=["png", "mesh", "dendrite", "svg"],
+)
+def test_writers_refuse_a_folder_as_path(tmp_path, write):
+    folder = tmp_path / "out"
+    folder.mkdir()
+    (folder / "keep.txt").write_text("mine")
+    with pytest.raises(ValueError, match=r"'path' '.*out' is a folder"):
+        write(folder)
+    assert sorted(os.listdir(tmp_path)) == ["out"] and os.listdir(folder) == ["keep.txt"]
+
+
+def test_save_mesh_refuses_non_meshes_and_non_finite_vertices(tmp_path):
+    with pytest.raises(TypeError, match="'mesh', but got ndarray"):
+        save_mesh(tmp_path / "m.obj", np.zeros((3, 3)))
+    box = _box()
+    box.vertices[2] = np.nan
+    with pytest.raises(ValueError, match=r"'mesh.vertices' must be finite.*\(2, 0\): nan"):
+        save_mesh(tmp_path / "m.obj", box)
+    assert os.listdir(tmp_path) == []
+
+
+def _write(path, data: bytes):
+    path.write_bytes(data)
+    return path
+
+
+def _dendrite_json(tmp_path, **change):
+    raw = json.loads(save_dendrite(tmp_path / "good.json", DEN2).read_text())
+    raw.update(change)
+    return _write(tmp_path / "bad.json", json.dumps(raw).encode())
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda d: _write(d / "p.npz", b"garbage"), r"'path' '.*p\.npz' is not a dendrite file: it is not an .npz"),
+        (lambda d: _write(d / "p.json", b"{not json"), r"'path' '.*p\.json' is not a dendrite file: JSONDecodeError"),
+        (lambda d: _write(d / "p.json", b"\xff\xfe"), r"'path' '.*p\.json' is not a dendrite file: UnicodeDecodeError"),
+        (lambda d: _write(d / "p.json", b"[1, 2]"), r"'path' '.*p\.json' .*JSON object, but it holds a list"),
+        (lambda d: _write(d / "p.json", b'{"shape": [[1], [1, 2]]}'), r"'path' '.*p\.json' is not a dendrite file"),
+        (lambda d: _dendrite_json(d, parent=[0]), r"'path' '.*bad\.json' is not a dendrite file: .*'parent'"),
+        (lambda d: _dendrite_json(d, spacing="a"), r"'path' '.*bad\.json' is not a dendrite file"),
+        (lambda d: _dendrite_json(d, width=[1.0]), r"'path' '.*bad\.json' holds 1 widths"),
+    ],
+)
+def test_load_dendrite_names_a_corrupt_file(tmp_path, make, match):
+    with pytest.raises(ValueError, match=match):
+        load_dendrite(make(tmp_path))
+
+
+def test_load_dendrite_names_missing_arrays_and_files(tmp_path):
+    np.savez(tmp_path / "p.npz", nodes=np.zeros((1, 2)))
+    with pytest.raises(ValueError, match=r"'path' '.*p\.npz' is not a dendrite file: missing 'shape', 'parent'"):
+        load_dendrite(tmp_path / "p.npz")
+    with pytest.raises(FileNotFoundError, match=r"'path' '.*nope\.npz' does not exist"):
+        load_dendrite(tmp_path / "nope.npz")
+    (tmp_path / "d.json").mkdir()
+    with pytest.raises(ValueError, match=r"'path' '.*d\.json' is a folder"):
+        load_dendrite(tmp_path / "d.json")

@@ -241,3 +241,28 @@ def test_brightness_refuses_3d_dendrites():
         brightness(den, 1.0)
     with pytest.raises(TypeError, match="Dendrite"):
         brightness(np.zeros((3, 2)), 1.0)
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: glow(np.full((8, 8), np.nan)), ValueError, r"'value' must be finite, .* 64 NaN/inf .*\(0, 0\): nan"),
+        (lambda: glow(np.zeros((0, 0))), ValueError, r"2D \(H, W\) array for 'value', but got shape \(0, 0\)"),
+        (lambda: glow("abc"), TypeError, "'value', but got dtype <U3"),
+        (lambda: glow(np.array([[0.0, 1e300]])), ValueError, r"'value' .*1e\+300 \(too large for float32\)"),
+        (lambda: colorize(np.full((4, 4), np.inf)), ValueError, "'value' must be finite"),
+        (lambda: colorize(np.zeros((4, 0))), ValueError, r"'value', but got shape \(4, 0\)"),
+        (lambda: colorize(np.zeros((4, 4)), glow=np.full((4, 4), np.nan)), ValueError, "'glow' must be finite"),
+        (lambda: colorize(np.zeros((4, 4)), background=(0.0, np.nan, 0.0)), ValueError, "'background' must be finite"),
+        (lambda: colorize(np.zeros((4, 4)), background="sky"), TypeError, "'background', but got dtype <U3"),
+        (lambda: colorize(np.zeros((4, 4)), glow_color=(1.0, 1.0)), ValueError, r"'glow_color', but got shape \(2,\)"),
+        (lambda: composite([np.zeros((2, 2)), np.full((2, 2), np.nan)]), ValueError, r"'layers\[1\]' must be finite"),
+        (lambda: composite([np.zeros((0, 3))]), ValueError, r"'layers\[0\]', but got shape \(0, 3\)"),
+    ],
+)
+def test_bad_images_raise_before_any_kernel(call, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        call()
+    assert launches == []
+    glow(np.ones((4, 4)))
+    assert launches  # so the empty record above means that no kernel ran

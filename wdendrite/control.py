@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from ._checks import nonnegative, positive
+from ._checks import finite, fits_in_memory, lattice_shape, nonnegative, positive
 from .kernels import noise as _kn
 
 __all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
@@ -31,18 +31,52 @@ Rect = tuple[tuple[float, float], tuple[float, float]]
 _KINDS = {"plane": 0, "radial": 1, "perlin": 2, "lichtenberg": 3, "image": 4, "ridged": 5}
 
 
+def _finite_numbers(name: str, value, numbers, what: str) -> tuple[float, ...]:
+    """``numbers`` (unpacked from ``value``) as finite floats; an error names ``name`` and all of ``value``."""
+    try:
+        return tuple(finite(name, v) for v in numbers)
+    except (TypeError, ValueError) as err:  # TypeError for text and bools, ValueError for NaN/inf
+        raise type(err)(f"Expected {what} for '{name}', but got {value!r}") from None
+
+
+def _pair(name: str, value) -> tuple[float, float]:
+    """Return ``value`` as two finite floats."""
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected two numbers for '{name}', but got {value!r}") from None
+    return _finite_numbers(name, value, (a, b), "two finite numbers")
+
+
 def rectangle(name: str, value) -> Rect:
     """Return ``value`` as ``((x0, y0), (x1, y1))`` floats with x0 < x1 and y0 < y1, all finite."""
     try:
         (x0, y0), (x1, y1) = value
-        x0, y0, x1, y1 = (float(v) for v in (x0, y0, x1, y1))
     except (TypeError, ValueError):
         raise TypeError(f"Expected a rectangle ((x0, y0), (x1, y1)) for '{name}', but got {value!r}") from None
-    if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
-        raise ValueError(f"Expected finite corners for '{name}', but got {value!r}")
+    x0, y0, x1, y1 = _finite_numbers(name, value, (x0, y0, x1, y1), "a rectangle of finite corners")
     if not (x1 > x0 and y1 > y0):
         raise ValueError(f"Expected '{name}' with x0 < x1 and y0 < y1 (not empty, not inverted), but got {value!r}")
     return ((x0, y0), (x1, y1))
+
+
+def _integer(name: str, value, low: int, high: int | None = None) -> int:
+    """Return ``value`` as an int in [low, high] (bools refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"Expected an integer '{name}', but got {value!r}")
+    if value < low or (high is not None and value > high):
+        span = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"Expected an integer '{name}' {span}, but got {value!r}")
+    return int(value)
+
+
+def _grid_shape(shape, device) -> tuple[int, int]:
+    """Return ``shape`` as (H, W) positive ints whose float32 grid fits on ``device``."""
+    dims = lattice_shape(shape)
+    if len(dims) != 2:
+        raise ValueError(f"Expected a 2D grid shape (H, W) for 'shape', but got {shape!r}")
+    fits_in_memory(4 * dims[0] * dims[1], device, f"A grid of 'shape' {dims}")
+    return dims
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,7 +126,10 @@ class Control:
 
     def evaluate(self, points, *, device=None) -> np.ndarray:
         """The function at ``points`` ((N, 2) x, y in its own coordinates) as (N,) float32."""
-        pts = np.asarray(points, dtype=np.float32)
+        pts = np.asarray(points)
+        if pts.dtype.kind not in "fiu":
+            raise TypeError(f"Expected real-valued 'points', but got dtype {pts.dtype}")
+        pts = pts.astype(np.float32)
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise ValueError(f"Expected 'points' of shape (N, 2), but got shape {pts.shape}")
         if not np.isfinite(pts).all():
@@ -110,10 +147,15 @@ class Control:
         return out.numpy()
 
     def grid(self, shape, *, device=None) -> np.ndarray:
-        """The function at the pixel centres of an (H, W) grid over ``domain`` (row 0 at y0), float32."""
-        h, w = (int(v) for v in shape)
-        (x0, y0), (x1, y1) = self.domain
+        """The function at the pixel centres of an (H, W) grid over ``domain`` (row 0 at y0), float32.
+
+        Raises:
+            ValueError, TypeError: ``shape`` is not two positive ints.
+            MemoryError: the grid does not fit in the device's free memory.
+        """
         device = wp.get_device(device)
+        h, w = _grid_shape(shape, device)
+        (x0, y0), (x1, y1) = self.domain
         out = wp.zeros((h, w), dtype=float, device=device)
         wp.launch(
             _kn.control_grid_kernel,
@@ -153,16 +195,15 @@ def _permutation(seed: int) -> np.ndarray:
 
 
 def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
-    if isinstance(octaves, bool) or not isinstance(octaves, (int, np.integer)) or not 1 <= octaves <= 16:
-        raise ValueError(f"Expected 'octaves' an integer in [1, 16], but got {octaves!r}")
+    octaves = _integer("octaves", octaves, 1, 16)
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
-    probe = Control(kind, dom, 0.0, 1.0, params, int(seed) % 2**31, int(octaves))
+    probe = Control(kind, dom, 0.0, 1.0, params, int(seed) % 2**31, octaves)
     lo, hi = _extremes(probe)
-    return Control(kind, dom, lo, hi, params, int(seed) % 2**31, int(octaves))
+    return Control(kind, dom, lo, hi, params, int(seed) % 2**31, octaves)
 
 
 def _extremes(probe: Control, samples: int = 257, keep: int = 4, rounds: int = 4) -> tuple[float, float]:
@@ -220,13 +261,8 @@ def ridged(*, seed: int = 0, frequency: float = 1.0, octaves: int = 8, gain: flo
 
 def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     """The plane ``offset + gx * x + gy * y``; its extremes are at the corners of ``domain``."""
-    try:
-        gx, gy = (float(v) for v in gradient)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected two numbers for 'gradient', but got {gradient!r}") from None
-    off = float(offset)
-    if not all(math.isfinite(v) for v in (gx, gy, off)):
-        raise ValueError(f"Expected finite 'gradient' and 'offset', but got {gradient!r} and {offset!r}")
+    gx, gy = _pair("gradient", gradient)
+    off = finite("offset", offset)
     dom = rectangle("domain", domain)
     corners = [off + gx * x + gy * y for x in (dom[0][0], dom[1][0]) for y in (dom[0][1], dom[1][1])]
     return Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0))
@@ -234,12 +270,7 @@ def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0,
 
 def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     """The radial ramp ``|p - center| / radius`` (low at ``center``)."""
-    try:
-        cx, cy = (float(v) for v in center)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected two numbers for 'center', but got {center!r}") from None
-    if not (math.isfinite(cx) and math.isfinite(cy)):
-        raise ValueError(f"Expected a finite 'center', but got {center!r}")
+    cx, cy = _pair("center", center)
     r = positive("radius", radius)
     dom = rectangle("domain", domain)
     (x0, y0), (x1, y1) = dom
@@ -302,8 +333,7 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
 
     if not isinstance(base, Control):
         raise TypeError(f"Expected a Control for 'base', but got {type(base).__name__}")
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 3:
-        raise ValueError(f"Expected an integer 'samples' >= 3, but got {samples!r}")
+    samples = _integer("samples", samples, 3)
     rise = nonnegative("slope", slope, allow_none=False) * max(base.maximum - base.minimum, 1e-12)
     z = base.grid((samples, samples)).astype(np.float64)
     n = samples

@@ -31,7 +31,7 @@ from .dendrite import Dendrite
 from .kernels import geometry as _kg
 from .kernels import render as _kr
 from .lattice import Lattice
-from .render import Metric, Width, _choice, _METRICS, _nearest, node_widths
+from .render import Metric, Width, _choice, _finite_array, _METRICS, _nearest, _rgb_triple, node_widths
 
 __all__ = ["field_mesh", "isosurface", "preview", "region_mesh", "spheres", "surface_nodes", "tubes"]
 
@@ -173,18 +173,19 @@ def tubes(
 
 
 def _check_field(field) -> np.ndarray | wp.array:
+    """A ``(D, H, W)`` float32 field with at least 2 nodes per axis, finite where it can be read without a copy.
+
+    A field on a CUDA device is not copied to the host to be checked.
+    """
     if isinstance(field, wp.array):
         if field.ndim != 3 or field.dtype != wp.float32:
             raise ValueError(f"Expected a 3D float32 Warp array for 'field', but got {field.ndim}D {field.dtype}")
+        if field.device.is_cpu:
+            _finite_array("field", field.numpy(), "3D (D, H, W)", lambda s: len(s) == 3)
         shape = field.shape
     else:
-        arr = np.asarray(field)
-        if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
-            raise TypeError(f"Expected a real-valued array for 'field', but got dtype {arr.dtype}")
-        if arr.ndim != 3:
-            raise ValueError(f"Expected a 3D (D, H, W) array for 'field', but got shape {arr.shape}")
-        field = np.ascontiguousarray(arr, dtype=np.float32)
-        shape = arr.shape
+        field = _finite_array("field", field, "3D (D, H, W)", lambda s: len(s) == 3)
+        shape = field.shape
     if min(shape) < 2:
         raise ValueError(f"Expected at least 2 nodes on every axis of 'field', but got shape {tuple(shape)}")
     return field
@@ -224,14 +225,19 @@ def field_mesh(
 
     Returns:
         A :class:`trimesh.Trimesh` (vertices ``(x, y, z)``; faces point outward).
+
+    Raises:
+        ValueError: a field that is not 3D, has fewer than 2 nodes on an axis or holds NaN/inf
+            (a CUDA Warp field is not checked for NaN/inf), a non-finite ``level`` or one outside
+            the field's range, a bad ``spacing``, ``origin``, ``smooth`` or ``band``.
+        TypeError: a field that is not real-valued, a ``level`` that is not a number.
     """
     field = _check_field(field)
     spacing = _checks.positive("spacing", spacing)
-    org = np.asarray(origin, np.float64)
-    if org.shape != (3,) or not np.isfinite(org).all():
-        raise ValueError(f"Expected 'origin' as 3 finite numbers (z, y, x), but got {origin!r}")
+    org = _finite_array("origin", origin, "(3,) (z, y, x)", lambda s: s == (3,)).astype(np.float64)
     smooth = _int_arg("smooth", smooth, 0)
-    level = float(level)
+    level = _checks.finite("level", level)
+    band = None if band is None else _checks.positive("band", band)
     dev = field.device if isinstance(field, wp.array) else wp.get_device(device if device is not None else "cpu")
     # _backend is a testing hook: "warp" runs Warp's marching cubes on any device
     if (dev.is_cuda and _backend == "auto") or _backend == "warp":
@@ -245,9 +251,9 @@ def field_mesh(
         from skimage.measure import marching_cubes
 
         host = field.numpy() if isinstance(field, wp.array) else field
-        if not (np.nanmin(host) < level < np.nanmax(host)):
-            raise ValueError(f"'level' {level} is outside the field's range [{np.nanmin(host)}, {np.nanmax(host)}]")
-        mask = None if band is None else np.abs(host - level) < _checks.positive("band", band)
+        if not (host.min() < level < host.max()):
+            raise ValueError(f"'level' {level} is outside the field's range [{host.min()}, {host.max()}]")
+        mask = None if band is None else np.abs(host - level) < band
         v, f, _, _ = marching_cubes(host, level, mask=mask)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
     # the orientation rules of the two marching cubes differ; low values are inside, so a closed
@@ -293,9 +299,13 @@ def isosurface(
 
     Returns:
         A closed :class:`trimesh.Trimesh` (the field is padded so the surface closes at the lattice's edge).
+
+    Raises:
+        ValueError: an empty or 2D dendrite, a bad radius, ``metric`` or ``smooth`` (before any kernel runs).
     """
     den = _check_3d(dendrite, "isosurface()")
     _choice("metric", metric, _METRICS)
+    smooth = _int_arg("smooth", smooth, 0)  # checked again by field_mesh, but only after the kernels ran
     r = node_widths(den, radius, side=side, _name="radius")
     limit = float(r.max()) + 2.0
     dist, label = _nearest(den, limit, metric, lattice, None, device)
@@ -368,6 +378,9 @@ def region_mesh(labels, region, *, band: float = 2.0, smooth: int = 0, spacing: 
     band = _checks.positive("band", band)
     if band <= 1.0:
         raise ValueError(f"Expected 'band' > 1 so the surface lies inside it, but got {band!r}")
+    # field_mesh checks these too, but only after the signed field's kernels ran
+    smooth = _int_arg("smooth", smooth, 0)
+    spacing = _checks.positive("spacing", spacing)
     field = signed_region_field(inside, band=band, device=device)
     # boundary nodes hold +-1/2 and their neighbours +-3/2: the crossed cubes start there
     cpu = wp.get_device(device).is_cpu
@@ -457,10 +470,9 @@ def preview(
     verts, faces, face_colors = _scene(mesh, color)
     if len(size) != 2 or any(_int_arg("size", s, 1) <= 0 for s in size):
         raise ValueError(f"Expected 'size' as (H, W) positive ints, but got {size!r}")
-    bg = np.asarray(background, np.float32)
-    if bg.shape != (3,):
-        raise ValueError(f"Expected an RGB triple for 'background', but got {background!r}")
-    el, az = math.radians(float(elevation)), math.radians(float(azimuth))
+    bg = _rgb_triple("background", background)
+    el = math.radians(_checks.finite("elevation", elevation))
+    az = math.radians(_checks.finite("azimuth", azimuth))
     forward = -np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
     right = np.cross(forward, [0.0, 0.0, 1.0])
     right = right / np.linalg.norm(right) if np.linalg.norm(right) > 1e-9 else np.array([1.0, 0.0, 0.0])

@@ -198,12 +198,31 @@ def drainage_image(area) -> np.ndarray:
 
 
 def fbm_terrain(shape, *, seed: int = 0, frequency: float = 4.0, octaves: int = 8, device=None) -> np.ndarray:
-    """Fractal (fBm) Perlin noise terrain on [0, 1]^2, a baseline without drainage structure."""
+    """Fractal (fBm) Perlin noise terrain on [0, 1]^2, a baseline without drainage structure.
+
+    Args:
+        shape: ``(H, W)`` positive ints.
+        seed, frequency, octaves: as for :func:`wdendrite.control.perlin`.
+        device: Warp device (default: Warp's default device).
+
+    Returns:
+        ``(H, W)`` float32 elevations.
+
+    Raises:
+        ValueError, TypeError: a bad ``shape`` or noise parameter (before any kernel runs).
+        MemoryError: the terrain does not fit in the device's free memory.
+    """
+    _control._grid_shape(shape, device)  # the control's own range search launches kernels: check first
     c = _control.perlin(seed=seed, frequency=frequency, octaves=octaves, domain=((0.0, 0.0), (1.0, 1.0)))
     return c.grid(shape, device=device)
 
 
 def ridged_terrain(shape, *, seed: int = 0, frequency: float = 4.0, octaves: int = 8, device=None) -> np.ndarray:
-    """Ridged multifractal noise terrain on [0, 1]^2, a baseline with sharp crests."""
+    """Ridged multifractal noise terrain on [0, 1]^2, a baseline with sharp crests.
+
+    Arguments, result and errors as for :func:`fbm_terrain` (noise parameters as for
+    :func:`wdendrite.control.ridged`).
+    """
+    _control._grid_shape(shape, device)
     c = _control.ridged(seed=seed, frequency=frequency, octaves=octaves, domain=((0.0, 0.0), (1.0, 1.0)))
     return c.grid(shape, device=device)

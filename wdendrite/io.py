@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -16,9 +18,12 @@ __all__ = [
 
 
 def _target(path, overwrite: bool) -> Path:
+    """``path`` as a Path, once it is known that a file may be written there."""
     path = Path(path)
-    if not path.parent.exists():
-        raise ValueError(f"The folder of 'path' does not exist: {str(path.parent)!r}")
+    if path.is_dir():
+        raise ValueError(f"'path' {str(path)!r} is a folder; give the name of a file to write in it")
+    if not path.parent.is_dir():
+        raise ValueError(f"The folder of 'path' does not exist (or is not a folder): {str(path.parent)!r}")
     if path.exists() and not overwrite:
         raise FileExistsError(f"'path' {str(path)!r} exists; pass overwrite=True to replace it")
     return path
@@ -83,17 +88,21 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     (Pillow has no 16-bit RGB mode). The write is atomic.
 
     Raises:
-        ValueError: a bad shape or ``bits`` not 8 or 16, a missing folder.
+        ValueError: an empty image, a bad shape, NaN or inf values, ``bits`` not 8 or 16,
+            a missing folder, a ``path`` that is a folder.
+        TypeError: an image that is not numbers (bool images are fine).
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from PIL import Image
 
-    img = np.asarray(image, dtype=np.float64)
-    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] not in (3, 4)):
-        raise ValueError(f"Expected 'image' of shape (H, W), (H, W, 3) or (H, W, 4), but got {img.shape}")
+    from .render import _finite_array
+
+    _target(path, overwrite)
+    img = _finite_array("image", image, "(H, W), (H, W, 3) or (H, W, 4)",
+                        lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=np.float64)
     if bits not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
-    img = np.nan_to_num(np.clip(img, 0.0, 1.0))
+    img = np.clip(img, 0.0, 1.0)
     if bits == 16 and img.ndim == 3:
         data = (img * 65535 + 0.5).astype(np.uint16)
         return atomic_write(path, lambda tmp: _png16_rgb(tmp, data), overwrite=overwrite)
@@ -128,12 +137,20 @@ def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False)
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: an unknown format (the message lists the allowed ones) or a missing folder.
+        ValueError: an unknown format (the message lists the allowed ones), a mesh without faces
+            or with NaN/inf vertices, a missing folder, a ``path`` that is a folder.
+        TypeError: ``mesh`` is not a mesh.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
+    from .render import _finite_array
+
     fmt = _format(path, format, MESH_FORMATS, "mesh")
-    if not hasattr(mesh, "export") or not len(getattr(mesh, "faces", ())):
-        raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh'")
+    _target(path, overwrite)
+    if not all(hasattr(mesh, a) for a in ("export", "vertices", "faces")):
+        raise TypeError(f"Expected a trimesh.Trimesh for 'mesh', but got {type(mesh).__name__}")
+    if not len(mesh.faces):
+        raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh', but it has none")
+    _finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
     return atomic_write(path, lambda tmp: mesh.export(tmp, file_type=fmt), overwrite=overwrite)
 
 
@@ -152,12 +169,14 @@ def save_dendrite(path, dendrite, *, width=None, format: str | None = None, over
     :class:`~wdendrite.render.Taper` or an array; default 1).
 
     Raises:
-        ValueError: unknown format (allowed: npz, json), an empty dendrite, a missing folder.
+        ValueError: unknown format (allowed: npz, json), an empty dendrite, a missing folder,
+            a ``path`` that is a folder.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from .dendrite import Dendrite
 
     fmt = _format(path, format, DENDRITE_FORMATS, "dendrite")
+    _target(path, overwrite)
     if not isinstance(dendrite, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
     if not len(dendrite):
@@ -186,37 +205,71 @@ def save_dendrite(path, dendrite, *, width=None, format: str | None = None, over
     return atomic_write(path, write, overwrite=overwrite)
 
 
+_DENDRITE_KEYS = ("shape", "nodes", "parent", "cost", "label", "generation", "endpoints", "origin", "spacing",
+                  "width")
+
+
+def _read_arrays(path: Path, fmt: str) -> dict:
+    """The named arrays of an existing dendrite file; ``ValueError`` naming the file when they cannot be read."""
+    def refuse(why: str) -> ValueError:
+        return ValueError(f"'path' {str(path)!r} is not a dendrite file: {why}")
+
+    # np.load reads anything that is not a zip archive as a pickle, and refuses it with advice on pickles
+    if fmt == "npz" and not zipfile.is_zipfile(path):
+        raise refuse("it is not an .npz (zip) archive")
+    try:
+        if fmt == "npz":
+            with np.load(path) as z:
+                return {k: z[k] for k in z.files}
+        with open(path, encoding="utf-8") as f:
+            data = json.load(f)
+        if isinstance(data, dict):
+            return {k: np.asarray(v) for k, v in data.items()}
+    except (ValueError, EOFError, zipfile.BadZipFile, zlib.error) as err:  # ValueError: JSON, text, ragged lists
+        raise refuse(f"{type(err).__name__}: {err}") from None
+    raise refuse(f"expected a JSON object, but it holds a {type(data).__name__}")
+
+
 def load_dendrite(path):
     """Read a file written by :func:`save_dendrite`.
 
     Returns:
         ``(dendrite, width)``: the :class:`~wdendrite.Dendrite` and its ``(N,)`` float32 widths.
+
+    Raises:
+        ValueError: an unknown suffix, or a file that is not a dendrite file (unreadable,
+            missing arrays, arrays that do not make a dendrite); the message names the file.
+        FileNotFoundError: ``path`` does not exist.
     """
     from .dendrite import Dendrite
 
     path = Path(path)
     fmt = _format(path, None, DENDRITE_FORMATS, "dendrite")
-    if fmt == "npz":
-        with np.load(path) as z:
-            raw = {k: z[k] for k in z.files}
-    else:
-        with open(path) as f:
-            raw = {k: np.asarray(v) for k, v in json.load(f).items()}
-    shape = tuple(int(n) for n in raw["shape"])
-    den = Dendrite.from_arrays(
-        shape,
-        raw["nodes"],
-        raw["parent"],
-        cost=raw["cost"],
-        label=raw["label"],
-        generation=raw["generation"],
-        endpoints=raw["endpoints"],
-        origin=tuple(float(x) for x in raw["origin"]),
-        spacing=float(raw["spacing"]),
-    )
-    width = raw["width"].astype(np.float32).reshape(-1)
+    if not path.exists():
+        raise FileNotFoundError(f"'path' {str(path)!r} does not exist")
+    if path.is_dir():
+        raise ValueError(f"'path' {str(path)!r} is a folder, not a dendrite file")
+    raw = _read_arrays(path, fmt)
+    missing = [k for k in _DENDRITE_KEYS if k not in raw]
+    if missing:
+        raise ValueError(f"'path' {str(path)!r} is not a dendrite file: missing {', '.join(map(repr, missing))}")
+    try:
+        den = Dendrite.from_arrays(
+            tuple(int(n) for n in raw["shape"]),
+            raw["nodes"],
+            raw["parent"],
+            cost=raw["cost"],
+            label=raw["label"],
+            generation=raw["generation"],
+            endpoints=raw["endpoints"],
+            origin=tuple(float(x) for x in raw["origin"]),
+            spacing=float(raw["spacing"]),
+        )
+        width = raw["width"].astype(np.float32).reshape(-1)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"'path' {str(path)!r} is not a dendrite file: {err}") from None
     if width.shape != (len(den),):
-        raise ValueError(f"{str(path)!r} holds {len(width)} widths for {len(den)} nodes")
+        raise ValueError(f"'path' {str(path)!r} holds {len(width)} widths for {len(den)} nodes")
     return den, width
 
 
@@ -258,11 +311,12 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: a 3D or empty dendrite, a missing folder.
+        ValueError: a 3D or empty dendrite, a missing folder, a ``path`` that is a folder.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from .dendrite import Dendrite
 
+    _target(path, overwrite)
     if not isinstance(dendrite, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
     if not len(dendrite):

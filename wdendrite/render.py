@@ -416,13 +416,45 @@ def brightness(
     return out.numpy().reshape(den.shape)
 
 
+def _finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
+    """``value`` as a C-contiguous ``dtype`` array that is non-empty, finite and of a shape ``shape_ok`` accepts.
+
+    Args:
+        name: the parameter, for the error messages.
+        value: array-like.
+        shapes: the accepted shapes in words, e.g. ``"2D (H, W)"``.
+        shape_ok: ``shape -> bool``.
+        kinds: accepted NumPy dtype kinds (``"b"`` admits bool arrays).
+        dtype: the returned array's dtype; values too large for it count as infinite.
+
+    Raises:
+        TypeError: a dtype outside ``kinds`` (text, objects).
+        ValueError: an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
+    """
+    raw = np.asarray(value)
+    if raw.dtype.kind not in kinds:
+        raise TypeError(f"Expected a real-valued {shapes} array for '{name}', but got dtype {raw.dtype} "
+                        f"(shape {raw.shape})")
+    if raw.size == 0 or not shape_ok(raw.shape):
+        raise ValueError(f"Expected a non-empty {shapes} array for '{name}', but got shape {raw.shape}")
+    with np.errstate(over="ignore"):
+        arr = np.ascontiguousarray(raw, dtype=dtype)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        v = raw[first].item()
+        why = f" (too large for {np.dtype(dtype).name})" if math.isfinite(v) else ""
+        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries "
+                         f"(first at {first}: {v!r}{why})")
+    return arr
+
+
 def _image(name: str, value) -> np.ndarray:
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
-        raise TypeError(f"Expected a real-valued image for '{name}', but got dtype {arr.dtype}")
-    if arr.ndim != 2:
-        raise ValueError(f"Expected a 2D (H, W) image for '{name}', but got shape {arr.shape}")
-    return np.ascontiguousarray(arr, dtype=np.float32)
+    return _finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2)
+
+
+def _rgb_triple(name: str, value) -> np.ndarray:
+    return _finite_array(name, value, "RGB triple (3,)", lambda s: s == (3,))
 
 
 Blend = Literal["max", "add", "screen"]
@@ -440,6 +472,9 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
 
     Returns:
         ``(H, W)`` float32 in [0, 1].
+
+    Raises:
+        ValueError: no layers, an empty, non-finite or mismatched layer, a negative gain, an unknown mode.
     """
     _choice("mode", mode, _BLENDS)
     imgs = [_image(f"layers[{i}]", v) for i, v in enumerate(layers)]
@@ -473,6 +508,11 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
 
     Returns:
         ``(H, W)`` float32; the blur keeps the image's total (away from its edges).
+
+    Raises:
+        ValueError: an empty, non-2D or non-finite ``value``, a non-positive ``radius`` or ``passes``
+            (before any kernel runs).
+        TypeError: a ``value`` that is not real-valued.
     """
     img = _image("value", value)
     radius = _checks.positive("radius", radius)
@@ -518,12 +558,8 @@ def _lut(colormap: str, size: int = 256) -> np.ndarray:
 
 
 def _rgb(name: str, value, shape) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float32)
-    if arr.shape == (3,):
-        return np.broadcast_to(arr, (*shape, 3)).copy()
-    if arr.shape != (*shape, 3):
-        raise ValueError(f"Expected '{name}' as an RGB triple or an image of shape {(*shape, 3)}, but got {arr.shape}")
-    return np.ascontiguousarray(arr)
+    arr = _finite_array(name, value, f"RGB triple (3,) or image {(*shape, 3)}", lambda s: s in ((3,), (*shape, 3)))
+    return np.broadcast_to(arr, (*shape, 3)).copy() if arr.shape == (3,) else arr
 
 
 def colorize(
@@ -550,6 +586,9 @@ def colorize(
 
     Returns:
         ``(H, W, 3)`` float32 in [0, 1].
+
+    Raises:
+        ValueError: an empty, non-2D or non-finite ``value`` or ``glow``, a bad colour, an unknown colormap.
     """
     img = _image("value", value)
     if colormap not in COLORMAPS:
@@ -557,9 +596,7 @@ def colorize(
     halo = np.zeros_like(img) if glow is None else _image("glow", glow)
     if halo.shape != img.shape:
         raise ValueError(f"'glow' has shape {halo.shape}, but 'value' has shape {img.shape}")
-    gc = np.asarray(glow_color, np.float32)
-    if gc.shape != (3,) or not np.isfinite(gc).all():
-        raise ValueError(f"Expected 'glow_color' as an RGB triple, but got {glow_color!r}")
+    gc = _rgb_triple("glow_color", glow_color)
     bg = _rgb("background", (0.0, 0.0, 0.0) if background is None else background, img.shape)
     device = wp.get_device(device)
     with wp.ScopedDevice(device):
