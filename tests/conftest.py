@@ -15,3 +15,22 @@ DEVICES = [str(d) for d in wp.get_devices()]
 def device(request):
     """Every available Warp device: the CPU always, CUDA devices where present."""
     return request.param
+
+
+@pytest.fixture
+def launches(monkeypatch):
+    """The kernels launched while a test runs (by name): Warp's launch and its recorded launches, recording calls."""
+    seen = []
+    real, real_recorded = wp.launch, wp.Launch.launch
+
+    def recording(kernel, *args, **kwargs):
+        seen.append(kernel.key)
+        return real(kernel, *args, **kwargs)
+
+    def recorded(self, *args, **kwargs):
+        seen.append(self.kernel.key)
+        return real_recorded(self, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", recording)
+    monkeypatch.setattr(wp.Launch, "launch", recorded)
+    return seen

@@ -256,3 +256,12 @@ def test_a_value_out_of_range_fails_its_task_only_with_exit_2(tmp_path):
     names = sorted(p.name for p in (tmp_path / "o").iterdir())
     assert names == ["simple-dendrite_shape32x32_seed0_endpoints3.manifest.json",
                      "simple-dendrite_shape32x32_seed0_endpoints3.png"]
+
+
+def test_a_value_a_preset_refuses_names_its_job(tmp_path):
+    f = tmp_path / "jobs.toml"
+    f.write_text('out = "runs"\n[[job]]\npreset = "fractal"\nsize = 32\n\n[[job]]\npreset = "dendry"\nsize = 32\n'
+                 "params = { levels = 9 }\n")
+    with pytest.raises(UsageError, match=r"job 2 \(dendry\): Expected 'levels' in \[1, 6\], but got 9"):
+        batch.load_jobs(f)
+    assert not (tmp_path / "runs").exists()

@@ -306,7 +306,7 @@ def test_from_arrays_round_trip_and_checks():
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [1, 0])
     with pytest.raises(ValueError, match="twice"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 0]], [-1, 0])
-    with pytest.raises(ValueError, match="inside"):
+    with pytest.raises(ValueError, match="outside the lattice"):
         wd.Dendrite.from_arrays((5, 5), [[0, 5]], [-1])
     with pytest.raises(ValueError, match="endpoints"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[-1])
@@ -316,3 +316,37 @@ def test_from_arrays_round_trip_and_checks():
         wd.Dendrite.from_arrays((5, 5), [[0, 0, 0]], [-1])
     with pytest.raises(ValueError, match="neighbour"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 3]], [-1, 0])
+
+
+@pytest.mark.parametrize(
+    "nodes, parent, error, match",
+    [
+        ([[0.9, 0], [0, 1.7]], [-1, 0], TypeError, "nodes"),
+        ([[0, 0], [0, 9]], [-1, 0], ValueError, r"'nodes' row 1 = \(0, 9\)"),
+        ([[0, 0], [0, 1]], [5, -1], ValueError, "'parent' row 0 = 5"),
+        ([[0, 0], [0, 1]], [-1.0, 0.0], TypeError, "parent"),
+    ],
+)
+def test_from_arrays_names_the_bad_row(nodes, parent, error, match):
+    with pytest.raises(error, match=match):
+        wd.Dendrite.from_arrays((4, 4), nodes, parent)
+
+
+@pytest.mark.parametrize("generation, error", [("a", TypeError), (1.7, TypeError), (-5, ValueError), (True, TypeError)])
+def test_trace_checks_generation_before_any_kernel(generation, error, launches):
+    cf = wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]])
+    launches.clear()
+    with pytest.raises(error, match="generation"):
+        wd.trace(cf, [[5, 5]], generation=generation)
+    assert launches == []
+
+
+def test_trace_refuses_to_extend_a_dendrite_on_masked_nodes(launches):
+    mask = np.ones((8, 8), bool)
+    mask[0] = False
+    cf = wd.shortest_paths(wd.Lattice((8, 8), mask=mask), [[1, 0]])
+    den = wd.Dendrite.from_arrays((8, 8), [[0, 0], [0, 1]], [-1, 0])
+    launches.clear()
+    with pytest.raises(ValueError, match=r"'extend' row 0 = \(0, 0\) is a masked-out node"):
+        wd.trace(cf, [[5, 5]], extend=den)
+    assert launches == []

@@ -832,20 +832,6 @@ def test_params_are_stored_as_plain_python_values():
     assert type(DendryParams(delta=np.float32(0.5)).delta) is float
 
 
-@pytest.fixture
-def launches(monkeypatch):
-    """The kernels launched while a test runs (by name): Warp's launch, recording its calls."""
-    seen = []
-    real = wp.launch
-
-    def recording(kernel, *args, **kwargs):
-        seen.append(kernel.key)
-        return real(kernel, *args, **kwargs)
-
-    monkeypatch.setattr(wp, "launch", recording)
-    return seen
-
-
 def test_the_launch_recorder_sees_dendry_kernels(launches):
     dendry((4, 4), domain=DOMAIN, params=DendryParams(), control=CTL)
     assert launches  # so an empty record below means that no kernel ran
@@ -873,6 +859,7 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(domain=((0.0, 0.0), (5.0e6, 1.0)), window=(0, 15, 1, 1)), "window"),
         (dict(domain=((0.0, 0.0), (6.0e5, 1.0)), output="elevation"), "domain"),
         (dict(control_domain=((0.0, 0.0), (1.0e39, 1.0))), "control_domain"),
+        (dict(device="cuda:9"), "device"),
     ],
 )
 def test_bad_dendry_input_raises_before_any_kernel(kw, match, launches):
@@ -886,10 +873,19 @@ def test_bad_dendry_input_raises_before_any_kernel(kw, match, launches):
 
 @pytest.mark.parametrize("pts, match", [([[0.0, np.nan]], "points"), ([[0.0, 1.0, 2.0]], "points"),
                                         ([[np.inf, 0.0]], "points"), ([[1.0, 1.0], [0.0, 5.0e6]], "points"),
-                                        (np.array([["a", "b"]]), "points")])
+                                        (np.array([["a", "b"]]), "points"), ([[0.1, 0.2], [0.3]], "points")])
 def test_bad_points_raise_before_any_kernel(pts, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         dendry_points(pts, domain=DOMAIN, params=DendryParams(), control=CTL)
+    assert launches == []
+
+
+def test_an_image_too_big_for_memory_raises_before_any_kernel(monkeypatch, launches):
+    from wdendrite import _checks
+
+    monkeypatch.setattr(_checks, "available_bytes", lambda device: 4 * 64 * 64 - 1)
+    with pytest.raises(MemoryError, match=r"Dendry image of shape \(64, 64\)"):
+        dendry((64, 64), domain=DOMAIN, params=DendryParams(), control=CTL)
     assert launches == []
 
 

@@ -303,3 +303,11 @@ def test_property_spaced_points_in_region_or_clear_error(h, w, count, spacing, r
     assert len(pts) == count and region.mask((h, w))[tuple(pts.T)].all()
     if count > 1:
         assert pdist(pts.astype(float)).min() >= spacing
+
+
+def test_a_band_below_cost_zero_is_refused_before_any_kernel(launches):
+    cf = wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]])
+    launches.clear()
+    with pytest.raises(ValueError, match="below cost 0"):
+        ep.in_band(cf, 5, -10, 1)
+    assert launches == []

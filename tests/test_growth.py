@@ -308,3 +308,11 @@ def test_walks_do_not_stop_at_nodes_of_cost_zero_off_the_dendrite():
     for e in ends:
         row = int(np.flatnonzero((out.nodes == e).all(axis=1))[0])
         assert tuple(out.nodes[out.path(row)[-1]]) in g
+
+
+@pytest.mark.parametrize("field", ["count", "d", "alpha", "beta", "epsilon", "cheap"])
+def test_fractal_params_refuse_text(field):
+    kw = dict(count=2, d=6.0, alpha=2.0, beta=2.0, epsilon=1.0)
+    kw[field] = "2"
+    with pytest.raises((TypeError, ValueError), match=rf"'{field}'.*'2'"):
+        wd.FractalParams(**kw)

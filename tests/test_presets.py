@@ -143,3 +143,37 @@ def test_coral_is_refined():
 def test_bad_input(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+@pytest.mark.parametrize(
+    "func, kw, match",
+    [
+        (presets.staghorn_coral, dict(shape=(16, 16, 16), refine_n=4), "refine_n"),
+        (presets.staghorn_coral, dict(shape=(16, 16, 16), refine_n=1), "refine_n"),
+        (presets.simple_dendrite, dict(shape=(32, 32), endpoints=0), "endpoints"),
+        (presets.elm_tree, dict(shape=(16, 16, 16), endpoints=0), "endpoints"),
+        (presets.elm_tree, dict(shape=(16, 16, 16), geometry="cubes"), "geometry"),
+        (presets.lichen_on_rock, dict(shape=(16, 16, 16), count=0), "count"),
+        (presets.rock, dict(shape=(16, 16, 16), smooth=-1), "smooth"),
+        (presets.letters, dict(text="A", height=32, paths_per_1000=-1), "paths_per_1000"),
+        (presets.fractal_grid, dict(cell=32, alphas=(2.0, 1.0)), "alpha"),
+        (presets.dla_imitation, dict(shape=(32, 32), alpha=1), "alpha"),
+        (presets.dla_imitation, dict(shape=(32, 32), beta=0.5), "beta"),
+        (presets.dla_imitation, dict(shape=(32, 32), iterations=0), "iterations"),
+        (presets.competition, dict(shape=(32, 32), count=0), "count"),
+        (presets.taper_demo, dict(shape=(32, 32), endpoints=0), "endpoints"),
+        (presets.moss, dict(shape=(16, 16, 16), endpoints=0), "endpoints"),
+    ],
+)
+def test_bad_preset_values_raise_before_any_kernel(func, kw, match, launches):
+    with pytest.raises(ValueError, match=match):
+        func(**kw)
+    assert launches == []
+
+
+def test_the_fractal_command_checks_its_schedule_before_the_lattice(launches):
+    from wdendrite import _models
+
+    with pytest.raises(ValueError, match="cheap"):
+        _models.fractal(32, cheap=2.0)
+    assert launches == []

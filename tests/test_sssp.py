@@ -5,6 +5,7 @@ import re
 
 import numpy as np
 import pytest
+import warp as wp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.sparse.csgraph import dijkstra
@@ -490,3 +491,15 @@ def test_a_searched_lattice_is_freed_by_reference_counting():
         assert records() is None
     finally:
         gc.enable()
+
+
+@pytest.mark.parametrize("device", ["cuda:7", "gpu", 3] + ([] if wp.get_cuda_device_count() else ["cuda", "cuda:0"]))
+def test_an_absent_device_is_a_value_error_naming_it(device):
+    with pytest.raises(ValueError, match="'device'"):
+        wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]], device=device)
+
+
+@pytest.mark.parametrize("limit", [True, "10"])
+def test_limit_must_be_a_number(limit):
+    with pytest.raises(TypeError, match="limit"):
+        wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]], limit=limit)

@@ -354,3 +354,27 @@ def test_overflowing_composite_raises():
 def test_constant_weights_must_be_positive():
     with pytest.raises(ValueError, match="value"):
         weights.Constant(0.0)
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda: weights.Uniform(r="1"), "'r'"),
+        (lambda: weights.Power(alpha="3"), "'alpha'"),
+        (lambda: weights.Tropism("left", strength="2"), "'strength'"),
+        (lambda: weights.Uniform(r=True), "'r'"),
+    ],
+)
+def test_text_and_bools_are_not_numbers(make, match):
+    with pytest.raises(TypeError, match=match):
+        make()
+
+
+def test_an_empty_map_is_refused():
+    with pytest.raises(ValueError, match="non-empty"):
+        weights.Map(np.zeros((0, 0)))
+
+
+def test_a_distribution_class_instead_of_an_instance_is_refused():
+    with pytest.raises(TypeError, match=r"class Uniform \(call it"):
+        wd.Lattice((8, 8), weights=weights.Uniform)

@@ -104,27 +104,29 @@ def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray 
     return arr
 
 
-def finite(name: str, value) -> float:
-    """Return ``value`` as a finite float (bools are refused: they are not numbers here)."""
-    if isinstance(value, (bool, np.bool_)):
+def _number(name: str, value) -> float:
+    """``value`` as a float; bools and text are refused (``float("2")`` parses, but "2" * 3 fails later)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
         raise TypeError(f"Expected a number for '{name}', but got {value!r}")
     try:
-        x = float(value)
+        return float(value)
     except (TypeError, ValueError):
         raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+
+
+def finite(name: str, value) -> float:
+    """Return ``value`` as a finite float (bools and text are refused: they are not numbers here)."""
+    x = _number(name, value)
     if not math.isfinite(x):
         raise ValueError(f"Expected a finite number for '{name}', but got {value!r}")
     return x
 
 
 def nonnegative(name: str, value, *, allow_none: bool = True, allow_inf: bool = False) -> float | None:
-    """Return ``value`` as a float >= 0 (None passes through when allowed)."""
+    """Return ``value`` as a float >= 0 (None passes through when allowed; bools and text are refused)."""
     if value is None and allow_none:
         return None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}") from None
+    x = _number(name, value)
     if math.isnan(x) or x < 0 or (math.isinf(x) and not allow_inf):
         raise ValueError(f"Expected a non-negative {'' if allow_inf else 'finite '}number for '{name}', but got {value!r}")
     return x
@@ -161,6 +163,31 @@ def fits_in_memory(need: int, device, what: str) -> None:
             f"{what} needs about {need / 2**30:.2f} GiB on device '{wp.get_device(device)}', "
             f"but only {have / 2**30:.2f} GiB are available"
         )
+
+
+def device(value, name: str = "device"):
+    """``value`` as a Warp device (None: Warp's default); an unknown or absent one is a ValueError."""
+    if value is None or isinstance(value, wp.Device):
+        return wp.get_device(value)
+    known = [str(d) for d in wp.get_devices()]
+    # asking Warp for a CUDA device on a machine without one prints driver errors before it raises
+    if not isinstance(value, str) or (value.startswith("cuda") and value not in known and value != "cuda") or (
+        value == "cuda" and wp.get_cuda_device_count() == 0
+    ):
+        raise ValueError(f"Expected a Warp device for '{name}' (one of {', '.join(known)}), but got {value!r}")
+    try:
+        return wp.get_device(value)
+    except (RuntimeError, ValueError) as e:
+        raise ValueError(f"Expected a Warp device for '{name}' (one of {', '.join(known)}), but got {value!r}: {e}") from None
+
+
+def integer(name: str, value, *, low: int | None = None) -> int:
+    """``value`` as a Python int (bools, floats and text refused), at least ``low`` when given."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"Expected an integer for '{name}', but got {value!r}")
+    if low is not None and value < low:
+        raise ValueError(f"Expected '{name}' >= {low}, but got {value!r}")
+    return int(value)
 
 
 def rng(seed, name: str = "seed") -> np.random.Generator:

@@ -161,7 +161,10 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
             values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed")
         if size is not None:
             values[preset.size_param] = preset.sized(size)
-        _, full = resolve(preset, values)
+        try:
+            _, full = resolve(preset, values)
+        except (ValueError, TypeError) as exc:  # a parameter dataclass refused a value: say which job
+            raise UsageError(f"{where}: {exc}") from None
         stem = _task_name(job.get("name", name), preset, full, dict(zip(grid, combo)))
         tasks.append(Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile))
     return tasks

@@ -83,15 +83,27 @@ class Dendrite:
             origin, spacing: placement in the world.
         """
         shape = _checks.lattice_shape(shape)
-        nodes = np.asarray(nodes, dtype=np.int64)
+        nodes = np.asarray(nodes)
+        if nodes.size and (nodes.dtype.kind not in "iu" or nodes.dtype == np.bool_):
+            raise TypeError(f"Expected integer coordinates for 'nodes', but got dtype {nodes.dtype}")
+        nodes = nodes.astype(np.int64)
         if nodes.ndim != 2 or nodes.shape[1] != len(shape):
             raise ValueError(f"Expected 'nodes' of shape (N, {len(shape)}), but got shape {nodes.shape}")
         n = len(nodes)
-        if n and (nodes.min() < 0 or np.any(nodes >= np.asarray(shape))):
-            raise ValueError(f"'nodes' must lie inside the lattice of shape {shape}")
-        parent = np.asarray(parent, dtype=np.int64).reshape(-1)
-        if parent.shape != (n,) or (n and (parent.min() < -1 or parent.max() >= n)):
-            raise ValueError(f"Expected 'parent' of shape ({n},) with rows in [-1, {n}), but got shape {parent.shape}")
+        outside = np.any((nodes < 0) | (nodes >= np.asarray(shape)), axis=1)
+        if outside.any():
+            row = int(np.argmax(outside))
+            raise ValueError(f"'nodes' row {row} = {tuple(nodes[row].tolist())} lies outside the lattice of shape {shape}")
+        parent = np.asarray(parent)
+        if parent.size and (parent.dtype.kind not in "iu" or parent.dtype == np.bool_):
+            raise TypeError(f"Expected integer rows for 'parent', but got dtype {parent.dtype}")
+        parent = parent.astype(np.int64).reshape(-1)
+        if parent.shape != (n,):
+            raise ValueError(f"Expected 'parent' of shape ({n},), but got shape {parent.shape}")
+        wrong = (parent < -1) | (parent >= n)
+        if wrong.any():
+            row = int(np.argmax(wrong))
+            raise ValueError(f"'parent' row {row} = {int(parent[row])} is not a row in [-1, {n})")
         padded = padded_index_of(nodes, shape)
         if len(np.unique(padded)) != n:
             raise ValueError("'nodes' lists a node twice")
@@ -221,8 +233,10 @@ def trace(
 
     Raises:
         ValueError: endpoints out of bounds, on masked nodes or unreachable
-            (the message names the row), or ``extend`` from another lattice shape.
-        TypeError: a ``costfield`` that is not a :class:`CostField`.
+            (the message names the row), ``extend`` from another lattice shape or on
+            nodes its mask forbids, a negative ``generation``.
+        TypeError: a ``costfield`` that is not a :class:`CostField`, a ``generation``
+            that is not an integer.
     """
     if not isinstance(costfield, CostField):
         raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
@@ -233,8 +247,16 @@ def trace(
             raise TypeError(f"Expected a Dendrite for 'extend', but got {type(extend).__name__}")
         if tuple(extend.shape) != lattice.shape:
             raise ValueError(f"'extend' has shape {extend.shape}, but the cost field's lattice has {lattice.shape}")
+        if lattice.mask is not None and len(extend):
+            blocked = ~lattice.mask[tuple(extend.nodes.T)]
+            if blocked.any():
+                row = int(np.argmax(blocked))
+                raise ValueError(f"'extend' row {row} = {tuple(extend.nodes[row].tolist())} is a masked-out node "
+                                 "of the cost field's lattice")
     if generation is None:
         generation = 0 if extend is None or not len(extend) else int(extend.generation.max()) + 1
+    else:
+        generation = _checks.integer("generation", generation, low=0)
 
     device = costfield.device
     arrays = lattice.device_arrays(device)

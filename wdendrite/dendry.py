@@ -42,7 +42,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
-from ._checks import finite, fits_in_memory, lattice_shape
+from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape
 from .control import Control, perlin, rectangle
 from .kernels import dendry as _kd
 
@@ -66,18 +66,14 @@ _STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
 
 
 def _int_in(name: str, value, lo: int, hi: int) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"Expected an integer for '{name}', but got {value!r}")
-    if not lo <= value <= hi:
+    x = integer(name, value)
+    if not lo <= x <= hi:
         raise ValueError(f"Expected '{name}' in [{lo}, {hi}], but got {value!r}")
-    return int(value)
+    return x
 
 
 def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
-    # text is not a number here, even when float() could parse it: "0.1" * length fails much later
-    if isinstance(value, (str, bytes)):
-        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
-    x = finite(name, value)
+    x = finite(name, value)  # refuses text too: "0.1" * length would fail much later
     if not (x > lo if open_lo else x >= lo) or not x <= hi:
         raise ValueError(f"Expected '{name}' in {'(' if open_lo else '['}{lo}, {hi}], but got {value!r}")
     return x
@@ -133,7 +129,7 @@ class DendryParams:
     """Level-1 cells per domain unit (> 0): the spacing of the main branches."""
     smoothing: bool = True
     """Bend segments along Catmull-Rom splines through their neighbours (section 4.2). Bent segments
-    reach farther, so links search at least 5 x 5 cells (see ``search``)."""
+    reach farther, so with subdivision on links search at least 5 x 5 cells (see ``search``)."""
     subdivision: bool = True
     """Split segments into 4, 3, 2, 1 pieces at levels 1, 2, 3, 4+ (False: straight, no displacement)."""
     beta: float = 0.5
@@ -537,7 +533,11 @@ def dendry(
     _check_reach(params, output, domain, control_domain, (x0 + (c0 + 0.5) * dx, y0 + (r0 + 0.5) * dy),
                  (x0 + (c0 + w - 0.5) * dx, y0 + (r0 + h - 0.5) * dy), what)
     control = default_control() if control is None else control
-    device = wp.get_device(device)
+    device = _device(device)
+    # the image on the device, and its copy on the host when the device is a GPU
+    fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
+    if not device.is_cpu:
+        fits_in_memory(4 * h * w, "cpu", f"The host copy of a Dendry image of shape {(h, w)}")
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
     res = params.resolution
@@ -590,7 +590,10 @@ def dendry_points(
         ValueError, TypeError: for bad points (not (N, 2), not finite, or beyond the coordinate
             bound of :func:`dendry`), domain, output or params, before any kernel runs.
     """
-    pts = np.asarray(points)
+    try:
+        pts = np.asarray(points)
+    except ValueError:  # ragged rows
+        raise ValueError(f"Expected 'points' of shape (N, 2), but got rows of different lengths: {points!r:.200}") from None
     if pts.dtype.kind not in "fiu" or pts.dtype == np.bool_:
         raise TypeError(f"Expected real-valued 'points', but got dtype {pts.dtype}")
     if pts.ndim != 2 or pts.shape[1] != 2:
@@ -607,7 +610,7 @@ def dendry_points(
     _check_reach(params, output, domain, control_domain, pts.min(axis=0).tolist(), pts.max(axis=0).tolist(),
                  f"'points' (row {row}: {pts[row].tolist()})")
     control = default_control() if control is None else control
-    device = wp.get_device(device)
+    device = _device(device)
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
     out = wp.zeros(n, dtype=float, device=device)

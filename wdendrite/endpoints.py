@@ -510,6 +510,9 @@ def in_band(
         cost = dist.reshape(-1)
     d = _finite("d", d)
     r = _checks.positive("r", r)
+    if d + r <= 0:
+        raise ValueError(f"The band (d - r, d + r) = ({d - r:g}, {d + r:g}) lies below cost 0, where no node is: "
+                         f"raise 'd' (got {d:g}) or 'r' (got {r:g})")
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
     if isinstance(cost, _sssp.CostField) and d + r > cost.limit:
         raise ValueError(

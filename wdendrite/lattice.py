@@ -317,6 +317,9 @@ class Lattice:
         if self.mask is not None:
             self.mask.flags.writeable = False
         wshape = (len(self.offsets), *self.shape)
+        if isinstance(weights, type):
+            raise TypeError(f"Expected a weight distribution instance or an array for 'weights', but got the class "
+                            f"{weights.__name__} (call it: {weights.__name__}())")
         self.distribution = weights if hasattr(weights, "kernel_params") else None
         """The weight distribution when weights came from one, else None."""
         self._weights = None

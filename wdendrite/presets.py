@@ -119,11 +119,11 @@ def _mean_weight(lat: Lattice) -> float:
 
 def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, seed: int = 0) -> Result:
     """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints)."""
-    shape = _shape(shape, 2)
+    shape, endpoints = _shape(shape, 2), _count("endpoints", endpoints)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     cf = shortest_paths(lat, gen)
-    den = trace(cf, _ep.random(lat, _count("endpoints", endpoints), seed=seed))
+    den = trace(cf, _ep.random(lat, endpoints, seed=seed))
     return Result(_drawing(den), den, parts={"lattice": lat})
 
 
@@ -144,12 +144,15 @@ def fractal_grid(
     seed: int = 0,
 ) -> Result:
     """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8)."""
-    cell = _count("cell", cell, 16)
+    cell, iterations = _count("cell", cell, 16), _count("iterations", iterations)
+    for b in betas:  # every panel's schedule checked before the first grows
+        for a in alphas:
+            _fractal_params(cell // 2, 1.0, a, b, iterations, count)
     panels, dens = [], {}
     for b in betas:
         for a in alphas:
             lat = Lattice((cell, cell), 8, weights=_w.Uniform(r=10, seed=seed))
-            p = _fractal_params(cell // 2, _mean_weight(lat), a, b, _count("iterations", iterations), count)
+            p = _fractal_params(cell // 2, _mean_weight(lat), a, b, iterations, count)
             den = grow(lat, [[cell // 2, cell // 2]], p, seed=seed)
             dens[(a, b)] = den
             panels.append(_drawing(den, 1.2))
@@ -159,9 +162,10 @@ def fractal_grid(
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
                   seed: int = 0) -> Result:
     """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations)."""
-    shape = _shape(shape, 2)
+    shape, iterations = _shape(shape, 2), _count("iterations", iterations)
+    _fractal_params(min(shape) // 2, 1.0, alpha, beta, iterations, count)  # checked before the lattice is built
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
-    p = _fractal_params(min(shape) // 2, _mean_weight(lat), alpha, beta, _count("iterations", iterations), count)
+    p = _fractal_params(min(shape) // 2, _mean_weight(lat), alpha, beta, iterations, count)
     den = grow(lat, [[shape[0] // 2, shape[1] // 2]], p, seed=seed)
     return Result(_drawing(den, 1.0), den, parts={"lattice": lat, "params": p})
 
@@ -218,10 +222,10 @@ def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), str
 
 def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
     """Two dendrites grown at once compete for space and never touch (2007 paper, Fig. 14; thesis Fig. 5.3)."""
-    shape = _shape(shape, 2)
+    shape, count = _shape(shape, 2), _count("count", count, 2)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
     gens = np.array([[shape[0] // 2, shape[1] // 3], [shape[0] // 2, 2 * shape[1] // 3]])
-    p = _fractal_params(min(shape) // 3, _mean_weight(lat), 1.5, 3.0, 3, _count("count", count, 2))
+    p = _fractal_params(min(shape) // 3, _mean_weight(lat), 1.5, 3.0, 3, count)
     den = grow(lat, gens, p, seed=seed)
     colours = [np.array([0.75, 0.3, 0.1]), np.array([0.1, 0.35, 0.7])]
     img = np.ones((*shape, 3), np.float32)
@@ -260,6 +264,7 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
     """
     from scipy import ndimage
 
+    per_1000 = _checks.positive("paths_per_1000", paths_per_1000)
     region = _text_mask(str(text), _count("height", height, 16)) if mask is None else _checks.bool_array(
         "mask", mask, np.shape(mask))
     if region.ndim != 2 or not region.any():
@@ -272,7 +277,7 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
         # each letter part grows from its node nearest to the part's centre
         gens.append(pts[np.argmin(((pts - pts.mean(axis=0)) ** 2).sum(axis=1))])
     cf = shortest_paths(lat, np.array(gens))
-    m = max(1, int(region.sum() * _checks.positive("paths_per_1000", paths_per_1000) / 1000.0))
+    m = max(1, int(region.sum() * per_1000 / 1000.0))
     den = trace(cf, _ep.random(lat, min(m, int(region.sum())), seed=seed))
     return Result(_drawing(den, 1.0), den, parts={"mask": region, "lattice": lat})
 
@@ -404,19 +409,22 @@ def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
                seed: int = 0) -> Result:
     """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4)."""
-    shape = _shape(shape, 2)
+    shape, endpoints = _shape(shape, 2), _count("endpoints", endpoints)
+    widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
     lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))
     cf = shortest_paths(lat, [[3, shape[1] // 2]])
-    ep = _ep.biased(lat, _count("endpoints", endpoints), seed=seed, power=2.0, within=_ep.Box(
+    ep = _ep.biased(lat, endpoints, seed=seed, power=2.0, within=_ep.Box(
         (shape[0] // 2, 2), (shape[0] - 3, shape[1] - 3)))
     den = trace(cf, ep)
-    widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
     values = [_r.brightness(den, wd_) for wd_ in widths]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
     return Result(_tile(panels, 3), den, parts={"values": values})
 
 
 # --------------------------------------------------------------------------- 3D models
+
+
+_GEOMETRIES = ("spheres", "tubes", "isosurface")
 
 
 def _tree_mesh(den: Dendrite, radius, side, geometry: str):
@@ -426,19 +434,21 @@ def _tree_mesh(den: Dendrite, radius, side, geometry: str):
         return _geo.tubes(den, radius, side=side)
     if geometry == "isosurface":
         return _geo.isosurface(den, radius, side=side, smooth=5)
-    raise ValueError(f"Expected 'geometry' in ('spheres', 'tubes', 'isosurface'), but got {geometry!r}")
+    raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
 
 
 def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes", seed: int = 0) -> Result:
     """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
     (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small)."""
-    shape = _shape(shape, 3)
+    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
+    if geometry not in _GEOMETRIES:
+        raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     crown = _ep.Disc((0.72 * d, h / 2, w / 2), 0.42 * min(h, w)).mask(shape)
     crown[: int(0.45 * d)] = False
     den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
-                _ep.random(lat, _count("endpoints", endpoints), within=crown, seed=seed, min_spacing=0.08 * d))
+                _ep.random(lat, endpoints, within=crown, seed=seed, min_spacing=0.08 * d))
     scale = d / 80.0
     radius = _r.Taper(2.4 * scale, 0.6 * scale, beta=0.3, along="path")
     side = _r.Taper(1.5 * scale, 0.35 * scale, beta=0.2, along="branch")
@@ -468,13 +478,15 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
 def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
     """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
     (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
-    shape = _shape(shape, 3)
+    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
+    if refine_n is not None and (_count("refine_n", refine_n, 0) % 2 == 0 and refine_n != 0 or refine_n == 1):
+        raise ValueError(f"Expected an odd integer 'refine_n' >= 3 (0 or None: no refinement), but got {refine_n!r}")
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     dome = _ep.Disc((0.1 * d, h / 2, w / 2), 0.85 * d).mask(shape) & ~_ep.Disc((0.1 * d, h / 2, w / 2), 0.55 * d).mask(shape)
     dome[: int(0.3 * d)] = False
     den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
-                _ep.random(lat, _count("endpoints", endpoints), within=dome, seed=seed, min_spacing=0.12 * d))
+                _ep.random(lat, endpoints, within=dome, seed=seed, min_spacing=0.12 * d))
     coarse = den
     if refine_n:
         den, _ = refine(den, lat, n=refine_n, seed=seed)
@@ -498,8 +510,8 @@ def _rock_field(shape, neighbours: int, seed: int):
 def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: int = 0) -> Result:
     """A "rock": the region of the lattice nearest (in path cost) to a central generator, meshed
     (2007 paper, Fig. 10 and Table 2: 128^3)."""
-    shape = _shape(shape, 3)
-    lat, cf = _rock_field(shape, _count("neighbours", neighbours, 4), seed)
+    shape, neighbours, smooth = _shape(shape, 3), _count("neighbours", neighbours, 4), _count("smooth", smooth, 0)
+    lat, cf = _rock_field(shape, neighbours, seed)
     mesh = _geo.region_mesh(cf.label, 0, smooth=smooth)
     return Result(_geo.preview(mesh, color=_ROCK), None, mesh, parts={"costfield": cf, "lattice": lat})
 
@@ -509,8 +521,8 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     (2007 paper, Fig. 16 and Table 2: 128^3). The mesh holds the rock and the lichen."""
     import trimesh
 
-    shape = _shape(shape, 3)
-    lat, cf = _rock_field(shape, _count("neighbours", neighbours, 4), seed)
+    shape, neighbours, count = _shape(shape, 3), _count("neighbours", neighbours, 4), _count("count", count)
+    lat, cf = _rock_field(shape, neighbours, seed)
     inside = cf.label == 0
     surf = _geo.surface_nodes(inside)
     on_surface = np.zeros(shape, bool)
@@ -518,7 +530,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     allowed = ~inside | on_surface
     lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed + 1), mask=allowed)
     top = surf[np.argmax(surf[:, 0] - 0.3 * np.abs(surf[:, 1:] - np.asarray(shape[1:]) / 2).sum(axis=1))]
-    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, _count("count", count))
+    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, count)
     den = grow(lichen_lat, [top], p, seed=seed, within=on_surface)
     rock_mesh = _geo.region_mesh(cf.label, 0, smooth=6)
     scale = min(shape) / 128.0
@@ -531,13 +543,13 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
 
 def moss(shape=(40, 96, 96), *, endpoints: int = 400, seed: int = 0) -> Result:
     """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15)."""
-    shape = _shape(shape, 3)
+    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     yy, xx = np.mgrid[:h, :w]
     plane = np.stack([np.zeros(h * w, np.int64), yy.ravel(), xx.ravel()], axis=1)
     cf = shortest_paths(lat, plane)
     band = _ep.Box((0.35 * d, 1, 1), (0.9 * d, h - 2, w - 2))
-    den = trace(cf, _ep.random(lat, _count("endpoints", endpoints), within=band, seed=seed, min_spacing=2.0))
+    den = trace(cf, _ep.random(lat, endpoints, within=band, seed=seed, min_spacing=2.0))
     mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)
     return Result(_geo.preview(mesh, color=_MOSS, elevation=35), den, mesh, parts={"lattice": lat})

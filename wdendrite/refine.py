@@ -277,8 +277,9 @@ def refine(
         ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), an empty dendrite,
             a dendrite from another lattice shape, or a negative ``seed``.
         TypeError: ``dendrite`` or ``lattice`` of the wrong type, a ``seed`` that is
-            neither an int nor a ``np.random.Generator``.
+            neither an int nor a ``np.random.Generator``; an unknown or absent ``device``.
     """
+    device = _checks.device(device)
     fine_lat, roots, ends, origin, lo, rows = _refined(dendrite, lattice, n, e, seed)
     cf = shortest_paths(fine_lat, roots, device=device)
     fine = trace(cf, ends)

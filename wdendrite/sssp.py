@@ -368,7 +368,7 @@ def shortest_paths(
         _check_warm_start(warm_start, lattice, gens, limit_f, rows_checked=trusted)
         if device is None:
             device = warm_start.device
-    device = wp.get_device(device)
+    device = _checks.device(device)
     need = lattice.search_bytes(device)
     if need:
         _checks.fits_in_memory(need, device, f"shortest_paths on a lattice of shape {lattice.shape}")

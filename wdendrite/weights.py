@@ -536,8 +536,8 @@ class Map(_Field):
         _number("strength", self.strength, low=0.0)
         _number("exponent", self.exponent, low=0.0, low_open=True)
         b = _grayscale("image", self.image)
-        if b.ndim not in (2, 3):
-            raise ValueError(f"Expected a 2D or 3D 'image' (one value per node), but got shape {b.shape}")
+        if b.ndim not in (2, 3) or b.size == 0:
+            raise ValueError(f"Expected a non-empty 2D or 3D 'image' (one value per node), but got shape {b.shape}")
         b = np.ascontiguousarray(b)
         b.flags.writeable = False
         object.__setattr__(self, "brightness", b)
