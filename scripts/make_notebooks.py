@@ -164,10 +164,11 @@ for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=
     print(f"{name:7s} depressions: {d.count:4d}, {d.percent:5.1f} % of the surface")
 area = hydrology.flow_accumulation(z, filled=True)
 show(hydrology.drainage_image(area))'''),
-        ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 -o terrain.png`."),
+        ("md", "The command draws the same terrain, shaded, with its rivers: "
+               "`wdendrite terrain --size 512 --levels 3 --seed 1 -o terrain.png`."),
         ("code", '''\
 from wdendrite import cli
-show(cli.MODELS["terrain"](n, seed=1).image)      # what `wdendrite terrain` runs'''),
+show(cli.MODELS["terrain"](n, params=p, seed=1).image)      # what `wdendrite terrain` runs'''),
     ],
     "06_batch": [
         ("md", "# Batch jobs on a GPU workstation\n\nA TOML job file lists presets with sweeps; `wdendrite batch "

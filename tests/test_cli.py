@@ -233,3 +233,17 @@ def test_tiled_terrain_from_the_command_equals_the_whole_image(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npy"]
     bad(["terrain", "--size", 45, "--tile", 16, "-o", "t.png"], tmp_path, "'.png'", ".npy, .zarr")
     bad(["terrain", "--size", 45, "--tile", 4, "-o", "t.npy"], tmp_path, "--tile")
+
+
+def test_a_terrain_written_as_npy_alone_skips_its_picture(tmp_path, monkeypatch):
+    # shading and drainage take longer than the terrain: only a picture output should pay for them
+    from wdendrite import _models
+
+    made = []
+    real = _models.relief
+    monkeypatch.setattr(_models, "relief", lambda *a, **k: made.append(1) or real(*a, **k))
+    cli.run_preset("terrain", {"size": 32}, [tmp_path / "t.npy"], device="cpu")
+    assert made == [] and np.load(tmp_path / "t.npy").shape == (32, 32)
+    cli.run_preset("terrain", {"size": 32}, [tmp_path / "t.png", tmp_path / "u.npy"], device="cpu")
+    assert made == [1]
+    np.testing.assert_array_equal(np.load(tmp_path / "t.npy"), np.load(tmp_path / "u.npy"))

@@ -38,14 +38,22 @@ def unit_range(a: np.ndarray) -> np.ndarray:
 class Made:
     """What one of the command's own models made (the shape of :class:`wdendrite.presets.Result`)."""
 
-    image: np.ndarray
-    """``(H, W, 3)`` or ``(H, W)`` float picture in [0, 1]."""
+    picture: object
+    """``(H, W, 3)`` or ``(H, W)`` float picture in [0, 1], or a function of no arguments that makes it
+    when :attr:`image` is first read (so that a run writing only ``.npy`` skips it)."""
     dendrite: object = None
     """The dendrite, if any."""
     mesh: object = None
     """A mesh, if any."""
     parts: dict = dataclass_field(default_factory=dict)
     """Further data; ``"field"`` or ``"elevation"`` is what ``.npy`` and ``--heightmap`` write."""
+
+    @property
+    def image(self) -> np.ndarray:
+        """The picture, made now if it was deferred."""
+        if callable(self.picture):
+            object.__setattr__(self, "picture", self.picture())  # made once, then kept
+        return self.picture
 
 
 def fractal(size: int = 256, *, cheap: float = 0.0, seed: int = 0, progress: bool = False) -> Made:
@@ -60,9 +68,9 @@ def fractal(size: int = 256, *, cheap: float = 0.0, seed: int = 0, progress: boo
 
     if size < 8:
         raise UsageError(f"--size must be at least 8, got {size}")
-    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     # a sparse, readable fractal: the first branches reach most of the way out
     params = FractalParams(count=6, d=1.2 * size, alpha=1.8, beta=2.5, epsilon=0.12 * size, cheap=cheap)
+    lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
     # brightness grows with the number of endpoints a node carries (thicker trunks)
     img = np.zeros(lat.shape)
@@ -177,15 +185,20 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
                          seed=seed)
     z = _dendry(**setup, output="elevation")
-    img = relief(z, extent / size)
     parts = {"elevation": z}
-    if rivers:
-        area = hydrology.flow_accumulation(z, filled=True)
-        # rivers appear where 0.1 % of the image drains through a cell and are full at 2 %
-        wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
-        img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85], np.float32)
-        parts["drainage"] = area
-    return Made(img.astype(np.float32), parts=parts)
+
+    def picture() -> np.ndarray:
+        # shading and drainage take longer than the terrain itself: only for a picture
+        img = relief(z, extent / size)
+        if rivers:
+            area = hydrology.flow_accumulation(z, filled=True)
+            # rivers appear where 0.1 % of the image drains through a cell and are full at 2 %
+            wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
+            img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85], np.float32)
+            parts["drainage"] = area
+        return img.astype(np.float32)
+
+    return Made(picture, parts=parts)
 
 
 def relief(z: np.ndarray, spacing: float) -> np.ndarray:

@@ -119,7 +119,8 @@ class Param:
 
     def help_text(self) -> str:
         """``doc (default: x) [unit]`` with argparse's % escaped."""
-        doc = (self.doc or self.name.replace("_", " ")).rstrip(".")
+        # reST literals read as plain words on a terminal
+        doc = (self.doc or self.name.replace("_", " ")).rstrip(".").replace("``", "")
         if self.kind == "choice":
             doc += f"; one of {', '.join(self.choices)}"
         unit = f" [{self.unit}]" if self.unit else ""
