@@ -266,3 +266,11 @@ def test_bad_images_raise_before_any_kernel(call, exc, match, launches):
     assert launches == []
     glow(np.ones((4, 4)))
     assert launches  # so the empty record above means that no kernel ran
+
+
+def test_an_absent_device_is_a_value_error_naming_it(launches):
+    import wdendrite as wd
+
+    with pytest.raises(ValueError, match="'device'"):
+        wd.render.glow(np.zeros((8, 8), np.float32), device="cuda:9")
+    assert launches == []

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from ._checks import finite, fits_in_memory, lattice_shape, nonnegative, positive
+from ._checks import device as _device, finite, fits_in_memory, lattice_shape, nonnegative, positive
 from .kernels import noise as _kn
 
 __all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
@@ -134,7 +134,7 @@ class Control:
             raise ValueError(f"Expected 'points' of shape (N, 2), but got shape {pts.shape}")
         if not np.isfinite(pts).all():
             raise ValueError("'points' must be finite, but has NaN/inf entries")
-        device = wp.get_device(device)
+        device = _device(device)
         out = wp.zeros(len(pts), dtype=float, device=device)
         if len(pts):
             wp.launch(
@@ -153,7 +153,7 @@ class Control:
             ValueError, TypeError: ``shape`` is not two positive ints.
             MemoryError: the grid does not fit in the device's free memory.
         """
-        device = wp.get_device(device)
+        device = _device(device)
         h, w = _grid_shape(shape, device)
         (x0, y0), (x1, y1) = self.domain
         out = wp.zeros((h, w), dtype=float, device=device)

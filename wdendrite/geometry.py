@@ -238,7 +238,7 @@ def field_mesh(
     smooth = _int_arg("smooth", smooth, 0)
     level = _checks.finite("level", level)
     band = None if band is None else _checks.positive("band", band)
-    dev = field.device if isinstance(field, wp.array) else wp.get_device(device if device is not None else "cpu")
+    dev = field.device if isinstance(field, wp.array) else _checks.device(device if device is not None else "cpu")
     # _backend is a testing hook: "warp" runs Warp's marching cubes on any device
     if (dev.is_cuda and _backend == "auto") or _backend == "warp":
         from warp.geometry import IsoSurfaceMarchingCubes
@@ -383,7 +383,7 @@ def region_mesh(labels, region, *, band: float = 2.0, smooth: int = 0, spacing: 
     spacing = _checks.positive("spacing", spacing)
     field = signed_region_field(inside, band=band, device=device)
     # boundary nodes hold +-1/2 and their neighbours +-3/2: the crossed cubes start there
-    cpu = wp.get_device(device).is_cpu
+    cpu = _checks.device(device).is_cpu
     # the border outside the lattice acts as outside nodes next to the boundary (+3/2)
     return field_mesh(_padded(field, 1.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
                       band=2.0 if cpu else None, device=device)
@@ -399,7 +399,7 @@ def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -
     if mask.dtype != np.bool_ or mask.ndim != 3:
         raise ValueError(f"Expected a 3D bool array for 'inside', but got {mask.dtype} {mask.shape}")
     band = _checks.positive("band", band)
-    device = wp.get_device(device)
+    device = _checks.device(device)
     shape = mask.shape
     n = mask.size
     with wp.ScopedDevice(device):
@@ -488,7 +488,7 @@ def preview(
     depth = float(np.linalg.norm(hi - lo)) + 1.0
     light = forward + 0.6 * right - 0.8 * up
     light /= np.linalg.norm(light)
-    device = wp.get_device(device)
+    device = _checks.device(device)
     with wp.ScopedDevice(device):
         wmesh = wp.Mesh(points=wp.array(verts.astype(np.float32), dtype=wp.vec3),
                         indices=wp.array(faces.astype(np.int32).ravel(), dtype=wp.int32))

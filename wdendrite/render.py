@@ -253,7 +253,7 @@ def _splat(nodes: np.ndarray, shape: tuple, reach: float, device, metric: str = 
     ``metric="path"`` is the path length on a unit-weight lattice (8- or 26-connected, no
     mask), which has a closed form, so no search is needed.
     """
-    device = wp.get_device(device)
+    device = _checks.device(device)
     n = int(np.prod(shape))
     nodes3 = np.zeros((len(nodes), 3), np.int32)
     nodes3[:, 3 - len(shape):] = nodes
@@ -520,7 +520,7 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
         raise ValueError(f"Expected an integer 'passes' >= 1, but got {passes!r}")
     # a box of half-width h has variance h (h + 1) / 3; pick h so the passes add up to radius^2
     half = max(1, int(round(0.5 * (math.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
-    device = wp.get_device(device)
+    device = _checks.device(device)
     h, w = img.shape
     # kernels take rows four at a time and columns as vec4 groups: a buffer of whole groups
     # (padding zeros, never read into the image), its rows a few floats longer than the image
@@ -598,7 +598,7 @@ def colorize(
         raise ValueError(f"'glow' has shape {halo.shape}, but 'value' has shape {img.shape}")
     gc = _rgb_triple("glow_color", glow_color)
     bg = _rgb("background", (0.0, 0.0, 0.0) if background is None else background, img.shape)
-    device = wp.get_device(device)
+    device = _checks.device(device)
     with wp.ScopedDevice(device):
         out = wp.empty(img.shape, dtype=wp.vec3)
         wp.launch(_k.colorize_kernel, dim=img.shape,

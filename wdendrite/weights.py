@@ -138,7 +138,7 @@ class Distribution:
                 largest possible weight exceeds 1e30.
         """
         shape = _checks.lattice_shape(shape)
-        device = wp.get_device(device)
+        device = _checks.device(device)
         kind, a, b, seed = self._base()
         terms, maps = [], []
         start = 0
@@ -196,7 +196,7 @@ class Distribution:
             ValueError: a bad ``shape``, ``lengths`` or ``offsets`` that do not match it,
                 or a distribution whose weights could exceed 1e30 (see :meth:`kernel_params`).
         """
-        device = wp.get_device(device if device is not None else "cpu")
+        device = _checks.device(device if device is not None else "cpu")
         shape, params, shape3, off, lens = self._launch_args(shape, lengths, offsets, device)
         n = math.prod(shape)
         out = wp.empty((len(lens), n), dtype=float, device=device)
@@ -220,7 +220,7 @@ class Distribution:
             ValueError: as for :meth:`sample`; ``nodes`` and ``directions`` of different
                 lengths or out of range.
         """
-        device = wp.get_device(device if device is not None else "cpu")
+        device = _checks.device(device if device is not None else "cpu")
         shape, params, shape3, off, lens = self._launch_args(shape, lengths, offsets, device)
         nodes = np.asarray(nodes).reshape(-1)
         directions = np.asarray(directions).reshape(-1)
