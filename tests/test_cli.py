@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from wdendrite import cli
@@ -247,3 +248,16 @@ def test_a_terrain_written_as_npy_alone_skips_its_picture(tmp_path, monkeypatch)
     cli.run_preset("terrain", {"size": 32}, [tmp_path / "t.png", tmp_path / "u.npy"], device="cpu")
     assert made == [1]
     np.testing.assert_array_equal(np.load(tmp_path / "t.npy"), np.load(tmp_path / "u.npy"))
+
+
+def test_a_deferred_picture_that_fails_leaves_no_output(tmp_path, monkeypatch):
+    # the picture is made with the model, before the first output is written
+    from wdendrite import _models
+
+    def broken(*args, **kwargs):
+        raise MemoryError("no room for the picture")
+
+    monkeypatch.setattr(_models, "relief", broken)
+    with pytest.raises(MemoryError):
+        cli.run_preset("terrain", {"size": 32}, [tmp_path / "t.npy", tmp_path / "t.png"], device="cpu")
+    assert list(tmp_path.iterdir()) == []

@@ -221,3 +221,12 @@ def test_terrain_larger_than_free_memory_raises_before_any_kernel(monkeypatch, l
     with pytest.raises(MemoryError, match=r"'shape' \(64, 64\)"):
         hydrology.fbm_terrain((64, 64))
     assert launches == []
+
+
+@pytest.mark.parametrize("make", ["fbm_terrain", "ridged_terrain"])
+def test_noise_terrains_name_an_absent_device(make, launches):
+    from wdendrite import hydrology
+
+    with pytest.raises(ValueError, match="'device'"):
+        getattr(hydrology, make)((8, 8), device="cuda:9")
+    assert launches == []

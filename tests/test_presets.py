@@ -150,6 +150,7 @@ def test_bad_input(call, match):
     [
         (presets.staghorn_coral, dict(shape=(16, 16, 16), refine_n=4), "refine_n"),
         (presets.staghorn_coral, dict(shape=(16, 16, 16), refine_n=1), "refine_n"),
+        (presets.staghorn_coral, dict(shape=(16, 16, 16), refine_n=2.0), "refine_n"),
         (presets.simple_dendrite, dict(shape=(32, 32), endpoints=0), "endpoints"),
         (presets.elm_tree, dict(shape=(16, 16, 16), endpoints=0), "endpoints"),
         (presets.elm_tree, dict(shape=(16, 16, 16), geometry="cubes"), "geometry"),

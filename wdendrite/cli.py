@@ -200,6 +200,8 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
         t0 = time.perf_counter()
         with wp.ScopedDevice(dev):
             result = preset.func(**kwargs)
+            if not heightmap and any(p.suffix.lower() == ".png" for p in paths):
+                _picture(result)  # a deferred picture is made here: it counts as making, and fails before any write
         seconds = time.perf_counter() - t0
         bar.update(1)
         t1 = time.perf_counter()

@@ -21,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 
+from . import _checks
 from . import control as _control
 
 __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill", "flow_accumulation",
@@ -212,6 +213,7 @@ def fbm_terrain(shape, *, seed: int = 0, frequency: float = 4.0, octaves: int = 
         ValueError, TypeError: a bad ``shape`` or noise parameter (before any kernel runs).
         MemoryError: the terrain does not fit in the device's free memory.
     """
+    device = _checks.device(device)
     _control._grid_shape(shape, device)  # the control's own range search launches kernels: check first
     c = _control.perlin(seed=seed, frequency=frequency, octaves=octaves, domain=((0.0, 0.0), (1.0, 1.0)))
     return c.grid(shape, device=device)
@@ -223,6 +225,7 @@ def ridged_terrain(shape, *, seed: int = 0, frequency: float = 4.0, octaves: int
     Arguments, result and errors as for :func:`fbm_terrain` (noise parameters as for
     :func:`wdendrite.control.ridged`).
     """
+    device = _checks.device(device)
     _control._grid_shape(shape, device)
     c = _control.ridged(seed=seed, frequency=frequency, octaves=octaves, domain=((0.0, 0.0), (1.0, 1.0)))
     return c.grid(shape, device=device)

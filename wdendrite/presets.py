@@ -480,7 +480,7 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
     (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
     shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
     # checked before the coarse dendrite is grown; 0 or None: no refinement
-    if refine_n is not None and _count("refine_n", refine_n, 0) != 0 and (refine_n < 3 or refine_n % 2 == 0):
+    if refine_n not in (None, False) and _count("refine_n", refine_n, 0) != 0 and (refine_n < 3 or refine_n % 2 == 0):
         raise ValueError(f"Expected an odd integer 'refine_n' >= 3 (0 or None: no refinement), but got {refine_n!r}")
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))

@@ -275,9 +275,10 @@ def refine(
 
     Raises:
         ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), an empty dendrite,
-            a dendrite from another lattice shape, or a negative ``seed``.
+            a dendrite from another lattice shape, a negative ``seed``, or an unknown
+            or absent ``device``.
         TypeError: ``dendrite`` or ``lattice`` of the wrong type, a ``seed`` that is
-            neither an int nor a ``np.random.Generator``; an unknown or absent ``device``.
+            neither an int nor a ``np.random.Generator``.
     """
     device = _checks.device(device)
     fine_lat, roots, ends, origin, lo, rows = _refined(dendrite, lattice, n, e, seed)
