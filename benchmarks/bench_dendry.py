@@ -12,7 +12,7 @@ default, searches as wide as measured to miss no link; ``paper`` searches the
 paper's 3 x 3 cells for links, as the peer does.
 
 Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
-       [--search exact paper] [--device cpu]
+       [--lichtenberg-size 1024] [--search exact paper] [--device cpu]
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[512, 1024])
     ap.add_argument("--levels", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
     ap.add_argument("--pixel-window", type=int, default=96)
+    ap.add_argument("--lichtenberg-size", type=int, default=1024, help="side of the Lichtenberg figure (0: skip it)")
     ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
@@ -71,7 +72,8 @@ def main() -> None:
     print("| workload | size | levels | output | search | mode | px/s | peer px/s | ratio |")
     print("| --- | ---: | ---: | --- | --- | --- | ---: | ---: | ---: |")
     cases = [("table1", size, lv, out) for size in args.sizes for lv in args.levels for out in ("distance", "elevation")]
-    cases.append(("lichtenberg", 1024, 6, "distance"))
+    if args.lichtenberg_size > 0:
+        cases.append(("lichtenberg", args.lichtenberg_size, 6, "distance"))
     for (kind, size, levels, out), search in itertools.product(cases, args.search):
         kw = _case(kind, levels, search)
         for mode in ("cached", "pixel"):

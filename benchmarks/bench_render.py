@@ -22,7 +22,7 @@ runs once to compile, then the best of ``--repeat`` runs is kept. Outputs are
 compared: images by their largest difference, meshes by vertex count and
 volume.
 
-Run: ``python benchmarks/bench_render.py`` (``--small`` for a quick check).
+Run: ``python benchmarks/bench_render.py`` (``--quick`` for a smoke test, as the other benchmarks).
 """
 
 from __future__ import annotations
@@ -30,10 +30,13 @@ from __future__ import annotations
 import argparse
 import time
 
+import logging
+
 import numpy as np
 import warp as wp
 
 wp.config.quiet = True
+wp.config.log_level = logging.WARNING  # no start-up banner
 
 
 def best_of(fn, repeat: int):
@@ -191,7 +194,8 @@ def main():
     ap.add_argument("--size3d", type=int, default=128)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--small", action="store_true", help="512^2 and 48^3, for a quick check")
+    ap.add_argument("--quick", "--small", dest="small", action="store_true",
+                    help="512^2 and 48^3, a smoke test (--small: the old name)")
     args = ap.parse_args()
     if args.small:
         args.size2d, args.size3d = 512, 48
