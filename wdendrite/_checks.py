@@ -65,6 +65,39 @@ def float_array(
     return arr
 
 
+def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
+    """``value`` as a C-contiguous ``dtype`` array that is non-empty, finite and of a shape ``shape_ok`` accepts.
+
+    Args:
+        name: the parameter, for the error messages.
+        value: array-like.
+        shapes: the accepted shapes in words, e.g. ``"2D (H, W)"``.
+        shape_ok: ``shape -> bool``.
+        kinds: accepted NumPy dtype kinds (``"b"`` admits bool arrays).
+        dtype: the returned array's dtype; values too large for it count as infinite.
+
+    Raises:
+        TypeError: a dtype outside ``kinds`` (text, objects).
+        ValueError: an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
+    """
+    raw = np.asarray(value)
+    if raw.dtype.kind not in kinds:
+        raise TypeError(f"Expected a real-valued {shapes} array for '{name}', but got dtype {raw.dtype} "
+                        f"(shape {raw.shape})")
+    if raw.size == 0 or not shape_ok(raw.shape):
+        raise ValueError(f"Expected a non-empty {shapes} array for '{name}', but got shape {raw.shape}")
+    with np.errstate(over="ignore"):
+        arr = np.ascontiguousarray(raw, dtype=dtype)
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        v = raw[first].item()
+        why = f" (too large for {np.dtype(dtype).name})" if math.isfinite(v) else ""
+        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries "
+                         f"(first at {first}: {v!r}{why})")
+    return arr
+
+
 def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     """Return ``value`` as a C-contiguous bool array of ``shape``."""
     arr = np.asarray(value)
@@ -181,12 +214,14 @@ def device(value, name: str = "device"):
         raise ValueError(f"Expected a Warp device for '{name}' (one of {', '.join(known)}), but got {value!r}: {e}") from None
 
 
-def integer(name: str, value, *, low: int | None = None) -> int:
-    """``value`` as a Python int (bools, floats and text refused), at least ``low`` when given."""
+def integer(name: str, value, *, low: int | None = None, high: int | None = None) -> int:
+    """``value`` as a Python int (bools, floats and text refused), in ``[low, high]`` where given."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"Expected an integer for '{name}', but got {value!r}")
-    if low is not None and value < low:
-        raise ValueError(f"Expected '{name}' >= {low}, but got {value!r}")
+    if (low is not None and value < low) or (high is not None and value > high):
+        span = f"in [{low}, {high}]" if low is not None and high is not None else (
+            f">= {low}" if low is not None else f"<= {high}")
+        raise ValueError(f"Expected '{name}' {span}, but got {value!r}")
     return int(value)
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, lattice_shape, nonnegative, positive
+from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, nonnegative, positive
 from .kernels import noise as _kn
 
 __all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
@@ -58,16 +58,6 @@ def rectangle(name: str, value) -> Rect:
     if not (x1 > x0 and y1 > y0):
         raise ValueError(f"Expected '{name}' with x0 < x1 and y0 < y1 (not empty, not inverted), but got {value!r}")
     return ((x0, y0), (x1, y1))
-
-
-def _integer(name: str, value, low: int, high: int | None = None) -> int:
-    """Return ``value`` as an int in [low, high] (bools refused)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"Expected an integer '{name}', but got {value!r}")
-    if value < low or (high is not None and value > high):
-        span = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ValueError(f"Expected an integer '{name}' {span}, but got {value!r}")
-    return int(value)
 
 
 def _grid_shape(shape, device) -> tuple[int, int]:
@@ -197,7 +187,7 @@ def _permutation(seed: int) -> np.ndarray:
 def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
-    octaves = _integer("octaves", octaves, 1, 16)
+    octaves = integer("octaves", octaves, low=1, high=16)
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
@@ -333,7 +323,7 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
 
     if not isinstance(base, Control):
         raise TypeError(f"Expected a Control for 'base', but got {type(base).__name__}")
-    samples = _integer("samples", samples, 3)
+    samples = integer("samples", samples, low=3)
     rise = nonnegative("slope", slope, allow_none=False) * max(base.maximum - base.minimum, 1e-12)
     z = base.grid((samples, samples)).astype(np.float64)
     n = samples

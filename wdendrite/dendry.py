@@ -65,13 +65,6 @@ _WIDE_DELTA = 0.5
 _STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
 
 
-def _int_in(name: str, value, lo: int, hi: int) -> int:
-    x = integer(name, value)
-    if not lo <= x <= hi:
-        raise ValueError(f"Expected '{name}' in [{lo}, {hi}], but got {value!r}")
-    return x
-
-
 def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
     x = finite(name, value)  # refuses text too: "0.1" * length would fail much later
     if not (x > lo if open_lo else x >= lo) or not x <= hi:
@@ -154,8 +147,8 @@ class DendryParams:
     def __post_init__(self):
         # every field is checked, then stored as a plain Python value (int, float, bool, str, tuple)
         put = functools.partial(object.__setattr__, self)
-        put("levels", _int_in("levels", self.levels, 1, 6))
-        put("seed", _int_in("seed", self.seed, -(2**63), 2**64 - 1))
+        put("levels", integer("levels", self.levels, low=1, high=6))
+        put("seed", integer("seed", self.seed, low=-(2**63), high=2**64 - 1))
         put("eps", _float_in("eps", self.eps, 0.0, 0.5))
         if isinstance(self.delta, (tuple, list, np.ndarray)):
             if len(self.delta) != self.levels:
@@ -170,7 +163,7 @@ class DendryParams:
             put(name, bool(getattr(self, name)))
         put("beta", _float_in("beta", self.beta, 0.0, 2.0))
         put("noise", _float_in("noise", self.noise, 0.0, 1.0))
-        put("primitive_steps", _int_in("primitive_steps", self.primitive_steps, 1, 4))
+        put("primitive_steps", integer("primitive_steps", self.primitive_steps, low=1, high=4))
         if not isinstance(self.rule, str) or self.rule not in _RULES:
             raise ValueError(f"Expected 'rule' in {_RULES}, but got {self.rule!r}")
         put("rule", str(self.rule))

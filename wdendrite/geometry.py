@@ -31,7 +31,7 @@ from .dendrite import Dendrite
 from .kernels import geometry as _kg
 from .kernels import render as _kr
 from .lattice import Lattice
-from .render import Metric, Width, _choice, _finite_array, _METRICS, _nearest, _rgb_triple, node_widths
+from .render import Metric, Width, _choice, _METRICS, _nearest, _rgb_triple, node_widths
 
 __all__ = ["field_mesh", "isosurface", "preview", "region_mesh", "spheres", "surface_nodes", "tubes"]
 
@@ -181,10 +181,10 @@ def _check_field(field) -> np.ndarray | wp.array:
         if field.ndim != 3 or field.dtype != wp.float32:
             raise ValueError(f"Expected a 3D float32 Warp array for 'field', but got {field.ndim}D {field.dtype}")
         if field.device.is_cpu:
-            _finite_array("field", field.numpy(), "3D (D, H, W)", lambda s: len(s) == 3)
+            _checks.finite_array("field", field.numpy(), "3D (D, H, W)", lambda s: len(s) == 3)
         shape = field.shape
     else:
-        field = _finite_array("field", field, "3D (D, H, W)", lambda s: len(s) == 3)
+        field = _checks.finite_array("field", field, "3D (D, H, W)", lambda s: len(s) == 3)
         shape = field.shape
     if min(shape) < 2:
         raise ValueError(f"Expected at least 2 nodes on every axis of 'field', but got shape {tuple(shape)}")
@@ -234,7 +234,7 @@ def field_mesh(
     """
     field = _check_field(field)
     spacing = _checks.positive("spacing", spacing)
-    org = _finite_array("origin", origin, "(3,) (z, y, x)", lambda s: s == (3,)).astype(np.float64)
+    org = _checks.finite_array("origin", origin, "(3,) (z, y, x)", lambda s: s == (3,)).astype(np.float64)
     smooth = _int_arg("smooth", smooth, 0)
     level = _checks.finite("level", level)
     band = None if band is None else _checks.positive("band", band)

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _checks
+
 __all__ = [
     "DENDRITE_FORMATS", "MESH_FORMATS", "atomic_write", "load_dendrite", "save_dendrite", "save_mesh", "save_png",
     "save_svg", "svg_polylines",
@@ -95,10 +97,8 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     """
     from PIL import Image
 
-    from .render import _finite_array
-
     _target(path, overwrite)
-    img = _finite_array("image", image, "(H, W), (H, W, 3) or (H, W, 4)",
+    img = _checks.finite_array("image", image, "(H, W), (H, W, 3) or (H, W, 4)",
                         lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=np.float64)
     if bits not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
@@ -142,15 +142,13 @@ def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False)
         TypeError: ``mesh`` is not a mesh.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
-    from .render import _finite_array
-
     fmt = _format(path, format, MESH_FORMATS, "mesh")
     _target(path, overwrite)
     if not all(hasattr(mesh, a) for a in ("export", "vertices", "faces")):
         raise TypeError(f"Expected a trimesh.Trimesh for 'mesh', but got {type(mesh).__name__}")
     if not len(mesh.faces):
         raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh', but it has none")
-    _finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
+    _checks.finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
     return atomic_write(path, lambda tmp: mesh.export(tmp, file_type=fmt), overwrite=overwrite)
 
 

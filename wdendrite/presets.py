@@ -28,7 +28,7 @@ from . import weights as _w
 from .dendrite import Dendrite, trace
 from .growth import FractalParams, grow
 from .lattice import Lattice
-from .refine import refine
+from .refine import _check_n_e, refine
 from .sssp import shortest_paths
 
 __all__ = [
@@ -479,9 +479,8 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
     """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
     (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
     shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
-    # checked before the coarse dendrite is grown; 0 or None: no refinement
-    if refine_n not in (None, False) and _count("refine_n", refine_n, 0) != 0 and (refine_n < 3 or refine_n % 2 == 0):
-        raise ValueError(f"Expected an odd integer 'refine_n' >= 3 (0 or None: no refinement), but got {refine_n!r}")
+    if refine_n:  # 0 or None: no refinement; checked before the coarse dendrite is grown
+        _check_n_e(refine_n, 0.75, n_name="refine_n")
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     dome = _ep.Disc((0.1 * d, h / 2, w / 2), 0.85 * d).mask(shape) & ~_ep.Disc((0.1 * d, h / 2, w / 2), 0.55 * d).mask(shape)

@@ -31,10 +31,11 @@ from .weights import Distribution
 __all__ = ["Refined", "refine", "refined_lattice"]
 
 
-def _check_n_e(n, e) -> tuple[int, float]:
-    """The sublattice size ``n`` (odd, >= 3) and interpolation share ``e`` (in (0.5, 1)), validated."""
+def _check_n_e(n, e, *, n_name: str = "n") -> tuple[int, float]:
+    """The sublattice size ``n`` (odd, >= 3) and interpolation share ``e`` (in (0.5, 1)), validated;
+    ``n_name`` is what the caller calls ``n``."""
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 3 or n % 2 == 0:
-        raise ValueError(f"Expected an odd integer 'n' >= 3, but got {n!r}")
+        raise ValueError(f"Expected an odd integer '{n_name}' >= 3, but got {n!r}")
     e = _checks.positive("e", e)
     if not 0.5 < e < 1.0:
         raise ValueError(f"Expected 'e' in the open interval (0.5, 1), but got {e!r}")

@@ -416,45 +416,12 @@ def brightness(
     return out.numpy().reshape(den.shape)
 
 
-def _finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
-    """``value`` as a C-contiguous ``dtype`` array that is non-empty, finite and of a shape ``shape_ok`` accepts.
-
-    Args:
-        name: the parameter, for the error messages.
-        value: array-like.
-        shapes: the accepted shapes in words, e.g. ``"2D (H, W)"``.
-        shape_ok: ``shape -> bool``.
-        kinds: accepted NumPy dtype kinds (``"b"`` admits bool arrays).
-        dtype: the returned array's dtype; values too large for it count as infinite.
-
-    Raises:
-        TypeError: a dtype outside ``kinds`` (text, objects).
-        ValueError: an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
-    """
-    raw = np.asarray(value)
-    if raw.dtype.kind not in kinds:
-        raise TypeError(f"Expected a real-valued {shapes} array for '{name}', but got dtype {raw.dtype} "
-                        f"(shape {raw.shape})")
-    if raw.size == 0 or not shape_ok(raw.shape):
-        raise ValueError(f"Expected a non-empty {shapes} array for '{name}', but got shape {raw.shape}")
-    with np.errstate(over="ignore"):
-        arr = np.ascontiguousarray(raw, dtype=dtype)
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        v = raw[first].item()
-        why = f" (too large for {np.dtype(dtype).name})" if math.isfinite(v) else ""
-        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries "
-                         f"(first at {first}: {v!r}{why})")
-    return arr
-
-
 def _image(name: str, value) -> np.ndarray:
-    return _finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2)
+    return _checks.finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2)
 
 
 def _rgb_triple(name: str, value) -> np.ndarray:
-    return _finite_array(name, value, "RGB triple (3,)", lambda s: s == (3,))
+    return _checks.finite_array(name, value, "RGB triple (3,)", lambda s: s == (3,))
 
 
 Blend = Literal["max", "add", "screen"]
@@ -558,7 +525,7 @@ def _lut(colormap: str, size: int = 256) -> np.ndarray:
 
 
 def _rgb(name: str, value, shape) -> np.ndarray:
-    arr = _finite_array(name, value, f"RGB triple (3,) or image {(*shape, 3)}", lambda s: s in ((3,), (*shape, 3)))
+    arr = _checks.finite_array(name, value, f"RGB triple (3,) or image {(*shape, 3)}", lambda s: s in ((3,), (*shape, 3)))
     return np.broadcast_to(arr, (*shape, 3)).copy() if arr.shape == (3,) else arr
 
 
