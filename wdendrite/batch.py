@@ -242,11 +242,11 @@ def _sweep_temporaries(task: Task) -> None:
 
 
 def _prepare_folder(folder: Path) -> None:
+    from .cli import probe_folder
+
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / f".wdendrite-probe-{os.getpid()}"
-        probe.write_bytes(b"")
-        probe.unlink()
+        probe_folder(folder)
     except OSError as exc:
         raise UsageError(f"output folder {str(folder)!r} is not writable ({exc.strerror or exc})") from None
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import re
 import sys
 import tempfile
@@ -55,6 +54,17 @@ def pick_device(name: str | None) -> str:
     return want
 
 
+def probe_folder(folder) -> None:
+    """Raise ``OSError`` unless a file can be created in ``folder``.
+
+    ``os.access`` says yes to root even on read-only file systems, so a file is really
+    made: an unnamed one where the system allows it (Linux), so that a run killed
+    meanwhile leaves nothing behind in the user's folder.
+    """
+    with tempfile.TemporaryFile(dir=folder):
+        pass
+
+
 def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -> list[Path]:
     """Validate output paths before any work: known suffix, existing writable folder, no clobbering."""
     out = []
@@ -68,10 +78,8 @@ def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -
         folder = p.parent if str(p.parent) else Path(".")
         if not folder.is_dir():
             raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
-        try:  # os.access says yes to root even on read-only file systems: really try
-            fd, tmp = tempfile.mkstemp(prefix=".wdendrite-probe.", dir=folder)
-            os.close(fd)
-            os.unlink(tmp)
+        try:
+            probe_folder(folder)
         except OSError as exc:
             raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable "
                              f"({exc.strerror})") from None
