@@ -44,12 +44,15 @@ print('RESULT ' + json.dumps({'seconds': dt, 'peak_mib': (peak - base) / 1024.0,
 """
 
 
-def run_isolated(module: str, name: str, **kwargs) -> dict:
-    """Run ``module.name(**kwargs)`` -> ``(prepare, run)`` in a child process; return its measurement."""
+def run_isolated(module: str, name: str, *, python: str | None = None, **kwargs) -> dict:
+    """Run ``module.name(**kwargs)`` -> ``(prepare, run)`` in a child process; return its measurement.
+
+    ``python``: the interpreter of the child (default: this one), for a peer that lives in
+    an environment of its own."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.path.dirname(os.path.abspath(__file__)) + os.pathsep + env.get("PYTHONPATH", "")
     proc = subprocess.run(
-        [sys.executable, "-c", _CHILD, module, name, json.dumps(kwargs)],
+        [python or sys.executable, "-c", _CHILD, module, name, json.dumps(kwargs)],
         capture_output=True, text=True, env=env,
     )
     for line in proc.stdout.splitlines():

@@ -104,6 +104,64 @@ def test_d8_accumulation_equals_brute_force_and_conserves_area():
 
 
 
+def test_d8_with_ties_and_flats_equals_brute_force():
+    # small integer heights: equal drops (the first neighbour in row-major order wins), flats
+    # that pass nothing, and long chains through the flow graph
+    rng = np.random.default_rng(5)
+    for z in (rng.integers(0, 4, (31, 29)).astype(float), np.round(hydrology.fbm_terrain((40, 50), seed=2) * 8)):
+        area = hydrology.flow_accumulation(z)
+        want, _ = _d8_reference(z)
+        np.testing.assert_array_equal(area, want)
+
+
+def _dinf_reference(z):
+    """Tarboton's D-infinity, one cell at a time with math.atan2, passed on highest first."""
+    import math
+
+    h, w = z.shape
+    facets = [((0, 1), (-1, 1)), ((-1, 0), (-1, 1)), ((-1, 0), (-1, -1)), ((0, -1), (-1, -1)),
+              ((0, -1), (1, -1)), ((1, 0), (1, -1)), ((1, 0), (1, 1)), ((0, 1), (1, 1))]
+    inside = lambda r, c: 0 <= r < h and 0 <= c < w  # noqa: E731
+    share = {}
+    for r in range(h):
+        for c in range(w):
+            best, choice = 0.0, None
+            for (a, b), (d, e) in facets:
+                if not inside(r + a, c + b):
+                    continue
+                s1 = z[r, c] - z[r + a, c + b]
+                if not inside(r + d, c + e):
+                    slope, angle = s1, 0.0
+                else:
+                    s2 = z[r + a, c + b] - z[r + d, c + e]
+                    angle = math.atan2(s2, s1)
+                    slope = math.hypot(s1, s2)
+                    if angle < 0:
+                        slope, angle = s1, 0.0
+                    elif angle > math.pi / 4:
+                        slope, angle = (z[r, c] - z[r + d, c + e]) / math.sqrt(2), math.pi / 4
+                if slope > best:
+                    best, choice = slope, ((r + a, c + b), (r + d, c + e), angle / (math.pi / 4))
+            share[(r, c)] = choice
+    area = np.ones(z.shape)
+    for i in np.argsort(-z.ravel(), kind="stable"):
+        cell = divmod(int(i), w)
+        if share[cell] is not None:
+            e1, e2, f = share[cell]
+            if f < 1:
+                area[e1] += (1 - f) * area[cell]
+            if f > 0:
+                area[e2] += f * area[cell]
+    return area
+
+
+def test_dinf_equals_a_cell_by_cell_reference():
+    rng = np.random.default_rng(6)
+    for z in (rng.random((23, 27)), rng.integers(0, 5, (19, 21)).astype(float),
+              hydrology.fbm_terrain((48, 40), seed=3).astype(float)):
+        np.testing.assert_allclose(hydrology.flow_accumulation(z, method="dinf"), _dinf_reference(z), rtol=1e-12)
+
+
 def test_d8_on_the_filled_surface_equals_brute_force_routing_after_a_priority_flood():
     rng = np.random.default_rng(4)
     z = rng.random((14, 17))

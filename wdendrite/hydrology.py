@@ -20,16 +20,14 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import warp as wp
 
 from . import _checks
 from . import control as _control
+from .kernels import hydrology as _k
 
 __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill", "flow_accumulation",
            "ridged_terrain"]
-
-# D8 neighbours (row, col offsets) and their distances
-_D8 = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)])
-_D8_LEN = np.hypot(_D8[:, 0], _D8[:, 1])
 
 
 def _elevation(name: str, value) -> np.ndarray:
@@ -88,64 +86,6 @@ def depressions(elevation) -> Depressions:
     return Depressions(int(count), 100.0 * float(mask.mean()), mask, depth)
 
 
-# D-infinity facets (Tarboton 1997): cardinal neighbour e1 and diagonal neighbour e2, (row, col) offsets
-_FACETS = [((0, 1), (-1, 1)), ((-1, 0), (-1, 1)), ((-1, 0), (-1, -1)), ((0, -1), (-1, -1)),
-           ((0, -1), (1, -1)), ((1, 0), (1, -1)), ((1, 0), (1, 1)), ((0, 1), (1, 1))]
-
-
-def _shifted(pad: np.ndarray, off, shape) -> np.ndarray:
-    h, w = shape
-    return pad[1 + off[0] : 1 + off[0] + h, 1 + off[1] : 1 + off[1] + w]
-
-
-def _d8_receivers(z: np.ndarray):
-    """One receiver per cell (flat index, -1 for none) with weight 1."""
-    h, w = z.shape
-    pad = np.pad(z, 1, constant_values=np.inf)
-    drops = np.stack([(z - _shifted(pad, off, z.shape)) / ln for off, ln in zip(_D8, _D8_LEN)])
-    best = np.argmax(drops, axis=0)
-    has = np.take_along_axis(drops, best[None], 0)[0] > 0
-    rows, cols = np.mgrid[0:h, 0:w]
-    rec = np.where(has, (rows + _D8[best, 0]) * w + cols + _D8[best, 1], -1).ravel()
-    return rec[None], np.ones((1, h * w))
-
-
-def _dinf_receivers(z: np.ndarray):
-    """Two receivers per cell with the D-infinity split of the steepest facet (-1 for none)."""
-    h, w = z.shape
-    pad = np.pad(z, 1, constant_values=np.inf)
-    quarter = np.pi / 4
-    slopes, angles = [], []
-    for e1, e2 in _FACETS:
-        z1, z2 = _shifted(pad, e1, z.shape), _shifted(pad, e2, z.shape)
-        with np.errstate(invalid="ignore"):
-            s1 = z - z1
-            s2 = z1 - z2
-            r = np.arctan2(s2, s1)
-            sl = np.hypot(s1, s2)
-            sl = np.where(r < 0, s1, sl)
-            r = np.where(r < 0, 0.0, r)
-            sl = np.where(r > quarter, (z - z2) / np.sqrt(2.0), sl)
-            r = np.where(r > quarter, quarter, r)
-        # a facet whose cardinal neighbour lies outside the grid does not exist
-        slopes.append(np.where(np.isfinite(z1), sl, -np.inf))
-        angles.append(np.where(np.isfinite(z1), r, 0.0))
-    slopes, angles = np.stack(slopes), np.stack(angles)
-    best = np.argmax(slopes, axis=0)
-    has = np.take_along_axis(slopes, best[None], 0)[0] > 0
-    r = np.take_along_axis(angles, best[None], 0)[0]
-    rows, cols = np.mgrid[0:h, 0:w]
-    e1 = np.array([f[0] for f in _FACETS])[best]
-    e2 = np.array([f[1] for f in _FACETS])[best]
-    rec1 = np.where(has, (rows + e1[..., 0]) * w + cols + e1[..., 1], -1).ravel()
-    rec2 = np.where(has, (rows + e2[..., 0]) * w + cols + e2[..., 1], -1).ravel()
-    frac2 = (r / quarter).ravel()
-    # a neighbour that gets nothing may lie outside the grid: point it at the other one
-    rec2 = np.where(frac2 > 0.0, rec2, rec1)
-    rec1 = np.where(frac2 < 1.0, rec1, rec2)
-    return np.stack([rec1, rec2]), np.stack([1.0 - frac2, frac2])
-
-
 def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled: bool = False) -> np.ndarray:
     """Drainage area: how many cells (itself included) drain through each cell.
 
@@ -154,6 +94,10 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     facets, with the area split between its two neighbours by angle (the paper's Figure 16).
     Cells without a downslope direction (pits, flats, cells against the border's lowest
     side) keep their area; the areas of those end cells sum to the number of cells.
+
+    Runs on Warp's CPU device whatever the default device: the receivers are found one
+    thread per cell, then one thread walks the flow graph, visiting each cell once after all
+    its donors (about 0.1 s per million cells for D8; no sort).
 
     Args:
         elevation: (H, W) real array.
@@ -166,26 +110,22 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     z = _elevation("elevation", elevation)
     if method not in ("d8", "dinf"):
         raise ValueError(f"Expected 'method' in ('d8', 'dinf'), but got {method!r}")
+    if z.size >= 2**31:
+        raise ValueError(f"'elevation' has {z.size} cells; flow accumulation numbers cells with 32-bit integers")
     if filled:
         z = fill(z)
-    h, w = z.shape
-    rec, frac = _d8_receivers(z) if method == "d8" else _dinf_receivers(z)
-    order = np.argsort(-z.ravel(), kind="stable")
-    acc = [1.0] * (h * w)
-    # highest first: a cell's donors are all higher, so its area is complete when it is reached
-    recs = [rec[k][order].tolist() for k in range(rec.shape[0])]
-    fracs = [frac[k][order].tolist() for k in range(rec.shape[0])]
-    if rec.shape[0] == 1:
-        for i, r in zip(order.tolist(), recs[0]):
-            if r >= 0:
-                acc[r] += acc[i]
-    else:
-        for i, r1, r2, f1, f2 in zip(order.tolist(), recs[0], recs[1], fracs[0], fracs[1]):
-            if r1 >= 0:
-                a = acc[i]
-                acc[r1] += f1 * a
-                acc[r2] += f2 * a
-    return np.asarray(acc).reshape(h, w)
+    two = method == "dinf"
+    with wp.ScopedDevice("cpu"):
+        zw = wp.array(z, dtype=wp.float64)
+        rec = wp.empty((2 if two else 1, z.size), dtype=int)
+        frac = wp.empty(rec.shape, dtype=wp.float64)
+        donors = wp.zeros(z.size, dtype=int)
+        wp.launch(_k.dinf_kernel if two else _k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
+        del zw
+        area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64)
+        wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int)],
+                  outputs=[area])
+        return area.numpy().reshape(z.shape)
 
 
 def drainage_image(area) -> np.ndarray:

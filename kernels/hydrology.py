@@ -1,0 +1,163 @@
+"""Drainage kernels: D8 and D-infinity receivers per cell, and the area walk down the flow graph.
+
+Cells are numbered row-major (``row * W + col``) and elevations are float64, so that the
+receivers equal those of the same rule written with NumPy: a cell sends its area only to
+strictly lower neighbours, which makes the flow graph acyclic. The receiver kernels run
+one thread per cell on any device; :func:`accumulate_kernel` walks the whole graph in a
+single thread (each cell once, after all its donors), which is why the accumulation runs
+on the CPU device.
+"""
+
+import warp as wp
+
+from .indexing import nonneg
+
+wp.set_module_options({"enable_backward": False})
+
+vec8i = wp.types.vector(length=8, dtype=int)
+
+# D-infinity facets (Tarboton 1997), in the order ties are broken: cardinal neighbour e1 and
+# diagonal neighbour e2 as (row, col) offsets
+FACETS = [((0, 1), (-1, 1)), ((-1, 0), (-1, 1)), ((-1, 0), (-1, -1)), ((0, -1), (-1, -1)),
+          ((0, -1), (1, -1)), ((1, 0), (1, -1)), ((1, 0), (1, 1)), ((0, 1), (1, 1))]
+E1R = wp.constant(vec8i(*(f[0][0] for f in FACETS)))
+E1C = wp.constant(vec8i(*(f[0][1] for f in FACETS)))
+E2R = wp.constant(vec8i(*(f[1][0] for f in FACETS)))
+E2C = wp.constant(vec8i(*(f[1][1] for f in FACETS)))
+SQRT2 = wp.constant(wp.float64(1.4142135623730951))
+QUARTER = wp.constant(wp.float64(0.7853981633974483))  # pi / 4
+
+
+@wp.func
+def inside(r: int, c: int, h: int, w: int) -> bool:
+    return r >= 0 and c >= 0 and r < h and c < w
+
+
+@wp.kernel
+def d8_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), frac_out: wp.array2d(dtype=wp.float64),
+              donors_out: wp.array(dtype=int)):
+    """Receiver of cell (row, col): the neighbour of steepest drop (drop / distance, diagonals
+    at sqrt(2)), the first in row-major order among equals; -1 where no neighbour is lower.
+    Counts the cell as a donor of its receiver."""
+    r, c = wp.tid()
+    h = z.shape[0]
+    w = z.shape[1]
+    here = z[r, c]
+    best = wp.float64(0.0)
+    to = int(-1)
+    for dr in range(-1, 2):
+        for dc in range(-1, 2):
+            rr = r + dr
+            cc = c + dc
+            if (dr != 0 or dc != 0) and inside(rr, cc, h, w):
+                drop = here - z[nonneg(rr), nonneg(cc)]
+                if dr != 0 and dc != 0:
+                    drop = drop / SQRT2
+                if drop > best:
+                    best = drop
+                    to = rr * w + cc
+    i = r * w + c
+    rec_out[0, nonneg(i)] = to
+    frac_out[0, nonneg(i)] = wp.float64(1.0)
+    if to >= 0:
+        wp.atomic_add(donors_out, nonneg(to), 1)
+
+
+@wp.kernel
+def dinf_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), frac_out: wp.array2d(dtype=wp.float64),
+                donors_out: wp.array(dtype=int)):
+    """Receivers of cell (row, col) by D-infinity: the steepest of the 8 triangular facets
+    (the first among equals), its flow angle split between the facet's cardinal neighbour
+    (row 0 of the outputs) and diagonal neighbour (row 1) in proportion to the angle. A
+    neighbour that gets nothing repeats the other; -1 where no facet falls. Counts the cell
+    as a donor of each distinct receiver."""
+    r, c = wp.tid()
+    h = z.shape[0]
+    w = z.shape[1]
+    here = z[r, c]
+    best = wp.float64(0.0)
+    k = int(-1)
+    across = wp.float64(0.0)  # the steepest facet's fall from e1 to e2 ...
+    along = wp.float64(0.0)  # ... and from the cell to e1
+    for f in range(8):
+        r1 = r + E1R[f]
+        c1 = c + E1C[f]
+        r2 = r + E2R[f]
+        c2 = c + E2C[f]
+        if inside(r1, c1, h, w):
+            z1 = z[nonneg(r1), nonneg(c1)]
+            s1 = here - z1
+            s2 = wp.float64(-1.0)  # no diagonal neighbour: the flow keeps to the facet's edge to e1
+            slope = s1
+            if inside(r2, c2, h, w):
+                z2 = z[nonneg(r2), nonneg(c2)]
+                s2 = z1 - z2
+                if s2 > s1:  # steepest direction beyond the diagonal: along it
+                    slope = (here - z2) / SQRT2
+                elif s2 >= wp.float64(0.0):  # inside the facet
+                    slope = wp.sqrt(s1 * s1 + s2 * s2)
+            if slope > best:
+                best = slope
+                k = f
+                across = s2
+                along = s1
+    angle = wp.float64(0.0)
+    if across > along:
+        angle = QUARTER
+    elif across > wp.float64(0.0):
+        angle = wp.min(wp.atan2(across, along), QUARTER)
+    i = r * w + c
+    to1 = int(-1)
+    to2 = int(-1)
+    f2 = wp.float64(0.0)
+    if k >= 0:
+        to1 = (r + E1R[k]) * w + c + E1C[k]
+        to2 = (r + E2R[k]) * w + c + E2C[k]
+        f2 = angle / QUARTER
+        if f2 <= wp.float64(0.0):
+            to2 = to1
+        if f2 >= wp.float64(1.0):
+            to1 = to2
+        wp.atomic_add(donors_out, nonneg(to1), 1)
+        if to2 != to1:
+            wp.atomic_add(donors_out, nonneg(to2), 1)
+    rec_out[0, nonneg(i)] = to1
+    rec_out[1, nonneg(i)] = to2
+    frac_out[0, nonneg(i)] = wp.float64(1.0) - f2
+    frac_out[1, nonneg(i)] = f2
+
+
+@wp.kernel
+def accumulate_kernel(rec: wp.array2d(dtype=int), frac: wp.array2d(dtype=wp.float64), donors: wp.array(dtype=int),
+                      stack: wp.array(dtype=int), area_inout: wp.array(dtype=wp.float64)):
+    """One thread: pass every cell's area to its receivers once all its donors have passed
+    theirs (``donors`` counts the donors still to come, and is -1 once a cell is done).
+
+    ``rec`` and ``frac``: (k, N) receivers (-1: none; a repeated receiver is counted once in
+    ``donors``) and the shares they get; ``stack``: N ints of scratch; ``area_inout``: the
+    cells' own areas in, drainage areas out.
+    """
+    n = area_inout.shape[0]
+    kinds = rec.shape[0]
+    start = int(0)
+    while start < n:
+        if donors[start] == 0:
+            stack[0] = start
+            top = int(1)
+            while top > 0:
+                top -= 1
+                i = stack[nonneg(top)]
+                donors[nonneg(i)] = -1
+                a = area_inout[nonneg(i)]
+                first = rec[0, nonneg(i)]
+                for k in range(kinds):
+                    to = rec[k, nonneg(i)]
+                    if to >= 0:
+                        area_inout[nonneg(to)] += frac[k, nonneg(i)] * a
+                        if k == 0 or to != first:
+                            left = donors[nonneg(to)] - 1
+                            donors[nonneg(to)] = left
+                            if left == 0:
+                                stack[nonneg(top)] = to
+                                top += 1
+        start += 1
