@@ -1,4 +1,5 @@
-"""Distance-field brightness kernels: Euclidean splats, brightness ``exp(-(d/T)^2)``, box blurs, colour maps.
+"""Distance-field brightness kernels: Euclidean splats, brightness ``exp(-(d/T)^2)``, box blurs, colour maps;
+and the shaded relief of terrains.
 
 Fields are handled as 3D inside kernels (a 2D image is ``(1, H, W)``) with
 flat C-order indices, like :mod:`wdendrite.kernels.lattice`. The nearest
@@ -260,3 +261,43 @@ def colorize_kernel(
     col = lut_in[k] * (1.0 - t) + lut_in[k + 1] * t
     c = background_in[y, x] + col + glow_color * glow_in[y, x]
     rgb_out[y, x] = wp.vec3(wp.clamp(c[0], 0.0, 1.0), wp.clamp(c[1], 0.0, 1.0), wp.clamp(c[2], 0.0, 1.0))
+
+
+@wp.func
+def slope_along(z: wp.array2d(dtype=float), r: int, c: int, dr: int, dc: int, n: int, i: int) -> float:
+    """Elevation change per pixel at (r, c) along (dr, dc), whose index there is ``i`` of ``n``:
+    central differences inside, one-sided ones on the first and last pixel (as numpy.gradient)."""
+    lo = wp.max(i - 1, 0)
+    hi = wp.min(i + 1, n - 1)
+    a = z[nonneg(r - dr * (i - lo)), nonneg(c - dc * (i - lo))]
+    b = z[nonneg(r + dr * (hi - i)), nonneg(c + dc * (hi - i))]
+    return (b - a) / float(hi - lo)
+
+
+@wp.kernel
+def relief_kernel(
+    z: wp.array2d(dtype=float), spacing: float, lo: float, span: float, light: wp.vec3,
+    area: wp.array2d(dtype=float), wet_area: float, river: wp.vec3, image_out: wp.array2d(dtype=wp.vec3),
+):
+    """Hillshade lit from ``light`` (unit) over an elevation tint (green-brown to white), with
+    rivers blended in where ``area`` (if it has cells) exceeds ``wet_area``: full at 20 times it."""
+    r, c = wp.tid()
+    h = z.shape[0]
+    w = z.shape[1]
+    gx = slope_along(z, r, c, 0, 1, w, c) / spacing
+    gy = slope_along(z, r, c, 1, 0, h, r) / spacing
+    shade = wp.clamp(wp.dot(wp.normalize(wp.vec3(-gx, -gy, 1.0)), light), 0.0, 1.0)
+    t = float(0.0)
+    if span > 0.0:
+        t = (z[r, c] - lo) / span
+    low = wp.vec3(0.3, 0.45, 0.25)
+    mid = wp.vec3(0.55, 0.45, 0.3)
+    high = wp.vec3(0.95, 0.95, 0.95)
+    tint = mid + (high - mid) * ((t - 0.6) / 0.4)
+    if t < 0.6:
+        tint = low + (mid - low) * (t / 0.6)
+    out = tint * (0.35 + 0.65 * shade)
+    if area.shape[0] > 0:
+        wet = wp.clamp(wp.log(area[r, c] / wet_area) / wp.log(20.0), 0.0, 1.0)
+        out = out * (1.0 - 0.9 * wet) + river * (0.9 * wet)
+    image_out[r, c] = out

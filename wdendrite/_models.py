@@ -189,36 +189,53 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
 
     def picture() -> np.ndarray:
         # shading and drainage take longer than the terrain itself: only for a picture
-        img = relief(z, extent / size)
+        area = None
         if rivers:
             area = hydrology.flow_accumulation(z, filled=True)
-            # rivers appear where 0.1 % of the image drains through a cell and are full at 2 %
-            wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
-            img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85], np.float32)
             parts["drainage"] = area
-        return img.astype(np.float32)
+        return relief(z, extent / size, area)
 
     return Made(picture, parts=parts)
 
 
-def relief(z: np.ndarray, spacing: float) -> np.ndarray:
-    """Hillshade (light from the north-west) over a green-brown-white elevation tint.
+def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
+    """Hillshade (light from the north-west) over a green-brown-white elevation tint, rivers in blue.
+
+    Slopes are central differences (one-sided on the border), as ``numpy.gradient``; the tint
+    goes from green-brown at the lowest elevation through brown at 60 % of the range to white.
 
     Args:
-        z: (H, W) elevation.
-        spacing: pixel side in the elevation's units (domain units per pixel).
+        z: (H, W) finite elevation, H and W at least 2.
+        spacing: pixel side in the elevation's units (domain units per pixel), > 0.
+        area: optional (H, W) drainage area in cells
+            (:func:`wdendrite.hydrology.flow_accumulation`): blue where more than 0.1 % of the
+            image drains through a cell, full at 2 %.
+        device: Warp device of the shading kernel (default: Warp's default device).
 
     Returns:
-        (H, W, 3) float64 picture in [0, 1].
+        (H, W, 3) float32 picture in [0, 1].
     """
-    gy, gx = np.gradient(z.astype(np.float64), spacing)
-    n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    shade = np.clip(n @ (np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])), 0, 1)
-    t = unit_range(z)[..., None]
-    low, mid, high = np.array([0.3, 0.45, 0.25]), np.array([0.55, 0.45, 0.3]), np.array([0.95, 0.95, 0.95])
-    tint = np.where(t < 0.6, low + (mid - low) * t / 0.6, mid + (high - mid) * (t - 0.6) / 0.4)
-    return tint * (0.35 + 0.65 * shade[..., None])
+    import warp as wp
+
+    from .kernels import render as _kr
+
+    z = _checks.finite_array("z", z, "2D (H, W)", lambda s: len(s) == 2 and min(s) >= 2)
+    spacing = _checks.positive("spacing", spacing)
+    if area is not None:
+        area = _checks.finite_array("area", area, f"{z.shape}", lambda s: s == z.shape)
+        if (area <= 0).any():
+            raise ValueError("'area' must be positive (drainage areas count cells, at least 1)")
+    device = _checks.device(device)
+    lo, hi = float(z.min()), float(z.max())
+    light = np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])
+    with wp.ScopedDevice(device):
+        out = wp.empty(z.shape, dtype=wp.vec3)
+        wp.launch(_kr.relief_kernel, dim=z.shape,
+                  inputs=[wp.array(z, dtype=float), float(spacing), lo, hi - lo, wp.vec3(*light),
+                          wp.array(area if area is not None else np.ones((0, 0), np.float32), dtype=float),
+                          0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
+                  outputs=[out])
+        return out.numpy()
 
 
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}
