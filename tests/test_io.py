@@ -145,6 +145,18 @@ def test_svg_polylines_cover_every_edge_once(tmp_path):
         save_svg(tmp_path / "e.svg", DEN3)
 
 
+def test_svg_colours_are_written_and_bad_ones_refused_before_writing(tmp_path):
+    p = save_svg(tmp_path / "c.svg", DEN2, color="#1a2b3c", background="rgb(10, 20, 30)")
+    root = ET.parse(p).getroot()
+    assert {el.get("stroke") for el in root.iter() if el.tag.endswith("polyline")} == {"#1a2b3c"}
+    assert [el.get("fill") for el in root.iter() if el.tag.endswith("rect")] == ["rgb(10, 20, 30)"]
+    for name, bad in [("color", 'red" onload="x'), ("color", ""), ("color", 3), ("background", "<b>"),
+                      ("background", ["white"])]:
+        with pytest.raises(ValueError, match=f"'{name}'"):
+            save_svg(tmp_path / "bad.svg", DEN2, **{name: bad})
+    assert not (tmp_path / "bad.svg").exists() and not _leftovers(tmp_path)
+
+
 def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
     from wdendrite.geometry import spheres
 

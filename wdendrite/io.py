@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 import zipfile
 import zlib
@@ -295,6 +296,16 @@ def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, f
     return out
 
 
+_SVG_COLOUR = re.compile(r"[#A-Za-z0-9(),.%+ -]+")
+
+
+def _svg_colour(name: str, value) -> None:
+    """An SVG paint (a name, ``#rgb``, ``rgb(...)``, ...): nothing that could end its attribute."""
+    if not isinstance(value, str) or not _SVG_COLOUR.fullmatch(value.strip() or "?"):
+        raise ValueError(f"Expected an SVG colour for '{name}' (a name such as 'black', '#1a2b3c' or "
+                         f"'rgb(10, 20, 30)'), but got {value!r}")
+
+
 def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", background: str | None = "white",
              overwrite: bool = False) -> Path:
     """Write a 2D dendrite as SVG polylines, one per branch, in lattice pixel units.
@@ -309,7 +320,8 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: a 3D or empty dendrite, a missing folder, a ``path`` that is a folder.
+        ValueError: a 3D or empty dendrite, a colour that is not an SVG colour, a missing
+            folder, a ``path`` that is a folder.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from .dendrite import Dendrite
@@ -317,6 +329,9 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
     _target(path, overwrite)
     if not isinstance(dendrite, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
+    _svg_colour("color", color)
+    if background is not None:
+        _svg_colour("background", background)
     if not len(dendrite):
         raise ValueError("'dendrite' is empty (no nodes): there is nothing to draw")
     if dendrite.ndim != 2:
