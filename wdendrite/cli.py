@@ -361,6 +361,7 @@ def _values_from(args, preset) -> dict:
 def main(argv=None) -> int:
     """Entry point of the ``wdendrite`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    size_note = ""  # how --size became the preset's shape, for errors about that shape
     try:
         import warp as wp
 
@@ -376,6 +377,8 @@ def main(argv=None) -> int:
                             quiet=args.quiet, dry_run=args.dry_run, timeout=args.timeout)
         preset = all_presets()[args._preset]
         values = _values_from(args, preset)
+        if getattr(args, "size", None) is not None and isinstance(values[preset.size_param], tuple):
+            size_note = f" (--size {args.size} gives {preset.size_param}={values[preset.size_param]})"
         outs = getattr(args, "out", None) or [f"{preset.name}.png"]
         if "tile" in args:
             return _tiled(preset, values, outs, args)
@@ -389,7 +392,9 @@ def main(argv=None) -> int:
             print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]))
         return 0
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
-        print(f"wdendrite: error: {exc}", file=sys.stderr)
+        if size_note and f"'{preset.size_param}'" not in str(exc):
+            size_note = ""
+        print(f"wdendrite: error: {exc}{size_note}", file=sys.stderr)
         return 2
     except MemoryError as exc:
         print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
