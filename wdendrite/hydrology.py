@@ -31,15 +31,8 @@ __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill"
 
 
 def _elevation(name: str, value) -> np.ndarray:
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
-        raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
-    if arr.ndim != 2 or min(arr.shape) < 1:
-        raise ValueError(f"Expected a non-empty 2D array for '{name}', but got shape {arr.shape}")
-    arr = np.ascontiguousarray(arr, dtype=np.float64)
-    if not np.isfinite(arr).all():
-        raise ValueError(f"'{name}' must be finite, but has {int((~np.isfinite(arr)).sum())} NaN/inf entries")
-    return arr
+    """``value`` as a finite, non-empty (H, W) float64 array."""
+    return _checks.finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2, dtype=np.float64)
 
 
 def fill(elevation) -> np.ndarray:
