@@ -189,7 +189,7 @@ def main() -> None:
     peer = _pysheds_python(args.pysheds_python)
     print(f"# Drainage area, {now()}; medians of {args.repeat} fresh-process runs; pysheds: "
           f"{'yes (' + peer + ')' if peer else 'not found (pass --pysheds-python)'}")
-    print("| terrain | method | wdendrite s | MiB | pysheds s | MiB | x ours | same | NumPy s | MiB | x ours | same |")
+    print("| terrain | method | wdendrite s | MiB | pysheds s | MiB | pysheds / ours | same | NumPy s | MiB | NumPy / ours | same |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     with tempfile.TemporaryDirectory() as folder:
         for name, path in _terrains(args.sizes, folder):

@@ -34,15 +34,14 @@ def inside(r: int, c: int, h: int, w: int) -> bool:
 
 
 @wp.kernel
-def d8_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), frac_out: wp.array2d(dtype=wp.float64),
-              donors_out: wp.array(dtype=int)):
+def d8_kernel(z_in: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), donors_out: wp.array(dtype=int)):
     """Receiver of cell (row, col): the neighbour of steepest drop (drop / distance, diagonals
     at sqrt(2)), the first in row-major order among equals; -1 where no neighbour is lower.
     Counts the cell as a donor of its receiver."""
     r, c = wp.tid()
-    h = z.shape[0]
-    w = z.shape[1]
-    here = z[r, c]
+    h = z_in.shape[0]
+    w = z_in.shape[1]
+    here = z_in[r, c]
     best = wp.float64(0.0)
     to = int(-1)
     for dr in range(-1, 2):
@@ -50,31 +49,41 @@ def d8_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), f
             rr = r + dr
             cc = c + dc
             if (dr != 0 or dc != 0) and inside(rr, cc, h, w):
-                drop = here - z[nonneg(rr), nonneg(cc)]
+                drop = here - z_in[nonneg(rr), nonneg(cc)]
                 if dr != 0 and dc != 0:
                     drop = drop / SQRT2
                 if drop > best:
                     best = drop
                     to = rr * w + cc
-    i = r * w + c
-    rec_out[0, nonneg(i)] = to
-    frac_out[0, nonneg(i)] = wp.float64(1.0)
+    rec_out[0, nonneg(r * w + c)] = to
     if to >= 0:
         wp.atomic_add(donors_out, nonneg(to), 1)
 
 
+@wp.func
+def facet_slope(s1: wp.float64, s2: wp.float64) -> wp.float64:
+    """Steepest slope of a facet falling ``s1`` towards its cardinal neighbour and then ``s2``
+    on to its diagonal one, when the steepest direction lies inside it (``0 <= s2 <= s1``):
+    ``hypot(s1, s2)``, scaled so that it neither overflows nor underflows."""
+    out = wp.float64(0.0)
+    if s1 > wp.float64(0.0):
+        q = s2 / s1
+        out = s1 * wp.sqrt(wp.float64(1.0) + q * q)
+    return out
+
+
 @wp.kernel
-def dinf_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int), frac_out: wp.array2d(dtype=wp.float64),
-                donors_out: wp.array(dtype=int)):
+def dinf_kernel(z_in: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int),
+                frac_out: wp.array2d(dtype=wp.float64), donors_out: wp.array(dtype=int)):
     """Receivers of cell (row, col) by D-infinity: the steepest of the 8 triangular facets
     (the first among equals), its flow angle split between the facet's cardinal neighbour
     (row 0 of the outputs) and diagonal neighbour (row 1) in proportion to the angle. A
     neighbour that gets nothing repeats the other; -1 where no facet falls. Counts the cell
     as a donor of each distinct receiver."""
     r, c = wp.tid()
-    h = z.shape[0]
-    w = z.shape[1]
-    here = z[r, c]
+    h = z_in.shape[0]
+    w = z_in.shape[1]
+    here = z_in[r, c]
     best = wp.float64(0.0)
     k = int(-1)
     across = wp.float64(0.0)  # the steepest facet's fall from e1 to e2 ...
@@ -85,39 +94,38 @@ def dinf_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int),
         r2 = r + E2R[f]
         c2 = c + E2C[f]
         if inside(r1, c1, h, w):
-            z1 = z[nonneg(r1), nonneg(c1)]
+            z1 = z_in[nonneg(r1), nonneg(c1)]
             s1 = here - z1
             s2 = wp.float64(-1.0)  # no diagonal neighbour: the flow keeps to the facet's edge to e1
             slope = s1
             if inside(r2, c2, h, w):
-                z2 = z[nonneg(r2), nonneg(c2)]
+                z2 = z_in[nonneg(r2), nonneg(c2)]
                 s2 = z1 - z2
                 if s2 > s1:  # steepest direction beyond the diagonal: along it
                     slope = (here - z2) / SQRT2
                 elif s2 >= wp.float64(0.0):  # inside the facet
-                    slope = wp.sqrt(s1 * s1 + s2 * s2)
+                    slope = facet_slope(s1, s2)
             if slope > best:
                 best = slope
                 k = f
                 across = s2
                 along = s1
-    angle = wp.float64(0.0)
-    if across > along:
-        angle = QUARTER
-    elif across > wp.float64(0.0):
-        angle = wp.min(wp.atan2(across, along), QUARTER)
     i = r * w + c
     to1 = int(-1)
     to2 = int(-1)
     f2 = wp.float64(0.0)
     if k >= 0:
+        # share of the diagonal neighbour: the flow angle over 45 degrees (0 unless it exists)
+        if across > along:
+            f2 = wp.float64(1.0)
+        elif across > wp.float64(0.0):
+            f2 = wp.min(wp.atan2(across, along), QUARTER) / QUARTER
         to1 = (r + E1R[k]) * w + c + E1C[k]
-        to2 = (r + E2R[k]) * w + c + E2C[k]
-        f2 = angle / QUARTER
-        if f2 <= wp.float64(0.0):
-            to2 = to1
-        if f2 >= wp.float64(1.0):
-            to1 = to2
+        to2 = to1
+        if f2 > wp.float64(0.0):
+            to2 = (r + E2R[k]) * w + c + E2C[k]
+            if f2 >= wp.float64(1.0):
+                to1 = to2
         wp.atomic_add(donors_out, nonneg(to1), 1)
         if to2 != to1:
             wp.atomic_add(donors_out, nonneg(to2), 1)
@@ -128,36 +136,41 @@ def dinf_kernel(z: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int),
 
 
 @wp.kernel
-def accumulate_kernel(rec: wp.array2d(dtype=int), frac: wp.array2d(dtype=wp.float64), donors: wp.array(dtype=int),
-                      stack: wp.array(dtype=int), area_inout: wp.array(dtype=wp.float64)):
+def accumulate_kernel(rec_in: wp.array2d(dtype=int), frac_in: wp.array2d(dtype=wp.float64),
+                      donors_inout: wp.array(dtype=int), stack_scratch: wp.array(dtype=int),
+                      area_inout: wp.array(dtype=wp.float64)):
     """One thread: pass every cell's area to its receivers once all its donors have passed
-    theirs (``donors`` counts the donors still to come, and is -1 once a cell is done).
+    theirs (``donors_inout`` counts the donors still to come; -1 once a cell is done).
 
-    ``rec`` and ``frac``: (k, N) receivers (-1: none; a repeated receiver is counted once in
-    ``donors``) and the shares they get; ``stack``: N ints of scratch; ``area_inout``: the
-    cells' own areas in, drainage areas out.
+    ``rec_in``: (k, N) receivers (-1: none; a repeated receiver is counted once in the
+    donors); ``frac_in``: (k, N) shares they get (with k = 1, none is read: the one
+    receiver gets it all); ``stack_scratch``: N ints; ``area_inout``: the cells' own areas
+    in, drainage areas out.
     """
     n = area_inout.shape[0]
-    kinds = rec.shape[0]
+    kinds = rec_in.shape[0]
     start = int(0)
     while start < n:
-        if donors[start] == 0:
-            stack[0] = start
+        if donors_inout[start] == 0:
+            stack_scratch[0] = start
             top = int(1)
             while top > 0:
                 top -= 1
-                i = stack[nonneg(top)]
-                donors[nonneg(i)] = -1
+                i = stack_scratch[nonneg(top)]
+                donors_inout[nonneg(i)] = -1
                 a = area_inout[nonneg(i)]
-                first = rec[0, nonneg(i)]
+                first = rec_in[0, nonneg(i)]
                 for k in range(kinds):
-                    to = rec[k, nonneg(i)]
+                    to = rec_in[k, nonneg(i)]
                     if to >= 0:
-                        area_inout[nonneg(to)] += frac[k, nonneg(i)] * a
+                        share = a
+                        if kinds > 1:
+                            share = frac_in[k, nonneg(i)] * a
+                        area_inout[nonneg(to)] += share
                         if k == 0 or to != first:
-                            left = donors[nonneg(to)] - 1
-                            donors[nonneg(to)] = left
+                            left = donors_inout[nonneg(to)] - 1
+                            donors_inout[nonneg(to)] = left
                             if left == 0:
-                                stack[nonneg(top)] = to
+                                stack_scratch[nonneg(top)] = to
                                 top += 1
         start += 1

@@ -276,20 +276,22 @@ def slope_along(z: wp.array2d(dtype=float), r: int, c: int, dr: int, dc: int, n:
 
 @wp.kernel
 def relief_kernel(
-    z: wp.array2d(dtype=float), spacing: float, lo: float, span: float, light: wp.vec3,
-    area: wp.array2d(dtype=float), wet_area: float, river: wp.vec3, image_out: wp.array2d(dtype=wp.vec3),
+    t_in: wp.array2d(dtype=float), gain: float, light: wp.vec3,
+    area_in: wp.array2d(dtype=float), wet_area: float, river: wp.vec3, image_out: wp.array2d(dtype=wp.vec3),
 ):
     """Hillshade lit from ``light`` (unit) over an elevation tint (green-brown to white), with
-    rivers blended in where ``area`` (if it has cells) exceeds ``wet_area``: full at 20 times it."""
+    rivers blended in where ``area_in`` (if it has cells) exceeds ``wet_area``: full at 20 times it.
+
+    ``t_in`` is the elevation scaled onto [0, 1] and ``gain`` its range over the pixel side,
+    so that slopes are ``gain`` times the differences of ``t_in``.
+    """
     r, c = wp.tid()
-    h = z.shape[0]
-    w = z.shape[1]
-    gx = slope_along(z, r, c, 0, 1, w, c) / spacing
-    gy = slope_along(z, r, c, 1, 0, h, r) / spacing
+    h = t_in.shape[0]
+    w = t_in.shape[1]
+    gx = slope_along(t_in, r, c, 0, 1, w, c) * gain
+    gy = slope_along(t_in, r, c, 1, 0, h, r) * gain
     shade = wp.clamp(wp.dot(wp.normalize(wp.vec3(-gx, -gy, 1.0)), light), 0.0, 1.0)
-    t = float(0.0)
-    if span > 0.0:
-        t = (z[r, c] - lo) / span
+    t = t_in[r, c]
     low = wp.vec3(0.3, 0.45, 0.25)
     mid = wp.vec3(0.55, 0.45, 0.3)
     high = wp.vec3(0.95, 0.95, 0.95)
@@ -297,7 +299,7 @@ def relief_kernel(
     if t < 0.6:
         tint = low + (mid - low) * (t / 0.6)
     out = tint * (0.35 + 0.65 * shade)
-    if area.shape[0] > 0:
-        wet = wp.clamp(wp.log(area[r, c] / wet_area) / wp.log(20.0), 0.0, 1.0)
+    if area_in.shape[0] > 0:
+        wet = wp.clamp(wp.log(area_in[r, c] / wet_area) / wp.log(20.0), 0.0, 1.0)
         out = out * (1.0 - 0.9 * wet) + river * (0.9 * wet)
     image_out[r, c] = out

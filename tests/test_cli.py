@@ -138,6 +138,7 @@ def test_bad_values_are_named(tmp_path):
     bad(["fractal", "--size", 4, "-o", "f.png"], tmp_path, "--size")
     # a shape derived from --size is named as such
     bad(["moss", "--size", 16, "-o", "m.png"], tmp_path, "'shape'", "--size 16 gives shape=(7, 16, 16)")
+    assert "gives shape" not in bad(["moss", "--size", 24, "--endpoints", 0, "-o", "m.png"], tmp_path, "endpoints")
     bad(["fractal", "--size", 32, "--device", "gpu", "-o", "f.png"], tmp_path, "--device", "'gpu'")
     bad(["fractal", "--size", 32, "--device", "cuda:7", "-o", "f.png"], tmp_path, "not available")
     bad(["lightning", "--size", 48, "-o", "l.glb"], tmp_path, "no mesh")
@@ -294,6 +295,10 @@ def test_relief_equals_numpy_shading_with_and_without_rivers(device):
     # a 2 x 2 terrain: one-sided slopes everywhere
     tiny = np.array([[0.0, 1.0], [3.0, 2.0]])
     np.testing.assert_allclose(cli.relief(tiny, 1.0, device=device), _numpy_relief(tiny, 1.0), atol=2e-6)
+    # spacings and elevations beyond float32's comfort (the kernel works on scaled elevations)
+    z64 = z.astype(np.float64)
+    for zz, spacing in ((z64, 1e-40), (z64 * 1e37, 1.0), (z64 * 1e-30, 1e-30)):
+        np.testing.assert_allclose(cli.relief(zz, spacing, device=device), _numpy_relief(zz, spacing), atol=2e-6)
 
 
 @pytest.mark.parametrize("kw, match", [

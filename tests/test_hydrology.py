@@ -162,6 +162,34 @@ def test_dinf_equals_a_cell_by_cell_reference():
         np.testing.assert_allclose(hydrology.flow_accumulation(z, method="dinf"), _dinf_reference(z), rtol=1e-12)
 
 
+@pytest.mark.parametrize("method", ["d8", "dinf"])
+def test_accumulation_on_degenerate_grids(method):
+    acc = lambda z, **kw: hydrology.flow_accumulation(np.asarray(z, float), method=method, **kw)  # noqa: E731
+    np.testing.assert_array_equal(acc([[3.0]]), [[1.0]])
+    np.testing.assert_array_equal(acc(np.zeros((4, 6))), np.ones((4, 6)))  # flat: nothing moves
+    np.testing.assert_array_equal(acc([[5, 4, 3, 2, 1, 0]]), [[1, 2, 3, 4, 5, 6]])  # one row
+    np.testing.assert_array_equal(acc([[0], [1], [2], [3]]), [[4], [3], [2], [1]])  # one column
+    pit = np.full((3, 3), 2.0)
+    pit[1, 1] = 1.0
+    np.testing.assert_array_equal(acc(pit), [[1, 1, 1], [1, 9, 1], [1, 1, 1]])
+    np.testing.assert_array_equal(acc(pit, filled=True), np.ones((3, 3)))  # the fill makes it a flat
+    # a long chain (a snake down a 1 x N ramp): the walk reaches every cell once
+    n = 100_000
+    np.testing.assert_array_equal(acc(-np.arange(n, dtype=float)[None]), np.arange(1, n + 1)[None])
+    # tiny and huge drops keep their directions (slopes neither underflow nor overflow)
+    for scale in (1e-170, 1e200):
+        np.testing.assert_allclose(acc(scale * pit), [[1, 1, 1], [1, 9, 1], [1, 1, 1]])
+        dome = scale * (2.0 - pit)
+        assert acc(dome)[1, 1] == 1.0 and acc(dome).max() == 2.0  # the top passes its area to one side
+
+
+def test_accumulation_refuses_too_many_cells_before_copying(launches):
+    huge = np.broadcast_to(np.float64(0.0), (2**16, 2**15))  # 2**31 cells, no memory behind them
+    with pytest.raises(ValueError, match="'elevation' has 2147483648 cells"):
+        hydrology.flow_accumulation(huge)
+    assert launches == []
+
+
 def test_d8_on_the_filled_surface_equals_brute_force_routing_after_a_priority_flood():
     rng = np.random.default_rng(4)
     z = rng.random((14, 17))

@@ -150,9 +150,9 @@ def test_svg_colours_are_written_and_bad_ones_refused_before_writing(tmp_path):
     root = ET.parse(p).getroot()
     assert {el.get("stroke") for el in root.iter() if el.tag.endswith("polyline")} == {"#1a2b3c"}
     assert [el.get("fill") for el in root.iter() if el.tag.endswith("rect")] == ["rgb(10, 20, 30)"]
-    for name, bad in [("color", 'red" onload="x'), ("color", ""), ("color", 3), ("background", "<b>"),
-                      ("background", ["white"])]:
-        with pytest.raises(ValueError, match=f"'{name}'"):
+    for name, bad in [("color", 'red" onload="x'), ("color", ""), ("color", " "), ("color", "black\x0c"),
+                      ("color", 3), ("background", "<b>"), ("background", ["white"])]:
+        with pytest.raises((ValueError, TypeError), match=f"'{name}'"):
             save_svg(tmp_path / "bad.svg", DEN2, **{name: bad})
     assert not (tmp_path / "bad.svg").exists() and not _leftovers(tmp_path)
 

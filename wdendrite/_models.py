@@ -214,24 +214,31 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
 
     Returns:
         (H, W, 3) float32 picture in [0, 1].
+
+    Raises:
+        ValueError, TypeError: ``z`` not a finite 2D real array of at least 2 x 2, ``spacing``
+            not positive, ``area`` not positive and finite or not of ``z``'s shape, an absent
+            device.
     """
     import warp as wp
 
     from .kernels import render as _kr
 
-    z = _checks.finite_array("z", z, "2D (H, W)", lambda s: len(s) == 2 and min(s) >= 2)
+    z = _checks.finite_array("z", z, "2D (H, W)", lambda s: len(s) == 2 and min(s) >= 2, dtype=np.float64)
     spacing = _checks.positive("spacing", spacing)
     if area is not None:
-        area = _checks.finite_array("area", area, f"{z.shape}", lambda s: s == z.shape)
-        if (area <= 0).any():
-            raise ValueError("'area' must be positive (drainage areas count cells, at least 1)")
+        area = _checks.float_array("area", area, z.shape, positive=True)
     device = _checks.device(device)
-    lo, hi = float(z.min()), float(z.max())
+    lo, span = float(z.min()), float(z.max() - z.min())
+    t = ((z - lo) / span if span > 0 else np.zeros_like(z)).astype(np.float32)
+    # slopes are gain x differences of t; beyond 1e18 the light sees vertical walls either way (and
+    # float32 squares of such slopes stay finite)
+    gain = min(span / spacing, 1e18)
     light = np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])
     with wp.ScopedDevice(device):
         out = wp.empty(z.shape, dtype=wp.vec3)
         wp.launch(_kr.relief_kernel, dim=z.shape,
-                  inputs=[wp.array(z, dtype=float), float(spacing), lo, hi - lo, wp.vec3(*light),
+                  inputs=[wp.array(t, dtype=float), gain, wp.vec3(*light),
                           wp.array(area if area is not None else np.ones((0, 0), np.float32), dtype=float),
                           0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
                   outputs=[out])

@@ -16,6 +16,7 @@ Example::
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -99,21 +100,39 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
 
     Returns:
         (H, W) float64 array of areas in cells.
+
+    Raises:
+        ValueError, TypeError: an elevation that is not a finite, non-empty 2D real array, or
+            has 2**31 cells or more; a method other than ``"d8"`` or ``"dinf"``.
+        MemoryError: when the arrays (about 40 bytes per cell for D8, 60 for D-infinity)
+            would not fit in free memory.
     """
-    z = _elevation("elevation", elevation)
     if method not in ("d8", "dinf"):
         raise ValueError(f"Expected 'method' in ('d8', 'dinf'), but got {method!r}")
-    if z.size >= 2**31:
-        raise ValueError(f"'elevation' has {z.size} cells; flow accumulation numbers cells with 32-bit integers")
+    try:
+        cells = math.prod(np.shape(elevation))
+    except ValueError:  # ragged nested lists: the elevation check names them
+        cells = 0
+    if cells >= 2**31:
+        raise ValueError(f"'elevation' has {cells} cells; flow accumulation numbers cells with 32-bit integers, "
+                         f"so at most 2**31 - 1")
+    two = method == "dinf"
+    # bytes per cell: the float64 copy and its device copy, receivers (and shares), donors,
+    # stack, areas and the returned array
+    _checks.fits_in_memory(cells * (8 + 8 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0)), "cpu",
+                           f"flow_accumulation of {cells} cells")
+    z = _elevation("elevation", elevation)
     if filled:
         z = fill(z)
-    two = method == "dinf"
     with wp.ScopedDevice("cpu"):
         zw = wp.array(z, dtype=wp.float64)
         rec = wp.empty((2 if two else 1, z.size), dtype=int)
-        frac = wp.empty(rec.shape, dtype=wp.float64)
+        frac = wp.empty(rec.shape if two else (1, 1), dtype=wp.float64)
         donors = wp.zeros(z.size, dtype=int)
-        wp.launch(_k.dinf_kernel if two else _k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
+        if two:
+            wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
+        else:
+            wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors])
         del zw
         area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64)
         wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int)],

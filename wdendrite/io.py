@@ -296,12 +296,14 @@ def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, f
     return out
 
 
-_SVG_COLOUR = re.compile(r"[#A-Za-z0-9(),.%+ -]+")
+_SVG_COLOUR = re.compile(r"[#A-Za-z0-9(),.%+/ -]+")
 
 
 def _svg_colour(name: str, value) -> None:
     """An SVG paint (a name, ``#rgb``, ``rgb(...)``, ...): nothing that could end its attribute."""
-    if not isinstance(value, str) or not _SVG_COLOUR.fullmatch(value.strip() or "?"):
+    if not isinstance(value, str):
+        raise TypeError(f"Expected an SVG colour string for '{name}', but got {type(value).__name__}")
+    if not value.strip() or not _SVG_COLOUR.fullmatch(value):
         raise ValueError(f"Expected an SVG colour for '{name}' (a name such as 'black', '#1a2b3c' or "
                          f"'rgb(10, 20, 30)'), but got {value!r}")
 
@@ -315,13 +317,15 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
         dendrite: a non-empty 2D dendrite.
         width: node widths as in :func:`wdendrite.render.node_widths` (stroke = 2 x mean width of a branch).
         side: optional side-branch width.
-        color: stroke colour (any SVG colour).
+        color: stroke colour: an SVG colour name, ``#rgb``/``#rrggbb`` or a function such as
+            ``rgb(10, 20, 30)``.
         background: fill of a background rectangle, or None for none.
         overwrite: replace an existing file.
 
     Raises:
         ValueError: a 3D or empty dendrite, a colour that is not an SVG colour, a missing
             folder, a ``path`` that is a folder.
+        TypeError: a colour that is not a string.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from .dendrite import Dendrite
