@@ -11,6 +11,17 @@ wp.set_module_options({"enable_backward": False})
 
 
 @wp.kernel
+def nonfinite_kernel(field_in: wp.array3d(dtype=float), count_out: wp.array(dtype=int), first_out: wp.array(dtype=int)):
+    """Count the NaN / inf entries of ``field_in`` and keep the least flat index among them
+    (``first_out`` starts at the field's size): a check that reads a device field in place."""
+    i, j, k = wp.tid()
+    v = field_in[i, j, k]
+    if not wp.isfinite(v):
+        wp.atomic_add(count_out, 0, 1)
+        wp.atomic_min(first_out, 0, (i * field_in.shape[1] + j) * field_in.shape[2] + k)
+
+
+@wp.kernel
 def nearest_value_kernel(
     dist_in: wp.array(dtype=float),
     label_in: wp.array(dtype=wp.int32),

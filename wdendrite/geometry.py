@@ -173,15 +173,22 @@ def tubes(
 
 
 def _check_field(field) -> np.ndarray | wp.array:
-    """A ``(D, H, W)`` float32 field with at least 2 nodes per axis, finite where it can be read without a copy.
+    """A finite ``(D, H, W)`` float32 field with at least 2 nodes per axis.
 
-    A field on a CUDA device is not copied to the host to be checked.
+    A Warp array is checked where it lives, by a kernel (nothing but two counters is copied).
     """
     if isinstance(field, wp.array):
         if field.ndim != 3 or field.dtype != wp.float32:
             raise ValueError(f"Expected a 3D float32 Warp array for 'field', but got {field.ndim}D {field.dtype}")
-        if field.device.is_cpu:
-            _checks.finite_array("field", field.numpy(), "3D (D, H, W)", lambda s: len(s) == 3)
+        if field.size:
+            with wp.ScopedDevice(field.device):
+                count, first = wp.zeros(1, dtype=int), wp.full(1, field.size, dtype=int)
+                wp.launch(_kg.nonfinite_kernel, dim=field.shape, inputs=[field], outputs=[count, first])
+                count, first = int(count.numpy()[0]), int(first.numpy()[0])
+            if count:
+                where = tuple(int(i) for i in np.unravel_index(first, field.shape))
+                raise ValueError(f"'field' must be finite, but has {count} NaN/inf entries (first at {where}: "
+                                 f"{field[where[0]:where[0] + 1, where[1]:where[1] + 1, where[2]:where[2] + 1].numpy().item()!r})")
         shape = field.shape
     else:
         field = _checks.finite_array("field", field, "3D (D, H, W)", lambda s: len(s) == 3)
