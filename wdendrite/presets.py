@@ -83,12 +83,6 @@ def _shape(shape, ndim: int) -> tuple[int, ...]:
     return s
 
 
-def _count(name: str, value, low: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ValueError(f"Expected an integer '{name}' >= {low}, but got {value!r}")
-    return int(value)
-
-
 def _ink(value: np.ndarray) -> np.ndarray:
     """Dark strokes on white paper."""
     v = np.clip(np.asarray(value, np.float32), 0.0, 1.0)
@@ -119,7 +113,7 @@ def _mean_weight(lat: Lattice) -> float:
 
 def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, seed: int = 0) -> Result:
     """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints)."""
-    shape, endpoints = _shape(shape, 2), _count("endpoints", endpoints)
+    shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     cf = shortest_paths(lat, gen)
@@ -144,7 +138,7 @@ def fractal_grid(
     seed: int = 0,
 ) -> Result:
     """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8)."""
-    cell, iterations = _count("cell", cell, 16), _count("iterations", iterations)
+    cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
     for b in betas:  # every panel's schedule checked before the first grows
         for a in alphas:
             _fractal_params(cell // 2, 1.0, a, b, iterations, count)
@@ -162,7 +156,7 @@ def fractal_grid(
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
                   seed: int = 0) -> Result:
     """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations)."""
-    shape, iterations = _shape(shape, 2), _count("iterations", iterations)
+    shape, iterations = _shape(shape, 2), _checks.integer("iterations", iterations, low=1)
     _fractal_params(min(shape) // 2, 1.0, alpha, beta, iterations, count)  # checked before the lattice is built
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
     p = _fractal_params(min(shape) // 2, _mean_weight(lat), alpha, beta, iterations, count)
@@ -206,7 +200,7 @@ def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 
     """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic."""
     shape = _shape(shape, 2)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed) for n in ns],
-                                      _count("endpoints", endpoints), seed)
+                                      _checks.integer("endpoints", endpoints, low=1), seed)
     return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
 
 
@@ -216,13 +210,13 @@ def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), str
     bias stretches toward the cheap side, so each dendrite grows toward it."""
     shape = _shape(shape, 2)
     dists = [_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength) for t in toward]
-    panels, dens = _panels_of_weights(shape, dists, _count("endpoints", endpoints), seed, band=True)
+    panels, dens = _panels_of_weights(shape, dists, _checks.integer("endpoints", endpoints, low=1), seed, band=True)
     return Result(_tile(panels, len(dists)), dens[0], parts={"dendrites": dict(zip(toward, dens))})
 
 
 def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
     """Two dendrites grown at once compete for space and never touch (2007 paper, Fig. 14; thesis Fig. 5.3)."""
-    shape, count = _shape(shape, 2), _count("count", count, 2)
+    shape, count = _shape(shape, 2), _checks.integer("count", count, low=2)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
     gens = np.array([[shape[0] // 2, shape[1] // 3], [shape[0] // 2, 2 * shape[1] // 3]])
     p = _fractal_params(min(shape) // 3, _mean_weight(lat), 1.5, 3.0, 3, count)
@@ -265,7 +259,7 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
     from scipy import ndimage
 
     per_1000 = _checks.positive("paths_per_1000", paths_per_1000)
-    region = _text_mask(str(text), _count("height", height, 16)) if mask is None else _checks.bool_array(
+    region = _text_mask(str(text), _checks.integer("height", height, low=16)) if mask is None else _checks.bool_array(
         "mask", mask, np.shape(mask))
     if region.ndim != 2 or not region.any():
         raise ValueError("Expected a non-empty 2D letter region ('text' or 'mask')")
@@ -311,8 +305,8 @@ class LightningParams:
 
     def __post_init__(self):
         _checks.positive("alpha", self.alpha)
-        _count("forks", self.forks, 0)
-        _count("minor_forks", self.minor_forks, 0)
+        _checks.integer("forks", self.forks, low=0)
+        _checks.integer("minor_forks", self.minor_forks, low=0)
         for name in ("main_width", "fork_width", "minor_width"):
             w = getattr(self, name)
             if not isinstance(w, _r.Taper):
@@ -409,7 +403,7 @@ def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
                seed: int = 0) -> Result:
     """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4)."""
-    shape, endpoints = _shape(shape, 2), _count("endpoints", endpoints)
+    shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
     lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))
     cf = shortest_paths(lat, [[3, shape[1] // 2]])
@@ -440,7 +434,7 @@ def _tree_mesh(den: Dendrite, radius, side, geometry: str):
 def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes", seed: int = 0) -> Result:
     """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
     (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small)."""
-    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
+    shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if geometry not in _GEOMETRIES:
         raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
     d, h, w = shape
@@ -462,7 +456,8 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
     toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``."""
     shape = _shape(shape, 3)
     d, h, w = shape
-    ep = _ep.random(shape, _count("endpoints", endpoints), within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)),
+    ep = _ep.random(shape, _checks.integer("endpoints", endpoints, low=1),
+                    within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)),
                     seed=seed, min_spacing=0.08 * d)
     pics, meshes, dens = [], {}, {}
     for t in toward:
@@ -478,7 +473,7 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
 def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
     """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
     (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
-    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
+    shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if refine_n:  # 0 or None: no refinement; checked before the coarse dendrite is grown
         _check_n_e(refine_n, 0.75, n_name="refine_n")
     d, h, w = shape
@@ -510,7 +505,8 @@ def _rock_field(shape, neighbours: int, seed: int):
 def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: int = 0) -> Result:
     """A "rock": the region of the lattice nearest (in path cost) to a central generator, meshed
     (2007 paper, Fig. 10 and Table 2: 128^3)."""
-    shape, neighbours, smooth = _shape(shape, 3), _count("neighbours", neighbours, 4), _count("smooth", smooth, 0)
+    shape, neighbours = _shape(shape, 3), _checks.integer("neighbours", neighbours, low=4)
+    smooth = _checks.integer("smooth", smooth, low=0)
     lat, cf = _rock_field(shape, neighbours, seed)
     mesh = _geo.region_mesh(cf.label, 0, smooth=smooth)
     return Result(_geo.preview(mesh, color=_ROCK), None, mesh, parts={"costfield": cf, "lattice": lat})
@@ -521,7 +517,8 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     (2007 paper, Fig. 16 and Table 2: 128^3). The mesh holds the rock and the lichen."""
     import trimesh
 
-    shape, neighbours, count = _shape(shape, 3), _count("neighbours", neighbours, 4), _count("count", count)
+    shape, neighbours = _shape(shape, 3), _checks.integer("neighbours", neighbours, low=4)
+    count = _checks.integer("count", count, low=1)
     lat, cf = _rock_field(shape, neighbours, seed)
     inside = cf.label == 0
     surf = _geo.surface_nodes(inside)
@@ -543,7 +540,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
 
 def moss(shape=(40, 96, 96), *, endpoints: int = 400, seed: int = 0) -> Result:
     """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15)."""
-    shape, endpoints = _shape(shape, 3), _count("endpoints", endpoints)
+    shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     d, h, w = shape
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     yy, xx = np.mgrid[:h, :w]
