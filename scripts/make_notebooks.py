@@ -157,13 +157,15 @@ z = wd.dendry((n, n), output="elevation", **kw)
 win = wd.dendry((n, n), output="elevation", window=(n // 4, n // 3, 20, 30), **kw)
 assert np.array_equal(win, z[n // 4: n // 4 + 20, n // 3: n // 3 + 30])   # a window is the same region
 show((z - z.min()) / (z.max() - z.min()))'''),
-        ("md", "Hydrology: depressions (priority-flood) and drainage area (D8), against an fBm baseline:"),
+        ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the "
+               "filled terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
         ("code", '''\
 for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=1))]:
     d = hydrology.depressions(terrain)
     print(f"{name:7s} depressions: {d.count:4d}, {d.percent:5.1f} % of the surface")
-area = hydrology.flow_accumulation(z, filled=True)
-show(hydrology.drainage_image(area))'''),
+d8 = hydrology.flow_accumulation(z, filled=True)
+dinf = hydrology.flow_accumulation(z, filled=True, method="dinf")
+show(np.concatenate([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], axis=1))'''),
         ("md", "The command draws the same terrain, shaded, with its rivers: "
                "`wdendrite terrain --size 512 --levels 3 --seed 1 -o terrain.png`."),
         ("code", '''\
