@@ -59,6 +59,15 @@ def test_fill_equals_brute_force_priority_flood():
     for _ in range(5):
         z = rng.random((17, 23))
         np.testing.assert_array_equal(hydrology.fill(z), _priority_flood(z))
+        # float32 elevations (filled in float32) give the same surface, as float64
+        z32 = z.astype(np.float32)
+        got = hydrology.fill(z32)
+        assert got.dtype == np.float64
+        np.testing.assert_array_equal(got, _priority_flood(z32.astype(np.float64)))
+    # a pit shallower than float32 can tell is still filled (such elevations stay in float64)
+    z = np.ones((5, 5))
+    z[2, 2] = 1.0 - 1e-12
+    assert hydrology.fill(z)[2, 2] == 1.0 and hydrology.depressions(z).count == 1
 
 
 def test_no_depressions_on_a_plane_or_a_dome():

@@ -50,9 +50,13 @@ def fill(elevation) -> np.ndarray:
     z = _elevation("elevation", elevation)
     if min(z.shape) <= 2:
         return z.copy()
-    seed = z.copy()
-    seed[1:-1, 1:-1] = z.max()
-    return reconstruction(seed, z, method="erosion", footprint=np.ones((3, 3), bool))
+    # the reconstruction only compares and copies values: elevations that are float32 numbers
+    # (Dendry's and the noise terrains') give the same surface in float32, in about 0.6x the time
+    narrow = z.astype(np.float32)
+    work = narrow if np.array_equal(narrow, z) else z
+    seed = work.copy()
+    seed[1:-1, 1:-1] = work.max()
+    return reconstruction(seed, work, method="erosion", footprint=np.ones((3, 3), bool)).astype(np.float64, copy=False)
 
 
 @dataclass(frozen=True)
