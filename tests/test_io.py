@@ -44,6 +44,10 @@ def test_png_8_and_16_bit_round_trip(tmp_path):
     rgb = np.random.default_rng(0).random((8, 9, 3))
     back = np.asarray(Image.open(save_png(tmp_path / "c.png", rgb)))
     assert back.shape == (8, 9, 3)
+    # an image quantized in several bands of rows, values outside [0, 1] clipped
+    big = (np.random.default_rng(1).random((700, 600, 3)) * 1.2 - 0.1).astype(np.float32)
+    want = np.floor(np.clip(big.astype(np.float64), 0, 1) * 255 + 0.5)
+    np.testing.assert_array_equal(np.asarray(Image.open(save_png(tmp_path / "d.png", big))), want)
     assert not _leftovers(tmp_path)
 
 

@@ -74,7 +74,7 @@ def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu",
         shapes: the accepted shapes in words, e.g. ``"2D (H, W)"``.
         shape_ok: ``shape -> bool``.
         kinds: accepted NumPy dtype kinds (``"b"`` admits bool arrays).
-        dtype: the returned array's dtype; values too large for it count as infinite.
+        dtype: the returned array's dtype (None: the input's); values too large for it count as infinite.
 
     Raises:
         TypeError: a dtype outside ``kinds`` (text, objects).
