@@ -9,10 +9,12 @@ window of the image. Each case is run once after a warm-up that compiles the
 kernels. Peer: the authors' C++ (-O3) on a machine like ours, one core.
 ``--search`` picks the neighbourhoods (DendryParams.search): ``exact``, our
 default, searches as wide as measured to miss no link; ``paper`` searches the
-paper's 3 x 3 cells for links, as the peer does.
+paper's 3 x 3 cells for links, as the peer does. Then ``dendry_points`` in its three
+modes (``--points`` random points: uniform over the image's domain, and in 40 tight
+clusters over a domain 500 times wider).
 
 Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
-       [--lichtenberg-size 1024] [--search exact paper] [--device cpu]
+       [--lichtenberg-size 1024] [--search exact paper] [--points 20000] [--device cpu]
 """
 
 from __future__ import annotations
@@ -22,10 +24,11 @@ import itertools
 import logging
 import time
 
+import numpy as np
 import warp as wp
 
 from wdendrite import control
-from wdendrite.dendry import DendryParams, dendry
+from wdendrite.dendry import DendryParams, dendry, dendry_points
 
 # seconds for a 512^2 image (Table 1 setup) or the Lichtenberg figure, authors' C++ on one core
 PEER = {("table1", 1, "elevation", 512): 10.7, ("table1", 2, "elevation", 512): 13.7,
@@ -57,6 +60,8 @@ def main() -> None:
     ap.add_argument("--pixel-window", type=int, default=96)
     ap.add_argument("--lichtenberg-size", type=int, default=1024, help="side of the Lichtenberg figure (0: skip it)")
     ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
+    ap.add_argument("--points", type=int, default=20000,
+                    help="random points per dendry_points case, in each mode (0: skip the point cases)")
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
     wp.config.quiet = True
@@ -83,6 +88,38 @@ def main() -> None:
             ratio = f"{rate / peer_rate:.1f}x" if peer_rate else "-"
             peer_txt = f"{peer_rate:,.0f}" if peer_rate else "-"
             print(f"| {kind} | {size}^2 | {levels} | {out} | {search} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
+    if args.points > 0:
+        _point_rates(args.points, device)
+
+
+def _point_rates(count: int, device) -> None:
+    """dendry_points in each mode: points uniform over the image's domain, and the same number
+    in 40 tight clusters spread over a domain 500 times wider (one tile each)."""
+    rng = np.random.default_rng(0)
+    print(f"\n# dendry_points, {count} points per case; peer: its per-pixel rate (it has no point API)")
+    print("| workload | levels | output | points | mode | points/s | peer px/s | ratio |")
+    print("| --- | ---: | --- | --- | --- | ---: | ---: | ---: |")
+    for kind, levels, out in (("table1", 2, "distance"), ("table1", 2, "elevation"), ("lichtenberg", 6, "distance")):
+        kw = _case(kind, levels)
+        (x0, y0), (x1, y1) = kw["domain"]
+        span = np.array([x1 - x0, y1 - y0])
+        uniform = np.array([x0, y0]) + rng.random((count, 2)) * span
+        wide = ((x0, y0), (x0 + 500 * span[0], y0 + 500 * span[1]))
+        centres = np.array([x0, y0]) + rng.random((40, 1, 2)) * 500 * span
+        clusters = (centres + rng.random((40, count // 40, 2)) * 0.05 * span).reshape(-1, 2)
+        size = 1024 if kind == "lichtenberg" else 512
+        peer = PEER.get((kind, levels, out, size))
+        for name, pts, domain in (("uniform", uniform, kw["domain"]), ("40 clusters", clusters, wide)):
+            case = dict(kw, domain=domain)
+            for mode in ("pixel", "cached", "auto"):
+                dendry_points(pts[:50], output=out, mode=mode, device=device, **case)  # compile, warm
+                t = time.perf_counter()
+                dendry_points(pts, output=out, mode=mode, device=device, **case)
+                wp.synchronize_device(device)
+                rate = len(pts) / (time.perf_counter() - t)
+                ratio = f"{rate / (size * size / peer):.1f}x" if peer else "-"
+                peer_txt = f"{size * size / peer:,.0f}" if peer else "-"
+                print(f"| {kind} | {levels} | {out} | {name} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -1023,14 +1023,26 @@ def image_kernel(
 
 @wp.kernel
 def points_kernel(
-    s: Setup, ctl: Control, output: int, cap: wp.vec3i, nslots: int, first: int, points_in: wp.array(dtype=wp.vec2),
+    s: Setup, ctl: Control, output: int, cached: int, cap: wp.vec3i, nslots: int, first: int,
+    points_in: wp.array(dtype=wp.vec2),
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), prims: wp.array(dtype=wp.vec3),
     nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), values_out: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ):
-    """Per-pixel mode at arbitrary points ``first + tid`` (given in grid units), slots as in image_kernel."""
+    """Arbitrary points ``first + tid`` (given in grid units): per-pixel mode with slots as in
+    image_kernel, or (``cached``) from the cells slot 0 holds for all of them."""
     t = wp.tid()
     i = first + t
+    slot = 0
+    if cached == 0:
+        slot = t % nslots
     values_out[i] = evaluate(
-        s, ctl, points_in[i], output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
+        s, ctl, points_in[i], output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
     )
+
+
+@wp.kernel
+def scatter_kernel(index_in: wp.array(dtype=wp.int32), values_in: wp.array(dtype=float), values_out: wp.array(dtype=float)):
+    """``values_out[index_in[i]] = values_in[i]``: results of a group of points back in the caller's order."""
+    i = wp.tid()
+    values_out[index_in[i]] = values_in[i]

@@ -708,8 +708,9 @@ def test_a_primitive_block_planned_too_small_raises_instead_of_returning_nan(dev
         dendry((16, 16), domain=DOMAIN, params=DendryParams(levels=2), control=CTL, output="elevation", device=device)
 
 
+@pytest.mark.parametrize("mode", ["auto", "cached", "pixel"])
 @pytest.mark.parametrize("output", ["distance", "elevation", "level"])
-def test_points_equal_pixels(device, output):
+def test_points_equal_pixels(device, output, mode):
     p = DendryParams(levels=3, eps=0.25, delta=0.08, seed=9, resolution=1.7, beta=0.5, noise=0.05)
     dom, (h, w) = ((0.1, -0.3), (2.3, 1.9)), (24, 20)
     img = dendry((h, w), domain=dom, params=p, control=CTL, output=output, device=device)
@@ -722,7 +723,7 @@ def test_points_equal_pixels(device, output):
     u = np.stack([x0[0] + (cols.ravel() + f32(0.5)) * step[0], x0[1] + (rows.ravel() + f32(0.5)) * step[1]], 1)
     pts = u.astype(np.float64) / p.resolution
     assert np.array_equal((pts * p.resolution).astype(f32), u)
-    got = dendry_points(pts, domain=dom, params=p, control=CTL, output=output, device=device)
+    got = dendry_points(pts, domain=dom, params=p, control=CTL, output=output, mode=mode, device=device)
     if wp.get_device(device).is_cuda:
         # CUDA may fuse the pixel centre's multiply-add (one rounding instead of two)
         np.testing.assert_allclose(got, img.ravel(), atol=1e-5)
@@ -871,12 +872,47 @@ def test_bad_dendry_input_raises_before_any_kernel(kw, match, launches):
     assert launches == []
 
 
+@pytest.mark.parametrize("output", ["distance", "elevation", "level"])
+def test_point_modes_agree_bit_for_bit_across_tiles(device, output, launches):
+    # dense clusters, a cluster across tile borders and points far apart, in shuffled order:
+    # every mode gives the same values, in the caller's order
+    rng = np.random.default_rng(11)
+    p = DendryParams(levels=3, eps=0.25, delta=0.1, seed=2, beta=0.5, noise=0.05)
+    wdd = importlib.import_module("wdendrite.dendry")
+    side = max(1, 256 >> (p.levels - 1 + (p.primitive_steps if output == "elevation" else 0))) / p.resolution
+    pts = np.concatenate([
+        rng.uniform(0.2, 0.5, (300, 2)),  # dense
+        side * 3 + rng.uniform(-0.2, 0.2, (300, 2)),  # dense, across a tile corner
+        rng.uniform(-40.0, 40.0, (30, 2)),  # sparse
+    ])
+    pts = pts[rng.permutation(len(pts))]
+    kw = dict(domain=DOMAIN, params=p, control=CTL, output=output, device=device)
+    want = dendry_points(pts, mode="pixel", **kw)
+    assert "levelk_kernel" not in launches
+    assert np.isfinite(want).sum() > 600
+    for mode in ("cached", "auto"):
+        launches.clear()
+        np.testing.assert_array_equal(dendry_points(pts, mode=mode, **kw), want)
+        assert "levelk_kernel" in launches and "scatter_kernel" in launches
+    # auto evaluates sparse points one by one (their tiles would build far more cells than they use)
+    launches.clear()
+    np.testing.assert_array_equal(dendry_points(pts[-30:], mode="auto", **kw), dendry_points(pts[-30:], mode="pixel", **kw))
+    assert "levelk_kernel" not in launches
+    assert wdd._point_tiles((pts * p.resolution).astype(np.float32), p, output)[1][-1] == len(pts)
+
+
 @pytest.mark.parametrize("pts, match", [([[0.0, np.nan]], "points"), ([[0.0, 1.0, 2.0]], "points"),
                                         ([[np.inf, 0.0]], "points"), ([[1.0, 1.0], [0.0, 5.0e6]], "points"),
                                         (np.array([["a", "b"]]), "points"), ([[0.1, 0.2], [0.3]], "points")])
 def test_bad_points_raise_before_any_kernel(pts, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         dendry_points(pts, domain=DOMAIN, params=DendryParams(), control=CTL)
+    assert launches == []
+
+
+def test_bad_point_mode_raises_before_any_kernel(launches):
+    with pytest.raises(ValueError, match="'mode'.*'tiled'"):
+        dendry_points([[0.1, 0.2]], domain=DOMAIN, params=DendryParams(), control=CTL, mode="tiled")
     assert launches == []
 
 

@@ -19,3 +19,4 @@ def test_readme_api_block_runs():
     assert scope["img"].shape == (96, 96) and 0.0 <= scope["img"].min() and scope["img"].max() <= 1.0
     assert scope["mesh"].is_watertight
     assert scope["terrain"].shape == (64, 64)
+    assert scope["heights"].shape == (2,)
