@@ -896,9 +896,49 @@ def test_point_modes_agree_bit_for_bit_across_tiles(device, output, launches):
         assert "levelk_kernel" in launches and "scatter_kernel" in launches
     # auto evaluates sparse points one by one (their tiles would build far more cells than they use)
     launches.clear()
-    np.testing.assert_array_equal(dendry_points(pts[-30:], mode="auto", **kw), dendry_points(pts[-30:], mode="pixel", **kw))
+    sparse = dendry_points(pts[-30:], mode="auto", **kw)
+    np.testing.assert_array_equal(sparse, dendry_points(pts[-30:], mode="pixel", **kw))
     assert "levelk_kernel" not in launches
-    assert wdd._point_tiles((pts * p.resolution).astype(np.float32), p, output)[1][-1] == len(pts)
+    # tiles: each holds the points of one square, and no square is split
+    u = (pts * p.resolution).astype(np.float32)
+    order, starts = wdd._point_tiles(u, p, output)
+    squares = np.floor(u.astype(np.float64) / (side * p.resolution)).astype(np.int64)[order]
+    firsts = [tuple(squares[a]) for a in starts[:-1]]
+    assert len(set(firsts)) == len(firsts) and starts[-1] == len(pts)
+    for a, b in zip(starts[:-1], starts[1:]):
+        assert (squares[a:b] == squares[a]).all()
+
+
+def test_auto_point_mode_leaves_a_tile_whose_cells_cost_more_than_its_points(launches):
+    # 80 points in two far corners of one tile: caching would build the whole tile's cells
+    p = DendryParams(levels=3, eps=0.25, delta=0.1, seed=2)
+    wdd = importlib.import_module("wdendrite.dendry")
+    side = (256 >> (p.levels - 1)) / p.resolution
+    rng = np.random.default_rng(3)
+    pts = np.concatenate([rng.uniform(0.1, 0.3, (40, 2)), side - rng.uniform(0.1, 0.3, (40, 2))])
+    assert len(wdd._point_tiles((pts * p.resolution).astype(np.float32), p, "distance")[0]) == 80
+    assert len(wdd._point_tiles((pts * p.resolution).astype(np.float32), p, "distance")[1]) == 2  # one tile
+    kw = dict(domain=((0.0, 0.0), (side, side)), params=p, control=CTL)
+    got = dendry_points(pts, **kw)
+    assert "levelk_kernel" not in launches
+    np.testing.assert_array_equal(got, dendry_points(pts, mode="cached", **kw))
+    assert "levelk_kernel" in launches
+
+
+@pytest.mark.parametrize("output", ["distance", "elevation"])
+def test_cached_work_estimate_equals_the_planned_blocks(output):
+    # auto's estimate mirrors the kernel's planning: the same block sizes for any box
+    wdd = importlib.import_module("wdendrite.dendry")
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        p = DendryParams(levels=int(rng.integers(1, 7)), rule=str(rng.choice(["terrain", "lichtenberg"])),
+                         eps=float(rng.choice([0.0, 0.25])), delta=float(rng.uniform(0, 0.4)), resolution=1.5)
+        lo = rng.uniform(-20, 20, 2)
+        hi = lo + rng.uniform(0, 3, 2)
+        s = wdd._setup(p, DOMAIN, CTL.domain, output)
+        _, sizes = wdd._cached_slots(s, p, output, lo.tolist(), hi.tolist(), "cpu")
+        want = sum(sizes[1:p.levels + 1]) + sizes[0] + (wdd._PRIMITIVE_WORK * sizes[7] if output == "elevation" else 0)
+        assert wdd._cached_work(p, output, lo, hi) == want
 
 
 @pytest.mark.parametrize("pts, match", [([[0.0, np.nan]], "points"), ([[0.0, 1.0, 2.0]], "points"),
