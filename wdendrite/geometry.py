@@ -187,8 +187,9 @@ def _check_field(field) -> np.ndarray | wp.array:
                 count, first = int(count.numpy()[0]), int(first.numpy()[0])
             if count:
                 where = tuple(int(i) for i in np.unravel_index(first, field.shape))
+                value = field[tuple(slice(i, i + 1) for i in where)].numpy().item()
                 raise ValueError(f"'field' must be finite, but has {count} NaN/inf entries (first at {where}: "
-                                 f"{field[where[0]:where[0] + 1, where[1]:where[1] + 1, where[2]:where[2] + 1].numpy().item()!r})")
+                                 f"{value!r})")
         shape = field.shape
     else:
         field = _checks.finite_array("field", field, "3D (D, H, W)", lambda s: len(s) == 3)
