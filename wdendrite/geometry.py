@@ -236,7 +236,7 @@ def field_mesh(
 
     Raises:
         ValueError: a field that is not 3D, has fewer than 2 nodes on an axis or holds NaN/inf
-            (a CUDA Warp field is not checked for NaN/inf), a non-finite ``level`` or one outside
+            (a Warp field is checked on its device), a non-finite ``level`` or one outside
             the field's range, a bad ``spacing``, ``origin``, ``smooth`` or ``band``.
         TypeError: a field that is not real-valued, a ``level`` that is not a number.
     """

@@ -108,7 +108,7 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     Raises:
         ValueError, TypeError: an elevation that is not a finite, non-empty 2D real array, or
             has 2**31 cells or more; a method other than ``"d8"`` or ``"dinf"``.
-        MemoryError: when the arrays (about 40 bytes per cell for D8, 60 for D-infinity)
+        MemoryError: when the arrays (about 36 bytes per cell for D8, 56 for D-infinity)
             would not fit in free memory.
     """
     if method not in ("d8", "dinf"):
@@ -121,15 +121,15 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
         raise ValueError(f"'elevation' has {cells} cells; flow accumulation numbers cells with 32-bit integers, "
                          f"so at most 2**31 - 1")
     two = method == "dinf"
-    # bytes per cell: the float64 copy and its device copy, receivers (and shares), donors,
-    # stack, areas and the returned array
-    _checks.fits_in_memory(cells * (8 + 8 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0)), "cpu",
+    # bytes per cell: the float64 elevations (read in place), receivers (and shares),
+    # donors, stack, areas and the returned array
+    _checks.fits_in_memory(cells * (8 + 4 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0)), "cpu",
                            f"flow_accumulation of {cells} cells")
     z = _elevation("elevation", elevation)
     if filled:
         z = fill(z)
     with wp.ScopedDevice("cpu"):
-        zw = wp.array(z, dtype=wp.float64)
+        zw = wp.array(z, dtype=wp.float64, copy=False)  # the receiver kernels only read it: no copy
         rec = wp.empty((2 if two else 1, z.size), dtype=int)
         frac = wp.empty(rec.shape if two else (1, 1), dtype=wp.float64)
         donors = wp.zeros(z.size, dtype=int)
@@ -137,7 +137,6 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
             wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
         else:
             wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors])
-        del zw
         area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64)
         wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int)],
                   outputs=[area])
