@@ -229,8 +229,8 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
     if area is not None:
         area = _checks.float_array("area", area, z.shape, positive=True)
     device = _checks.device(device)
-    lo, span = float(z.min()), float(z.max() - z.min())
-    t = ((z - lo) / span if span > 0 else np.zeros_like(z)).astype(np.float32)
+    span = float(z.max() - z.min())
+    t = unit_range(z).astype(np.float32)
     # slopes are gain x differences of t; beyond 1e18 the light sees vertical walls either way (and
     # float32 squares of such slopes stay finite)
     gain = min(span / spacing, 1e18)
