@@ -312,6 +312,9 @@ def test_from_arrays_round_trip_and_checks():
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[-1])
     with pytest.raises(ValueError, match="endpoints"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[2])
+    # fractional rows are refused, not truncated to a row
+    with pytest.raises(TypeError, match="integer rows for 'endpoints'"):
+        wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[1.5])
     with pytest.raises(ValueError, match=r"\(N, 2\)"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0, 0]], [-1])
     with pytest.raises(ValueError, match="neighbour"):

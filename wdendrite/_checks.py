@@ -108,15 +108,19 @@ def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
+def integer_array(name: str, value, what: str = "values") -> np.ndarray:
+    """Return ``value`` as an int64 array; a non-integer dtype (bool included) is a TypeError
+    naming ``what`` the integers are. Empty arrays of any dtype pass (``np.asarray([])`` is float)."""
+    arr = np.asarray(value)
+    if arr.size and (arr.dtype.kind not in "iu" or arr.dtype == np.bool_):
+        raise TypeError(f"Expected integer {what} for '{name}', but got dtype {arr.dtype}")
+    return arr.astype(np.int64)
+
+
 def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray | None = None) -> np.ndarray:
     """Return ``value`` as a ``(G, ndim)`` int64 array of in-bounds, usable nodes."""
-    arr = np.asarray(value)
+    arr = integer_array(name, value, "coordinates")
     ndim = len(shape)
-    if arr.dtype.kind not in "iu" or arr.dtype == np.bool_:
-        if arr.size == 0 and arr.dtype.kind == "f":
-            arr = arr.astype(np.int64)
-        else:
-            raise TypeError(f"Expected integer coordinates for '{name}', but got dtype {arr.dtype}")
     if arr.ndim != 2 or arr.shape[1] != ndim:
         raise ValueError(
             f"Expected '{name}' of shape (G, {ndim}) for a lattice of shape {shape}, but got shape {arr.shape}"
@@ -124,7 +128,6 @@ def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray 
         )
     if arr.shape[0] == 0:
         raise ValueError(f"'{name}' is empty: at least one node is needed")
-    arr = arr.astype(np.int64)
     outside = np.any((arr < 0) | (arr >= np.asarray(shape)), axis=1)
     if outside.any():
         row = int(np.argmax(outside))

@@ -83,10 +83,7 @@ class Dendrite:
             origin, spacing: placement in the world.
         """
         shape = _checks.lattice_shape(shape)
-        nodes = np.asarray(nodes)
-        if nodes.size and (nodes.dtype.kind not in "iu" or nodes.dtype == np.bool_):
-            raise TypeError(f"Expected integer coordinates for 'nodes', but got dtype {nodes.dtype}")
-        nodes = nodes.astype(np.int64)
+        nodes = _checks.integer_array("nodes", nodes, "coordinates")
         if nodes.ndim != 2 or nodes.shape[1] != len(shape):
             raise ValueError(f"Expected 'nodes' of shape (N, {len(shape)}), but got shape {nodes.shape}")
         n = len(nodes)
@@ -94,10 +91,7 @@ class Dendrite:
         if outside.any():
             row = int(np.argmax(outside))
             raise ValueError(f"'nodes' row {row} = {tuple(nodes[row].tolist())} lies outside the lattice of shape {shape}")
-        parent = np.asarray(parent)
-        if parent.size and (parent.dtype.kind not in "iu" or parent.dtype == np.bool_):
-            raise TypeError(f"Expected integer rows for 'parent', but got dtype {parent.dtype}")
-        parent = parent.astype(np.int64).reshape(-1)
+        parent = _checks.integer_array("parent", parent, "rows").reshape(-1)
         if parent.shape != (n,):
             raise ValueError(f"Expected 'parent' of shape ({n},), but got shape {parent.shape}")
         wrong = (parent < -1) | (parent >= n)
@@ -123,7 +117,7 @@ class Dendrite:
             has_child = np.zeros(n, bool)
             has_child[parent[child]] = True
             endpoints = np.flatnonzero(~has_child)
-        endpoints = np.asarray(endpoints, dtype=np.int64).reshape(-1)
+        endpoints = _checks.integer_array("endpoints", endpoints, "rows").reshape(-1)
         if endpoints.size and (endpoints.min() < 0 or endpoints.max() >= n):
             raise ValueError(f"'endpoints' must be rows in [0, {n}), but range over [{endpoints.min()}, {endpoints.max()}]")
         den = cls(shape, nodes, parent, per_node("cost", cost, np.float32), per_node("label", label, np.int32),
