@@ -10,8 +10,8 @@ kernels. Peer: the authors' C++ (-O3) on a machine like ours, one core.
 ``--search`` picks the neighbourhoods (DendryParams.search): ``exact``, our
 default, searches as wide as measured to miss no link; ``paper`` searches the
 paper's 3 x 3 cells for links, as the peer does. Then ``dendry_points`` in its three
-modes (``--points`` random points: uniform over the image's domain, and in 40 tight
-clusters over a domain 500 times wider).
+modes (``--points`` random points: uniform over the image's domain, in 40 tight
+clusters over a domain 500 times wider, and in 1000 small clusters over it).
 
 Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
        [--lichtenberg-size 1024] [--search exact paper] [--points 20000] [--device cpu]
@@ -94,7 +94,8 @@ def main() -> None:
 
 def _point_rates(count: int, device) -> None:
     """dendry_points in each mode: points uniform over the image's domain, and the same number
-    in 40 tight clusters spread over a domain 500 times wider (one tile each)."""
+    in 40 tight clusters spread over a domain 500 times wider (one tile each), and in 1000 small
+    clusters over it (mostly one tile each)."""
     rng = np.random.default_rng(0)
     print(f"\n# dendry_points, {count} points per case; peer: its per-pixel rate (it has no point API)")
     print("| workload | levels | output | points | mode | points/s | peer px/s | ratio |")
@@ -107,9 +108,15 @@ def _point_rates(count: int, device) -> None:
         wide = ((x0, y0), (x0 + 500 * span[0], y0 + 500 * span[1]))
         centres = np.array([x0, y0]) + rng.random((40, 1, 2)) * 500 * span
         clusters = (centres + rng.random((40, count // 40, 2)) * 0.05 * span).reshape(-1, 2)
+        # small clusters: whether a tile's fixed cost pays off decides
+        small = count // 1000
+        centres = np.array([x0, y0]) + rng.random((1000, 1, 2)) * 500 * span
+        many = (centres + rng.random((1000, small, 2)) * 0.02 * span).reshape(-1, 2)
         size = 1024 if kind == "lichtenberg" else 512
         peer = PEER.get((kind, levels, out, size))
-        for name, pts, domain in (("uniform", uniform, kw["domain"]), ("40 clusters", clusters, wide)):
+        sets = (("uniform", uniform, kw["domain"]), ("40 clusters", clusters, wide),
+                (f"1000 clusters of {small}", many, wide))
+        for name, pts, domain in sets:
             case = dict(kw, domain=domain)
             for mode in ("pixel", "cached", "auto"):
                 dendry_points(pts[:50], output=out, mode=mode, device=device, **case)  # compile, warm

@@ -940,7 +940,8 @@ def plan_kernel(
     s: Setup, qlo: wp.vec2i, qhi: wp.vec2i, plo: wp.vec2i, phi: wp.vec2i, cap: wp.vec3i,
     blocks_out: wp.array(dtype=wp.vec4i), bases_out: wp.array(dtype=int), overflow_out: wp.array(dtype=int),
 ):
-    """Plan the blocks of slot 0 for a window (one thread)."""
+    """Plan the blocks of slot 0 for a window (one thread). The library plans the cached mode on
+    the host (``wdendrite.dendry._host_plan``); the tests check it against this kernel."""
     overflow_out[0] = plan(s, qlo, qhi, plo, phi, 0, cap, blocks_out, bases_out)
 
 
@@ -1039,10 +1040,3 @@ def points_kernel(
     values_out[i] = evaluate(
         s, ctl, points_in[i], output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
     )
-
-
-@wp.kernel
-def scatter_kernel(index_in: wp.array(dtype=wp.int32), values_in: wp.array(dtype=float), values_out: wp.array(dtype=float)):
-    """``values_out[index_in[i]] = values_in[i]``: results of a group of points back in the caller's order."""
-    i = wp.tid()
-    values_out[index_in[i]] = values_in[i]

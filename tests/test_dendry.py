@@ -700,8 +700,8 @@ def test_a_primitive_block_planned_too_small_raises_instead_of_returning_nan(dev
     wdd = importlib.import_module("wdendrite.dendry")  # the package's name `dendry` is the function
     plan = wdd._cached_slots
 
-    def first_pixel_only(s, params, output, u_first, u_last, device):
-        return plan(s, params, output, u_first, u_first, device)
+    def first_pixel_only(params, output, u_first, u_last, device):
+        return plan(params, output, u_first, u_first, device)
 
     monkeypatch.setattr(wdd, "_cached_slots", first_pixel_only)
     with pytest.raises(RuntimeError, match="primitive block"):
@@ -893,7 +893,7 @@ def test_point_modes_agree_bit_for_bit_across_tiles(device, output, launches):
     for mode in ("cached", "auto"):
         launches.clear()
         np.testing.assert_array_equal(dendry_points(pts, mode=mode, **kw), want)
-        assert "levelk_kernel" in launches and "scatter_kernel" in launches
+        assert "levelk_kernel" in launches
     # auto evaluates sparse points one by one (their tiles would build far more cells than they use)
     launches.clear()
     sparse = dendry_points(pts[-30:], mode="auto", **kw)
@@ -926,19 +926,29 @@ def test_auto_point_mode_leaves_a_tile_whose_cells_cost_more_than_its_points(lau
 
 
 @pytest.mark.parametrize("output", ["distance", "elevation"])
-def test_cached_work_estimate_equals_the_planned_blocks(output):
-    # auto's estimate mirrors the kernel's planning: the same block sizes for any box
+def test_host_planning_equals_the_kernels(output):
+    # the cached mode plans its blocks on the host: the same blocks and bases as the kernel's plan,
+    # and block sizes (which "auto" weighs) that the host's per-axis mirror also gives
     wdd = importlib.import_module("wdendrite.dendry")
     rng = np.random.default_rng(4)
     for _ in range(20):
         p = DendryParams(levels=int(rng.integers(1, 7)), rule=str(rng.choice(["terrain", "lichtenberg"])),
-                         eps=float(rng.choice([0.0, 0.25])), delta=float(rng.uniform(0, 0.4)), resolution=1.5)
+                         eps=float(rng.choice([0.0, 0.25])), delta=float(rng.uniform(0, 0.4)), resolution=1.5,
+                         search=str(rng.choice(["exact", "paper"])))
         lo = rng.uniform(-20, 20, 2)
         hi = lo + rng.uniform(0, 3, 2)
         s = wdd._setup(p, DOMAIN, CTL.domain, output)
-        _, sizes = wdd._cached_slots(s, p, output, lo.tolist(), hi.tolist(), "cpu")
-        want = sum(sizes[1:p.levels + 1]) + sizes[0] + (wdd._PRIMITIVE_WORK * sizes[7] if output == "elevation" else 0)
-        assert wdd._cached_work(p, output, lo, hi) == want
+        qlo, qhi, plo, phi = (wp.vec2i(*c) for c in wdd._query_cells(p, output, lo.tolist(), hi.tolist()))
+        blocks = wp.zeros(8, dtype=wp.vec4i, device="cpu")
+        bases = wp.zeros(8, dtype=int, device="cpu")
+        wp.launch(_kd.plan_kernel, dim=1, inputs=[s, qlo, qhi, plo, phi, wp.vec3i(2**30, 2**30, 2**30)],
+                  outputs=[blocks, bases, wp.zeros(1, dtype=int, device="cpu")], device="cpu")
+        want_blocks, want_bases, sizes = wdd._host_plan(p, output, lo.tolist(), hi.tolist())
+        np.testing.assert_array_equal(blocks.numpy(), want_blocks)
+        np.testing.assert_array_equal(bases.numpy(), want_bases)
+        for axis in range(2):
+            widths = wdd._plan_axis(p, qlo[axis], qhi[axis], 0)
+            assert widths[1:] == [int(b[2 + axis]) for b in want_blocks[1:p.levels + 1]]
 
 
 @pytest.mark.parametrize("pts, match", [([[0.0, np.nan]], "points"), ([[0.0, 1.0, 2.0]], "points"),

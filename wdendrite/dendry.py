@@ -239,22 +239,28 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     return s
 
 
-def _plan_axis(p: DendryParams, qlo: int, qhi: int, m: int) -> list[int]:
-    """Cells per level (index 1..n) along one axis of the blocks that answer queries in level-n
-    cells ``qlo..qhi`` widened by ``m`` cells: mirrors ``kernels.dendry.plan``."""
+def _plan_ranges(p: DendryParams, qlo: int, qhi: int) -> list[tuple[int, int]]:
+    """First and last cell per level (index 1..n; index 0 is empty) along one axis of the blocks
+    that answer queries in level-n cells ``qlo..qhi``: the integer steps of ``kernels.dendry.plan``."""
     n = p.levels
     r1, rq, rl = p.radii()
-    widths = [0] * (n + 1)
     r = r1 if n == 1 else rq
-    lo, hi = qlo - m - r, qhi + m + r
-    widths[n] = hi - lo + 1
+    lo, hi = qlo - r, qhi + r
+    ranges = [(0, -1)] * (n + 1)
+    ranges[n] = (lo, hi)
     for l in range(n - 1, 0, -1):
         r = r1 if l == 1 else rq
         sh = n - l
-        lo = min((lo >> 1) - rl, ((qlo - m) >> sh) - r)
-        hi = max((hi >> 1) + rl, ((qhi + m) >> sh) + r)
-        widths[l] = hi - lo + 1
-    return widths
+        lo = min((lo >> 1) - rl, (qlo >> sh) - r)
+        hi = max((hi >> 1) + rl, (qhi >> sh) + r)
+        ranges[l] = (lo, hi)
+    return ranges
+
+
+def _plan_axis(p: DendryParams, qlo: int, qhi: int, m: int) -> list[int]:
+    """Cells per level (index 1..n) along one axis of the blocks that answer queries in level-n
+    cells ``qlo..qhi`` widened by ``m`` cells."""
+    return [hi - lo + 1 for lo, hi in _plan_ranges(p, qlo - m, qhi + m)]
 
 
 def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
@@ -266,27 +272,22 @@ def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
     return (widest[1] + 4) ** 2, sum(w * w for w in widest[1:]), 1
 
 
-def _cached_work(p: DendryParams, output: str, u_min, u_max) -> int:
-    """About how many cells and primitives the cached mode builds for queries between grid
-    points ``u_min`` and ``u_max`` (see _cached_slots)."""
-    n = p.levels
-    f = 2.0 ** (n - 1)
-    m = 3 if output == "elevation" else 1
-    ax = [_plan_axis(p, math.floor(a * f), math.floor(b * f), m) for a, b in zip(u_min, u_max)]
-    work = sum(wx * wy for wx, wy in zip(ax[0][1:], ax[1][1:])) + (ax[0][1] + 4) * (ax[1][1] + 4)
+def _cached_work(p: DendryParams, output: str, plan) -> int:
+    """About how much the cached mode's ``plan`` (from :func:`_host_plan`) costs to build, in cells."""
+    sizes = plan[2]
+    work = sum(sizes[: p.levels + 1])
     if output == "elevation":
-        pf = 2.0 ** (n - 1 + p.primitive_steps)
-        work += _PRIMITIVE_WORK * math.prod(math.floor(b * pf) - math.floor(a * pf) + 7 for a, b in zip(u_min, u_max))
+        work += _PRIMITIVE_WORK * sizes[_kd.PRIM]
     return work
 
 
 # Costs that decide dendry_points' "auto" mode, measured on the CPU (2026-12-02): a primitive's
 # query costs about as much as building 5 cells; a cell of a large cached block about 2.5 times
-# one of a point's own small blocks (which stay in cache); a cached tile's launches and
-# allocations about 10 000 cells (0.6-0.8 ms).
+# one of a point's own small blocks (which stay in cache); a cached tile's launches about 3000
+# cells (0.15-0.25 ms; the tiles share one storage, planned on the host).
 _PRIMITIVE_WORK = 5
 _CACHED_CELL_COST = 2.5
-_CACHED_TILE_WORK = 10_000
+_CACHED_TILE_WORK = 3_000
 _CACHED_POINTS = 8  # tiles with fewer points are not even estimated
 
 
@@ -429,34 +430,72 @@ def _launch_chunks(count: int, slots: _Slots, device):
     return nslots, [(first, min(step, count - first)) for first in range(0, count, step)]
 
 
-def _cached_slots(s, params, output, u_first, u_last, device) -> tuple[_Slots, list[int]]:
-    """Plan slot 0 for all queries between grid points ``u_first`` and ``u_last``; allocate it.
-
-    Returns the slot storage and the cell count of each of its 8 blocks.
-    """
+def _query_cells(params: DendryParams, output: str, u_first, u_last) -> tuple[tuple[int, int], ...]:
+    """Level-n cells ``qlo``, ``qhi`` and primitive cells ``plo``, ``phi`` (x, y) spanning every
+    query between grid points ``u_first`` and ``u_last``, with spare cells against rounding."""
     n = params.levels
     f = float(2 ** (n - 1))
     pf = float(2 ** (n - 1 + params.primitive_steps))
     # one spare cell absorbs float rounding differences between host and kernel
     m = 3 if output == "elevation" else 1
-    qlo = wp.vec2i(*(int(math.floor(v * f)) - m for v in u_first))
-    qhi = wp.vec2i(*(int(math.floor(v * f)) + m for v in u_last))
-    plo = wp.vec2i(*(int(math.floor(v * pf)) - 3 for v in u_first))
-    phi = wp.vec2i(*(int(math.floor(v * pf)) + 3 for v in u_last))
+    qlo = tuple(int(math.floor(v * f)) - m for v in u_first)
+    qhi = tuple(int(math.floor(v * f)) + m for v in u_last)
+    plo = tuple(int(math.floor(v * pf)) - 3 for v in u_first)
+    phi = tuple(int(math.floor(v * pf)) + 3 for v in u_last)
     if output != "elevation":
         plo, phi = qlo, qlo
-    big = wp.vec3i(2**30, 2**30, 2**30)
-    plan = _Slots(1, (0, 0, 0), device)
-    wp.launch(_kd.plan_kernel, dim=1, inputs=[s, qlo, qhi, plo, phi, big],
-              outputs=[plan.blocks, plan.bases, plan.overflow], device=device)
-    blocks = plan.blocks.numpy()
-    sizes = [int(b[2]) * int(b[3]) for b in blocks]
-    cells = sum(sizes[1 : n + 1])
-    need = sizes[0] * 16 + cells * (16 + 12 * _STRIDE) + sizes[7] * 12
-    fits_in_memory(need, device, "Dendry cached cells")
-    slots = _Slots(1, (sizes[0], cells, sizes[7]), device)
-    slots.blocks, slots.bases = plan.blocks, plan.bases
-    return slots, sizes
+    return qlo, qhi, plo, phi
+
+
+def _host_plan(params: DendryParams, output: str, u_first, u_last) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """The blocks of the cached mode's slot 0 for all queries between grid points ``u_first``
+    and ``u_last``, planned on the host (no launch, no read-back).
+
+    Returns ``blocks`` (8, 4) int32 (first cell x, y; cells along x, y), ``bases`` (8,) int32
+    (where each block starts in its storage) and the cell count of each block. These are the
+    values ``kernels.dendry.plan`` writes for slot 0 (integer steps only; a test compares them).
+    """
+    n = params.levels
+    qlo, qhi, plo, phi = _query_cells(params, output, u_first, u_last)
+    rx, ry = (_plan_ranges(params, a, b) for a, b in zip(qlo, qhi))
+    blocks = np.zeros((8, 4), np.int32)
+    bases = np.zeros(8, np.int32)
+    total = 0
+    for l in range(n, 0, -1):  # the tree's levels share one storage, finest first
+        blocks[l] = (rx[l][0], ry[l][0], rx[l][1] - rx[l][0] + 1, ry[l][1] - ry[l][0] + 1)
+        bases[l] = total
+        total += int(blocks[l, 2]) * int(blocks[l, 3])
+    # level-1 points: two more cells around the level-1 block; the primitives
+    blocks[0] = (blocks[1, 0] - 2, blocks[1, 1] - 2, blocks[1, 2] + 4, blocks[1, 3] + 4)
+    blocks[_kd.PRIM] = (plo[0], plo[1], phi[0] - plo[0] + 1, phi[1] - plo[1] + 1)
+    return blocks, bases, [int(b[2]) * int(b[3]) for b in blocks]
+
+
+def _cached_storage(plans, params: DendryParams, device) -> _Slots:
+    """Slot-0 storage that holds the cells of each of ``plans`` (one at a time)."""
+    n = params.levels
+    pts = max(sizes[0] for _, _, sizes in plans)
+    cells = max(sum(sizes[1 : n + 1]) for _, _, sizes in plans)
+    prims = max(sizes[_kd.PRIM] for _, _, sizes in plans)
+    fits_in_memory(pts * 16 + cells * (16 + 12 * _STRIDE) + prims * 12, device, "Dendry cached cells")
+    return _Slots(1, (pts, cells, prims), device)
+
+
+def _load_plan(slots: _Slots, plan) -> None:
+    """Give slot 0 the blocks of ``plan`` (from :func:`_host_plan`)."""
+    slots.blocks.assign(plan[0])
+    slots.bases.assign(plan[1])
+
+
+def _cached_slots(params, output, u_first, u_last, device) -> tuple[_Slots, list[int]]:
+    """Plan slot 0 for all queries between grid points ``u_first`` and ``u_last``; allocate it.
+
+    Returns the slot storage and the cell count of each of its 8 blocks.
+    """
+    plan = _host_plan(params, output, u_first, u_last)
+    slots = _cached_storage([plan], params, device)
+    _load_plan(slots, plan)
+    return slots, plan[2]
 
 
 def _fill_cached(s, ctl, params, output, slots, sizes, device):
@@ -475,7 +514,7 @@ def _fill_cached(s, ctl, params, output, slots, sizes, device):
 def _run_cached(s, ctl, params, output, u_first, u_last, device, launch) -> None:
     """Cached mode: build the cells that queries between grid points ``u_first`` and ``u_last``
     need, once, then ``launch(slots)`` the kernel that evaluates them."""
-    slots, sizes = _cached_slots(s, params, output, u_first, u_last, device)
+    slots, sizes = _cached_slots(params, output, u_first, u_last, device)
     _fill_cached(s, ctl, params, output, slots, sizes, device)
     launch(slots)
     slots.check()
@@ -509,7 +548,7 @@ def _cached_tree(shape, *, domain, params: DendryParams, control: Control | None
     step = ((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
     u_first = (domain[0][0] * res + 0.5 * step[0], domain[0][1] * res + 0.5 * step[1])
     u_last = (domain[0][0] * res + (shape[1] - 0.5) * step[0], domain[0][1] * res + (shape[0] - 0.5) * step[1])
-    slots, sizes = _cached_slots(s, params, "distance", u_first, u_last, device)
+    slots, sizes = _cached_slots(params, "distance", u_first, u_last, device)
     _fill_cached(s, control.struct(device), params, "distance", slots, sizes, device)
     blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
     keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, _STRIDE, 3)
@@ -667,47 +706,57 @@ def dendry_points(
     code = _OUTPUTS[output]
     # grid units, as float32: the same numbers whichever way a point is evaluated
     u_host = (pts.astype(np.float64) * params.resolution).astype(np.float32)
-    out = wp.zeros(n, dtype=float, device=device)
+    values = np.empty(n, np.float32)
 
-    def evaluate(idx: np.ndarray, cached: bool) -> None:
-        """Points ``idx`` (all within one tile when ``cached``) into ``out[idx]``."""
-        u = u_host[idx]
-        u_dev = wp.array(u, dtype=wp.vec2, device=device)
-        values = wp.zeros(len(idx), dtype=float, device=device)
+    def one_by_one(idx: np.ndarray) -> None:
+        """Points ``idx``, each rebuilding its own cells, into ``values[idx]``."""
+        u_dev = wp.array(u_host[idx], dtype=wp.vec2, device=device)
+        out = wp.zeros(len(idx), dtype=float, device=device)
 
         def launch(slots, nslots, first, size):
             wp.launch(_kd.points_kernel, dim=size,
-                      inputs=[s, ctl, code, int(cached), slots.cap, nslots, first, u_dev, *slots.arrays()],
-                      outputs=[values, slots.overflow], device=device)
+                      inputs=[s, ctl, code, 0, slots.cap, nslots, first, u_dev, *slots.arrays()],
+                      outputs=[out, slots.overflow], device=device)
 
-        if cached:
-            _run_cached(s, ctl, params, output, u.min(axis=0).tolist(), u.max(axis=0).tolist(), device,
-                        lambda slots: launch(slots, 1, 0, len(idx)))
-        else:
-            _run_pixels(params, output, len(idx), device, launch)
-        wp.launch(_kd.scatter_kernel, dim=len(idx), inputs=[wp.array(idx.astype(np.int32), device=device), values],
-                  outputs=[out], device=device)
+        _run_pixels(params, output, len(idx), device, launch)
+        values[idx] = out.numpy()
 
     if mode == "pixel":
-        evaluate(np.arange(n), False)
-        return out.numpy()
+        one_by_one(np.arange(n))
+        return values
     order, starts = _point_tiles(u_host, params, output)
     counts = np.diff(starts)
     keep = counts >= (1 if mode == "cached" else _CACHED_POINTS)
+    plans = {}
     if mode == "auto":
         cap = _slot_capacity(params, output)
         # cells a point rebuilds on its own (and its 25 primitives' queries), in the units of _cached_work
         per_point = cap[0] + cap[1] + (25 * _PRIMITIVE_WORK if output == "elevation" else 0)
-        for t in np.flatnonzero(keep):
-            u = u_host[order[starts[t]:starts[t + 1]]]
-            work = _cached_work(params, output, u.min(axis=0), u.max(axis=0))
-            keep[t] = _CACHED_CELL_COST * work + _CACHED_TILE_WORK <= counts[t] * per_point
     for t in np.flatnonzero(keep):
-        evaluate(order[starts[t]:starts[t + 1]], True)
+        u = u_host[order[starts[t]:starts[t + 1]]]
+        plans[t] = _host_plan(params, output, u.min(axis=0).tolist(), u.max(axis=0).tolist())
+        if mode == "auto":
+            keep[t] = _CACHED_CELL_COST * _cached_work(params, output, plans[t]) + _CACHED_TILE_WORK <= counts[t] * per_point
+    tiles = np.flatnonzero(keep)
+    if len(tiles):
+        # the tiles take turns in one storage, as large as the largest needs; the points in tile
+        # order, so that each tile's are a contiguous run
+        slots = _cached_storage([plans[t] for t in tiles], params, device)
+        u_dev = wp.array(u_host[order], dtype=wp.vec2, device=device)
+        out = wp.zeros(n, dtype=float, device=device)
+        for t in tiles:
+            _load_plan(slots, plans[t])
+            _fill_cached(s, ctl, params, output, slots, plans[t][2], device)
+            wp.launch(_kd.points_kernel, dim=int(counts[t]),
+                      inputs=[s, ctl, code, 1, slots.cap, 1, int(starts[t]), u_dev, *slots.arrays()],
+                      outputs=[out, slots.overflow], device=device)
+        slots.check()
+        cached = np.repeat(keep, counts)
+        values[order[cached]] = out.numpy()[cached]
     alone = order[np.repeat(~keep, counts)]
     if len(alone):
-        evaluate(alone, False)
-    return out.numpy()
+        one_by_one(alone)
+    return values
 
 
 def _point_tiles(u: np.ndarray, params: DendryParams, output: str) -> tuple[np.ndarray, np.ndarray]:
