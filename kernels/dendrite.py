@@ -15,10 +15,11 @@ way, so the union of all walks is a forest.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 from .sssp import UNREACHED, HashedWeights, edge_cost, pack_cost, packed_cost, packed_label, stamp_index, state_at
 
-wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+wp.set_module_options({**OPTIONS, "optimization_level": 3})
 
 TRACE_OK = wp.constant(0)
 TRACE_UNREACHABLE = wp.constant(1)

@@ -28,11 +28,12 @@ that decides a value: that sharing is what makes them agree bit for bit.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 from .noise import Control, control_inside, control_value
 from .random import hash3, mix32
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 NV = wp.constant(7)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding box
 PIECES = wp.constant(4)  # pieces searched per cell: shorter polylines are padded with copies of their last vertex

@@ -5,9 +5,10 @@ Fields use flat C-order indices over ``(D, H, W)`` like :mod:`wdendrite.kernels.
 
 import warp as wp
 
+from . import OPTIONS
 from .lattice import in_bounds, node_index
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 
 @wp.kernel

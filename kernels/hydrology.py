@@ -10,9 +10,10 @@ on the CPU device.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 vec8i = wp.types.vector(length=8, dtype=int)
 

@@ -15,7 +15,9 @@ loops.
 
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+from . import OPTIONS
+
+wp.set_module_options(OPTIONS)
 
 
 @wp.func

@@ -7,7 +7,9 @@ index is ``(z * H + y) * W + x`` (C order, the same as NumPy's ``ravel``).
 
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+from . import OPTIONS
+
+wp.set_module_options(OPTIONS)
 
 
 @wp.func

@@ -18,9 +18,10 @@ every lattice point.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 KIND_PLANE = wp.constant(0)
 KIND_RADIAL = wp.constant(1)

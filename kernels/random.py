@@ -7,7 +7,9 @@ weights can be recomputed inside a kernel instead of being stored.
 
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+from . import OPTIONS
+
+wp.set_module_options(OPTIONS)
 
 _MUL_A = wp.constant(wp.uint32(0x7FEB352D))
 _MUL_B = wp.constant(wp.uint32(0x846CA68B))

@@ -39,11 +39,12 @@ word with ids of its own, which later searches' newer ids never equal.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 from .lattice import in_bounds, node_coords, node_index, padded_index
 from .weights import WeightParams, is_plain, weight_of_edge
 
-wp.set_module_options({"enable_backward": False, "optimization_level": 3})
+wp.set_module_options({**OPTIONS, "optimization_level": 3})
 
 UNREACHED = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 """Packed state of a node no path has reached."""

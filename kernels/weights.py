@@ -18,11 +18,12 @@ edge midpoint (ramp, radial) or as the mean of the two end nodes (map).
 
 import warp as wp
 
+from . import OPTIONS
 from .lattice import node_coords, node_index
 from .indexing import nonneg
 from .random import hash_unit
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 # distribution kinds (WeightParams.kind)
 CONSTANT = wp.constant(0)

@@ -7,6 +7,7 @@ last test checks.
 
 import importlib
 import pkgutil
+import re
 
 import pytest
 import warp as wp
@@ -47,3 +48,19 @@ def test_helper_module_used_by_a_kernel_module(name):
     assert helper_funcs
     users = [n for n in WITH_KERNELS if helper_funcs & {id(v) for v in vars(MODULES[n]).values()}]
     assert users, f"kernels/{name}.py is imported by no kernel module, so nothing compiles it"
+
+
+@pytest.mark.parametrize("name", WITH_KERNELS)
+def test_no_fused_multiply_add(name, tmp_path):
+    # CUDA compilers fuse a * b + c into one rounding unless told not to; the CPU build does not,
+    # so kernel modules turn fusion off (kernels.OPTIONS) for both devices to round alike
+    module = wp.get_module(MODULES[name].__name__)
+    assert module.options["fuse_fp"] is False and module.options["enable_backward"] is False
+    # in the CUDA code of the weights (recomputed weights must equal the stored ones, which the
+    # CPU computes), every float multiplication and addition rounds on its own (".rn", which
+    # forbids contraction; fma instructions remain only inside the math library's pow)
+    if name == "weights":
+        ptx = wp.compile_aot_module(MODULES[name], arch=75, module_dir=tmp_path, use_ptx=True)
+        text = "".join(p.read_text(errors="ignore") for p in ptx)
+        assert re.search(r"\bmul\.rn\.f32", text)
+        assert not re.search(r"\b(mul|add|sub)\.f32\b", text)

@@ -277,8 +277,10 @@ class Lattice:
             nodes are never entered. Default: every node usable.
         store_weights: with a distribution as ``weights``, False stores no
             weight array: kernels recompute each weight from its hash, so a
-            lattice too large for stored weights still works (with a
-            distribution, the values equal the stored ones bit for bit).
+            lattice too large for stored weights still works. The values equal
+            the stored ones bit for bit on the CPU; on a GPU, the ``Power`` and
+            ``Polynomial`` distributions' ``pow`` (CUDA's own) may differ from
+            the CPU's by a unit in the last place.
 
     Attributes:
         shape, ndim, connectivity: as given.
