@@ -12,10 +12,11 @@ order in which threads arrive.
 
 import warp as wp
 
+from . import OPTIONS
 from .indexing import nonneg
 from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options(OPTIONS)
 
 
 METRIC_EUCLIDEAN = wp.constant(0)
@@ -48,20 +49,24 @@ def splat_distance_kernel(
     """
     row = wp.tid()
     c = nodes_in[row]
-    r = int(wp.floor(radius))
-    r2 = radius * radius
+    # no cell of the image lies farther than the sum of its sides under either metric: a
+    # larger radius reaches every cell, and the loops stay within the image (and int32)
+    reach = wp.min(radius, float(shape[0] + shape[1] + shape[2]))
+    r = int(wp.floor(reach))
+    r2 = reach * reach
     z0 = wp.max(c[0] - r, 0)
     z1 = wp.min(c[0] + r, shape[0] - 1)
     # (while loops and nonneg indices: see kernels/indexing.py; 0.4x the time of range() loops)
     z = int(z0)
     while z <= z1:
         dz = float(z - c[0])
-        dy_i = int(-r)
-        while dy_i <= r:
+        dy_i = wp.max(-r, -c[1])
+        dy_last = wp.min(r, shape[1] - 1 - c[1])
+        while dy_i <= dy_last:
             y = c[1] + dy_i
             dy = float(dy_i)
             rest = r2 - dz * dz - dy * dy
-            if y >= 0 and y < shape[1] and rest >= 0.0:
+            if rest >= 0.0:
                 # only the columns inside the disc of this row
                 half = int(wp.floor(wp.sqrt(rest)))
                 x0 = wp.max(c[2] - half, 0)

@@ -65,6 +65,21 @@ def test_euclidean_brightness_matches_scipy_distance_transform(device):
     np.testing.assert_allclose(v, ref, atol=2e-6)
 
 
+@pytest.mark.parametrize("metric", ["euclidean", "path"])
+def test_a_limit_beyond_the_image_reaches_every_cell(metric, device):
+    # limits past int32 and past the image give the field of a limit that just covers it, at once
+    free = np.ones(DEN.shape, bool)
+    free[tuple(DEN.nodes.T)] = False
+    want = ndimage.distance_transform_edt(free) if metric == "euclidean" else _unit_path_distance(DEN)
+    cover = float(sum(DEN.shape))
+    for limit in (cover, 3.0e9, 1.0e30):
+        dist, label = distance_field(DEN, limit=limit, metric=metric, device=device)
+        np.testing.assert_allclose(dist, want, rtol=1e-6)
+        assert (label >= 0).all()
+    v = brightness(DEN, 1.0e9, reach=3.0, metric=metric, device=device)
+    np.testing.assert_allclose(v, np.exp(-((want / 1.0e9) ** 2)), rtol=1e-6)
+
+
 def test_width_of_the_nearest_node_is_used(device):
     widths = np.linspace(1.0, 4.0, len(DEN)).astype(np.float32)
     dist, label = distance_field(DEN, limit=12.0, metric="euclidean", device=device)
