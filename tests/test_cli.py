@@ -120,6 +120,8 @@ def test_config_file_and_command_line_override(tmp_path):
     bad(["fractal", "--config", "bad.toml", "-o", "c.png"], tmp_path, "'chaep'", "did you mean 'cheap'")
     (tmp_path / "broken.toml").write_text("size = 40\ncheap = = 1\n")
     bad(["fractal", "--config", "broken.toml", "-o", "c.png"], tmp_path, "line 2", "cheap = = 1")
+    (tmp_path / "half.toml").write_text("size = 64.5\n")
+    bad(["fractal", "--config", "half.toml", "-o", "c.png"], tmp_path, "config key 'size'", "64.5")
     assert not (tmp_path / "c.png").exists()
 
 
@@ -158,6 +160,32 @@ def test_outputs_are_never_clobbered_or_half_written(tmp_path):
     # the preset fails after the outputs were checked (rock has no dendrite): nothing is left behind
     bad(["rock", "--size", 16, "-o", "r.png", "-o", "r.npz"], tmp_path, "no dendrite")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "file"]
+    # a folder in the way, even with --force, and SVG for a 3D preset: refused before any work
+    (tmp_path / "dir.png").mkdir()
+    bad(["fractal", "--size", 32, "-o", "ok.png", "-o", "dir.png", "--force"], tmp_path, "dir.png", "is a folder")
+    bad(["tree", "--size", 16, "-o", "t.png", "-o", "t.svg"], tmp_path, "3D", "SVG")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.png", "f.png", "file"]
+
+
+def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):
+    # the second output fails while being written: the first is not left behind, and a file
+    # already at the first path keeps its bytes
+    from wdendrite import io
+
+    (tmp_path / "c.png").write_bytes(b"keep")
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(io, "save_dendrite", broken)
+    with pytest.raises(OSError, match="disk full"):
+        cli.run_preset("fractal", {"size": 32}, [tmp_path / "c.png", tmp_path / "c.npz"], device="cpu", force=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.png"]
+    assert (tmp_path / "c.png").read_bytes() == b"keep"
+    monkeypatch.undo()
+    rec = cli.run_preset("fractal", {"size": 32}, [tmp_path / "c.png", tmp_path / "c.npz"], device="cpu", force=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.npz", "c.png"] and len(rec["outputs"]) == 2
+    assert Image.open(tmp_path / "c.png").size[0] > 0
 
 
 def test_unexpected_failure_exits_with_1(monkeypatch, capsys):

@@ -472,7 +472,11 @@ def parse_config(path, preset: Preset) -> dict:
     out = {}
     for k, v in raw.items():
         if k == "size" and preset.size_param:
-            out[preset.size_param] = preset.sized(v)
+            try:
+                out[preset.size_param] = preset.sized(v)
+            except UsageError:
+                raise UsageError(f"config key 'size' in {str(path)!r} expects a positive integer, "
+                                 f"but got {v!r}") from None
         elif k in preset.params:
             out[k] = preset.params[k].convert(v, source=f"config key '{k}' in {str(path)!r}")
         else:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import re
 import sys
 import tempfile
@@ -83,6 +84,8 @@ def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -
         except OSError as exc:
             raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable "
                              f"({exc.strerror})") from None
+        if p.is_dir() and p.suffix.lower() != ".zarr":  # a Zarr store is a folder; nothing else is
+            raise UsageError(f"-o/--out {str(p)!r} is a folder; name a file")
         if p.exists() and not force:
             raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
         out.append(p)
@@ -90,11 +93,15 @@ def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -
 
 
 def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "") -> list[str]:
-    """Write what a preset returned to each path, the format taken from the suffix (atomically).
+    """Write what a preset returned to each path, the format taken from the suffix.
 
     ``.png``: the picture (8-bit RGB), or with ``heightmap`` the 2D field as a 16-bit grey PNG
     scaled from its minimum to its maximum; ``.npy``: the field (float32); ``.obj/.ply/.stl/.glb``:
     the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
+
+    All or nothing: every output is first written to a temporary file beside its path, and
+    only when all are written are they renamed into place; a failure removes them and leaves
+    every path as it was.
     """
     from . import io
 
@@ -105,24 +112,41 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             _need(result, "mesh", preset)
         elif suf in DENDRITE + SVG:
             _need(result, "dendrite", preset)
-    written = []
-    for p in paths:
-        suf = p.suffix.lower()
-        if suf == ".png" and heightmap:
-            io.save_png(p, unit_range(_field(result, preset)), bits=16, overwrite=force)
-        elif suf == ".png":
-            io.save_png(p, _picture(result), overwrite=force)
-        elif suf == ".npy":
-            field = np.asarray(_field(result, preset), np.float32)
-            io.atomic_write(p, lambda tmp: np.save(tmp, field), overwrite=force)
-        elif suf in MESH:
-            io.save_mesh(p, _need(result, "mesh", preset), overwrite=force)
-        elif suf in DENDRITE:
-            io.save_dendrite(p, _need(result, "dendrite", preset), overwrite=force)
-        else:
-            io.save_svg(p, _need(result, "dendrite", preset), overwrite=force)
-        written.append(str(p))
-    return written
+    staged = []
+    try:
+        for p in paths:
+            fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=p.suffix, dir=p.parent if str(p.parent) else ".")
+            os.close(fd)
+            tmp = Path(name)
+            staged.append((tmp, p))
+            _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
+        for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
+            if p.exists() and not force:
+                raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
+        for tmp, p in staged:
+            os.replace(tmp, p)
+    except BaseException:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        raise
+    return [str(p) for p in paths]
+
+
+def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -> None:
+    """Write one output of ``result`` to ``path`` (an existing temporary file) as ``suf`` says."""
+    if suf == ".png" and heightmap:
+        io.save_png(path, unit_range(_field(result, preset)), bits=16, overwrite=True)
+    elif suf == ".png":
+        io.save_png(path, _picture(result), overwrite=True)
+    elif suf == ".npy":
+        field = np.asarray(_field(result, preset), np.float32)
+        io.atomic_write(path, lambda tmp: np.save(tmp, field), overwrite=True)
+    elif suf in MESH:
+        io.save_mesh(path, _need(result, "mesh", preset), overwrite=True)
+    elif suf in DENDRITE:
+        io.save_dendrite(path, _need(result, "dendrite", preset), overwrite=True)
+    else:
+        io.save_svg(path, _need(result, "dendrite", preset), overwrite=True)
 
 
 def _need(result, attr: str, preset: str):
@@ -202,6 +226,9 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     for p in paths:
         if p.suffix.lower() in MESH and not preset.meshes:
             raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write .png, .npy, .npz, .json or .svg")
+        if p.suffix.lower() in SVG and preset.meshes:
+            raise UsageError(f"preset {name!r} makes a 3D dendrite, which SVG cannot draw; "
+                             "write .png, .obj, .ply, .stl, .glb, .npz or .json")
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
     with _Ticker(1 + len(paths), name, quiet) as bar:
