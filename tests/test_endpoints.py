@@ -1,5 +1,7 @@
 """Endpoint placement: constraints hold for every point, counts, reproducibility, bias, bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -136,6 +138,30 @@ def test_impossible_spacing_raises_instead_of_looping():
     # a 20 x 20 lattice cannot hold 30 points 8 apart
     with pytest.raises(ValueError, match=r"Could place only \d+ of 30 endpoints.*'min_spacing' = 8"):
         ep.random((20, 20), 30, seed=0, min_spacing=8)
+
+
+def test_a_spacing_wider_than_the_lattice_allows_one_point_quickly():
+    # offsets past the lattice's sides are never built: 1e5 or 1e300 costs what 30 costs
+    for spacing in (30.0, 1.0e5, 1.0e300):
+        one = ep.random((10, 20), 1, seed=3, min_spacing=spacing)
+        np.testing.assert_array_equal(one, ep.random((10, 20), 1, seed=3, min_spacing=30.0))
+        with pytest.raises(ValueError, match=r"Could place only 1 of 2 endpoints"):
+            ep.random((10, 20), 2, seed=3, min_spacing=spacing)
+    # a spacing every node has some node beyond (its farthest corner is at least 10.5 away)
+    pts = ep.random((10, 20), 2, seed=3, min_spacing=10.0)
+    assert pdist(pts.astype(float)).min() >= 10.0
+
+
+@pytest.mark.parametrize("scale", [1e-320, 1.0, 1e300])
+def test_a_uniform_density_at_any_scale_draws_as_without_one(scale):
+    # only the ratios of densities matter: subnormal or huge values draw what 1.0 draws, and
+    # different seeds draw differently (no overflow to equal keys), without warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        draws = [ep.random((10, 10), 3, seed=s, density=np.full((10, 10), scale)) for s in range(3)]
+    for s, got in enumerate(draws):
+        np.testing.assert_array_equal(got, ep.random((10, 10), 3, seed=s, density=np.ones((10, 10))))
+    assert len({tuple(map(tuple, d)) for d in draws}) == 3
 
 
 def _cost_field():

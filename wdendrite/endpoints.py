@@ -228,12 +228,15 @@ def _within(within, shape) -> np.ndarray:
     return _checks.bool_array("within", within, shape)
 
 
-def _footprint(ndim: int, spacing: float) -> np.ndarray:
-    """Offsets ``o`` with ``|o| < spacing``, shape (F, ndim)."""
-    r = math.ceil(spacing)
-    axes = np.meshgrid(*([np.arange(-r, r + 1)] * ndim), indexing="ij")
+def _footprint(shape, spacing: float) -> np.ndarray:
+    """Offsets ``o`` with ``|o| < spacing`` that can join two nodes of a lattice of ``shape``,
+    shape (F, ndim). No offset reaches past a lattice's side, so a spacing wider than the
+    lattice costs no more than one as wide as it."""
+    reach = min(float(spacing), float(sum(shape)))  # every offset inside is shorter than the sum of the sides
+    r = math.ceil(reach)
+    axes = np.meshgrid(*[np.arange(-min(r, n - 1), min(r, n - 1) + 1) for n in shape], indexing="ij")
     off = np.stack([a.ravel() for a in axes], axis=1)
-    return off[(off**2).sum(axis=1) < spacing**2]
+    return off[(off.astype(np.float64) ** 2).sum(axis=1) < reach**2]
 
 
 def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
@@ -252,7 +255,7 @@ def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
 
 def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
     """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
-    foot = _footprint(len(shape), spacing)
+    foot = _footprint(shape, spacing)
     dims = np.asarray(shape)
     blocked = np.zeros(math.prod(shape), bool)
     kept: list[int] = []
@@ -323,8 +326,10 @@ def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why:
         if density is None:
             keys = rng.random(len(cand))
         else:
-            # exponential keys scaled by 1/density: sorting them is weighted sampling without replacement
-            keys = rng.exponential(size=len(cand)) / dens[cand]
+            # exponential keys scaled by 1/density: sorting them is weighted sampling without
+            # replacement. Compared as logarithms, so that no density is too small (subnormal) or
+            # too large for the quotient to hold
+            keys = np.log(rng.exponential(size=len(cand))) - np.log(dens[cand])
         if min_spacing is None:
             flat = next(_in_key_order(cand, keys, count))
         else:
