@@ -258,6 +258,8 @@ def test_grid_larger_than_free_memory_raises(monkeypatch):
         (lambda: control.perlin(octaves=2.0), TypeError, "'octaves', but got 2.0"),
         (lambda: control.perlin(octaves=17), ValueError, "'octaves' in \\[1, 16\\], but got 17"),
         (lambda: control.perlin(seed=1.5), TypeError, "'seed', but got 1.5"),
+        (lambda: control.perlin(seed=-5), ValueError, r"'seed' in \[0, 2\*\*32\), but got -5"),
+        (lambda: control.ridged(seed=2**32), ValueError, r"'seed' in \[0, 2\*\*32\), but got 4294967296"),
         (lambda: control.perlin(domain=((0, 0), (1, "1"))), TypeError, r"'domain', but got \(\(0, 0\), \(1, '1'\)\)"),
         (lambda: control.perlin(domain=((0, 0), (1, np.nan))), ValueError, r"'domain', but got .*nan"),
         (lambda: control.drained(control.plane(), samples=3.0), TypeError, "'samples', but got 3.0"),
@@ -268,3 +270,10 @@ def test_grid_larger_than_free_memory_raises(monkeypatch):
 def test_bad_numbers_name_the_parameter_and_value(make, exc, match):
     with pytest.raises(exc, match=match):
         make()
+
+
+def test_every_seed_bit_selects_the_field():
+    # seeds are used whole: 2**31 is not seed 0 again (they once were, taken modulo 2**31)
+    fields = [control.perlin(seed=s).grid((16, 16)) for s in (0, 2**31, 2**32 - 1)]
+    assert not np.array_equal(fields[0], fields[1]) and not np.array_equal(fields[0], fields[2])
+    np.testing.assert_array_equal(fields[1], control.perlin(seed=2**31).grid((16, 16)))

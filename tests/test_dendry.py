@@ -801,6 +801,8 @@ def test_lichtenberg_tree_stays_in_its_bowl(device):
         (dict(search="fast"), "search"),
         (dict(search=1), "search"),
         (dict(smoothing=1), "smoothing"),
+        (dict(seed=-1), r"'seed' in \[0, 2\*\*32\), but got -1"),
+        (dict(seed=2**32), r"'seed' in \[0, 2\*\*32\), but got 4294967296"),
     ],
 )
 def test_bad_params_raise(kw, match):

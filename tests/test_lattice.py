@@ -78,6 +78,9 @@ def test_edges_match_brute_force(shape, conn):
         (dict(shape=(4, 4), weights=-np.ones((2, 4, 4))), ValueError, "-1.0"),
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.nan)), ValueError, "NaN"),
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.inf)), ValueError, "finite"),
+        # values float32 cannot hold are quoted as given, with the reason
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), 1e39)), ValueError, "1e+39 (too large for float32)"),
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), 1e-50)), ValueError, "1e-50 (too small for float32"),
         (dict(shape=(4, 4), mask=np.ones((4, 5), bool)), ValueError, "(4, 5)"),
         (dict(shape=(4, 4), mask=np.ones((4, 4))), TypeError, "mask"),
     ],

@@ -138,6 +138,10 @@ def test_coral_is_refined():
         (lambda: LightningParams(minor_gain=2.0), "minor_gain"),
         (lambda: LightningParams(main_width=-1.0), "main_width"),
         (lambda: presets.letters(mask=np.zeros((10, 10), bool)), "non-empty"),
+        # more forks than fit near the stroke: the parameter is named, not the endpoints' 'count'
+        (lambda: presets.lightning((64, 64), params=LightningParams(forks=5000, minor_forks=0)), "'forks' = 5000"),
+        (lambda: presets.lightning((64, 64), params=LightningParams(forks=2, minor_forks=5000)),
+         "'minor_forks' = 5000"),
     ],
 )
 def test_bad_input(call, match):

@@ -45,7 +45,9 @@ def float_array(
         raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
     if arr.shape != tuple(shape):
         raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
-    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    raw = arr
+    with np.errstate(over="ignore"):  # values beyond float32 become inf: reported below, not warned about
+        arr = np.ascontiguousarray(arr, dtype=np.float32)
     if not check_values:
         return arr
     if arr.size:
@@ -56,13 +58,28 @@ def float_array(
     bad = ~np.isfinite(arr)
     if bad.any():
         where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries (first at {where})")
+        raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries "
+                         f"(first at {where}: {raw[where].item()!r}{float32_note(raw[where])})")
     low = arr <= 0 if positive else arr < 0
     if low.any():
         where = tuple(int(i) for i in np.argwhere(low)[0])
         kind = "positive" if positive else "non-negative"
-        raise ValueError(f"'{name}' must be {kind}, but has value {arr[where]} at index {where}")
+        raise ValueError(f"'{name}' must be {kind}, but has value {raw[where].item()!r}{float32_note(raw[where])} "
+                         f"at index {where}")
     return arr
+
+
+def float32_note(value) -> str:
+    """Why a finite, non-zero ``value`` is not itself in float32 (empty when it is): too large
+    (it becomes inf) or too small (it becomes 0)."""
+    v = float(value)
+    if not math.isfinite(v) or v == 0:
+        return ""
+    if abs(v) > float(np.finfo(np.float32).max):
+        return " (too large for float32)"
+    if np.float32(v) == 0:
+        return " (too small for float32: it becomes 0)"
+    return ""
 
 
 def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
@@ -226,6 +243,15 @@ def integer(name: str, value, *, low: int | None = None, high: int | None = None
             f">= {low}" if low is not None else f"<= {high}")
         raise ValueError(f"Expected '{name}' {span}, but got {value!r}")
     return int(value)
+
+
+def seed32(seed, name: str = "seed") -> int:
+    """``seed`` as a Python int in [0, 2**32): the seeds that kernels hash (weights, Dendry, noise)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"Expected an integer '{name}', but got {seed!r}")
+    if not 0 <= int(seed) < 2**32:
+        raise ValueError(f"Expected '{name}' in [0, 2**32), but got {seed!r}")
+    return int(seed)
 
 
 def rng(seed, name: str = "seed") -> np.random.Generator:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, nonnegative, positive
+from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, nonnegative, positive, seed32
 from .kernels import noise as _kn
 
 __all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
@@ -185,15 +185,14 @@ def _permutation(seed: int) -> np.ndarray:
 
 
 def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
+    seed = seed32(seed)
     octaves = integer("octaves", octaves, low=1, high=16)
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
-    probe = Control(kind, dom, 0.0, 1.0, params, int(seed) % 2**31, octaves)
+    probe = Control(kind, dom, 0.0, 1.0, params, seed, octaves)
     lo, hi = _extremes(probe)
-    return Control(kind, dom, lo, hi, params, int(seed) % 2**31, octaves)
+    return Control(kind, dom, lo, hi, params, seed, octaves)
 
 
 def _extremes(probe: Control, samples: int = 257, keep: int = 4, rounds: int = 4) -> tuple[float, float]:
@@ -234,7 +233,7 @@ def perlin(*, seed: int = 0, frequency: float = 1.0, octaves: int = 1, gain: flo
     (see :mod:`wdendrite.kernels.noise`); it is 0.5 at every integer point of ``frequency * p``.
 
     Args:
-        seed: selects the noise field.
+        seed: selects the noise field, in [0, 2**32).
         frequency: features per unit of the control coordinates.
         octaves: number of summed octaves, each ``lacunarity`` times finer and ``gain`` times weaker.
         domain: the rectangle Dendry's query maps onto; minimum and maximum are found there

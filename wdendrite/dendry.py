@@ -42,7 +42,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape
+from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32
 from .control import Control, perlin, rectangle
 from .kernels import dendry as _kd
 
@@ -111,7 +111,7 @@ class DendryParams:
     levels: int = 1
     """Number of tree levels n, 1-6; each level halves the cell size."""
     seed: int = 0
-    """Seed of every random number (key points, displacements, terrain noise)."""
+    """Seed of every random number (key points, displacements, terrain noise), in [0, 2**32)."""
     eps: float = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid.
     Below 0.25 links search 5 x 5 or 7 x 7 cells (see ``search``)."""
@@ -150,7 +150,7 @@ class DendryParams:
         # every field is checked, then stored as a plain Python value (int, float, bool, str, tuple)
         put = functools.partial(object.__setattr__, self)
         put("levels", integer("levels", self.levels, low=1, high=6))
-        put("seed", integer("seed", self.seed, low=-(2**63), high=2**64 - 1))
+        put("seed", seed32(self.seed))
         put("eps", _float_in("eps", self.eps, 0.0, 0.5))
         if isinstance(self.delta, (tuple, list, np.ndarray)):
             if len(self.delta) != self.levels:
@@ -218,7 +218,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s = _kd.Setup()
     s.need_z = int(output == "elevation")
     s.levels = p.levels
-    s.seed = wp.uint32(p.seed % 2**32)
+    s.seed = wp.uint32(p.seed)
     s.eps = p.eps
     s.resolution = p.resolution
     s.inv_resolution = 1.0 / p.resolution

@@ -82,8 +82,9 @@ def edge_slices(offset, shape: tuple) -> tuple[tuple, tuple]:
     return src, dst
 
 
-def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None:
-    """Require finite weights, positive on every usable edge.
+def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask, raw=None) -> None:
+    """Require finite weights, positive on every usable edge (``raw``: the caller's array before
+    its conversion to float32, quoted in the messages).
 
     Entries whose neighbour lies outside the lattice are ignored (the records
     take the nearest edge inside instead), except along an axis of size 1,
@@ -106,8 +107,10 @@ def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None
         bad = ~np.isfinite(v)
         if bad.any():
             where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(bad)[0], src)))
+            given = weights[where] if raw is None else raw[where]
             raise ValueError(
-                f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries in direction {k} (first at {where})"
+                f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries in direction {k} (first at "
+                f"{where}: {given.item()!r}{_checks.float32_note(given)})"
             )
     for k, (v, (src, dst)) in enumerate(zip(inside, slices)):
         low = v <= 0
@@ -116,9 +119,10 @@ def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask) -> None
             low &= mask[src] & (mask[dst] if dst is not None else True)
         if low.any():
             where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(low)[0], src)))
+            given = weights[where] if raw is None else raw[where]
             raise ValueError(
-                f"'weights' must be positive on usable edges, but has value {weights[where]} at index {where} "
-                f"({int(low.sum())} such entries in direction {k})"
+                f"'weights' must be positive on usable edges, but has value {given.item()!r}"
+                f"{_checks.float32_note(given)} at index {where} ({int(low.sum())} such entries in direction {k})"
             )
 
 
@@ -343,7 +347,7 @@ class Lattice:
             self.distribution.kernel_params(self.shape, "cpu")  # validates it before any work
         else:
             source = _checks.float_array("weights", weights, wshape, check_values=False)
-            _check_weight_values(source, self.offsets, self.mask)
+            _check_weight_values(source, self.offsets, self.mask, raw=np.asarray(weights))
         words = record_words(self.shape, len(self.offsets) if self._stored else 0)
         if words >= 2**31:
             raise ValueError(

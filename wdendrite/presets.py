@@ -318,8 +318,9 @@ class LightningParams:
         _checks.nonnegative("glow_gain", self.glow_gain, allow_none=False)
 
 
-def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed) -> np.ndarray:
-    """Endpoints near the main stroke, denser lower in the image (2007 paper, section 4)."""
+def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed, name: str) -> np.ndarray:
+    """Endpoints near the main stroke, denser lower in the image (2007 paper, section 4); ``name``
+    is the parameter that asked for ``count`` of them (errors name it)."""
     from scipy import ndimage
 
     h, w = lat.shape
@@ -327,8 +328,11 @@ def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed) -> np.ndarray:
     free[tuple(stroke.nodes.T)] = False
     near = ndimage.distance_transform_edt(free) < 0.22 * w
     near[: h // 5] = False
-    return _ep.biased(lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near,
-                      min_spacing=0.04 * min(h, w))
+    try:
+        return _ep.biased(lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near,
+                          min_spacing=0.04 * min(h, w))
+    except ValueError as exc:  # too many for the room near the stroke: say which parameter asked
+        raise ValueError(f"'{name}' = {count} is more than fit near the main stroke of a {h} x {w} picture: {exc}") from None
 
 
 def _sky(shape) -> np.ndarray:
@@ -362,7 +366,7 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     lat1 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
     cf1 = shortest_paths(lat1, gen)
     main = trace(cf1, [[h - 3, int(w * rng.uniform(0.3, 0.7))]])
-    first = trace(cf1, _forks_near(lat1, main, params.forks, rng), extend=main) if params.forks else main
+    first = trace(cf1, _forks_near(lat1, main, params.forks, rng, "forks"), extend=main) if params.forks else main
     # the papers' widths are for 600^2 pictures; keep the look at other sizes
     s = max(min(h, w) / 600.0, 0.5)
     v1 = _r.brightness(first, _scaled(params.main_width, s), side=_scaled(params.fork_width, s))
@@ -372,7 +376,7 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
         # the second graph's branches leave the upper main stroke (its nodes are the generators) and
         # travel down to endpoints lower in the picture, crossing the first graph's branches
         stem = main.nodes[(main.nodes[:, 0] > 0.06 * h) & (main.nodes[:, 0] < 0.4 * h)]
-        second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng))
+        second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng, "minor_forks"))
         layers.append(_r.brightness(second, _scaled(params.minor_width, s)))
         gains.append(params.minor_gain)
     value = _r.composite(layers, mode="max", gains=gains)
@@ -525,7 +529,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     on_surface = np.zeros(shape, bool)
     on_surface[tuple(surf.T)] = True
     allowed = ~inside | on_surface
-    lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed + 1), mask=allowed)
+    lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=(seed + 1) % 2**32), mask=allowed)
     top = surf[np.argmax(surf[:, 0] - 0.3 * np.abs(surf[:, 1:] - np.asarray(shape[1:]) / 2).sum(axis=1))]
     p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, count)
     den = grow(lichen_lat, [top], p, seed=seed, within=on_surface)

@@ -51,14 +51,6 @@ _CONNECTIVITY = {(2, 2): 4, (2, 4): 8, (3, 3): 6, (3, 13): 26}
 """(ndim, number of half-offsets) -> connectivity."""
 
 
-def _seed32(seed) -> int:
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"Expected an integer 'seed', but got {seed!r}")
-    if not 0 <= int(seed) < 2**32:
-        raise ValueError(f"Expected 'seed' in [0, 2**32), but got {seed!r}")
-    return int(seed)
-
-
 def _number(name: str, value, *, low: float | None = None, low_open: bool = False) -> float:
     """``value`` as a finite float, checked against a lower bound (closed or open)."""
     x = _checks.finite(name, value)
@@ -276,7 +268,7 @@ class Uniform(Distribution):
 
     def __post_init__(self):
         _number("r", self.r, low=0.0)
-        _seed32(self.seed)
+        _checks.seed32(self.seed)
 
     def _base(self):
         return _kw.UNIFORM, float(self.r), 0.0, self.seed
@@ -303,7 +295,7 @@ class Power(Distribution):
     def __post_init__(self):
         _number("alpha", self.alpha, low=0.0, low_open=True)
         _number("max", self.max, low=1.0, low_open=True)
-        _seed32(self.seed)
+        _checks.seed32(self.seed)
         self._check_bound()
 
     def _check_bound(self):
@@ -339,7 +331,7 @@ class Polynomial(Distribution):
 
     def __post_init__(self):
         _number("n", self.n, low=0.0)
-        _seed32(self.seed)
+        _checks.seed32(self.seed)
         if not self._bound() < _MAX_WEIGHT:
             raise ValueError(f"Expected 'n' <= 14 (weights up to 1 + 100**n must stay below 1e30), but got {self.n!r}")
 
