@@ -7,10 +7,17 @@ A node's predecessor is the first neighbour ``u`` (half-offset order, the
 ``+offset`` neighbour before the ``-offset`` one) whose packed word, extended
 by the edge ``u -> node``, reproduces the node's packed word exactly:
 ``pack(cost[u] + w, label[u]) == packed[node]`` (see :func:`predecessor` for
-weights that vanish in float32 rounding). The shortest-path kernels
-set every word as such a minimum, so a predecessor always exists, and the
-choice depends only on the cost field: paths that meet share the rest of the
-way, so the union of all walks is a forest.
+weights that vanish in float32 rounding). The choice depends only on the cost
+field: paths that meet share the rest of the way, so the union of all walks is
+a forest.
+
+The search set every word as such a minimum, but a neighbour's word may have
+dropped since: when ``u`` first offered ``(c, 0)`` from a costlier path and
+later reached a lower cost from generator 1 whose extension rounds to the same
+``c``, the node keeps ``(c, 0)`` (the lower label wins the tie) while no
+neighbour reproduces it any more. The walk then takes the first neighbour that
+reproduces the cost alone, from a strictly lower cost, and leaves the path in
+generator 1's region; the host relabels such paths by the generator they reach.
 """
 
 import warp as wp
@@ -43,9 +50,13 @@ def predecessor(
     float32 rounding next to a large cost, a neighbour with the *same* word
     qualifies too, and to keep walks from circling such neighbours are taken
     only after strictly smaller ones, and only toward a lower node index.
+    When no neighbour reproduces the word (a tie the search's label kept, see
+    the module docstring), the first one reproducing the cost from a lower
+    cost is taken.
     """
     word = state_at(state, stride, node)
     level_match = int(-1)
+    cost_match = int(-1)
     k = int(0)
     while k < flat_offsets.shape[0]:
         for side in range(2):
@@ -59,13 +70,20 @@ def predecessor(
             src = state_at(state, stride, other)
             if src <= word:
                 if mask[nonneg(other)] != wp.uint8(0):
-                    if pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src)) == word:
+                    offer = pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src))
+                    if offer == word:
                         if src < word:
                             return other
                         if level_match < 0 and other < node:
                             level_match = other
+                    elif cost_match < 0 and (offer >> wp.uint64(32)) == (word >> wp.uint64(32)):
+                        # the cost alone, from a strictly lower cost (so walks cannot circle)
+                        if packed_cost(src) < packed_cost(word):
+                            cost_match = other
         k += 1
-    return level_match
+    if level_match >= 0:
+        return level_match
+    return cost_match
 
 
 @wp.kernel

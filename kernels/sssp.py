@@ -4,8 +4,14 @@ A node's state is one ``uint64`` word: the float32 bits of its cost in the
 high half and the row of its generator in the low half. Non-negative float32
 values order like their bit patterns, so ``wp.atomic_min`` on the packed word
 keeps the least cost and, among equal costs, the lowest generator row. The
-minimum does not depend on the order in which threads arrive, so the result
-is bit-identical run to run on a device.
+minimum does not depend on the order in which threads arrive, so costs are
+bit-identical run to run on a device. Labels are too, but for one case: a
+node may first offer its neighbours a cost from a costlier path, and when its
+own least cost (from another generator) extends to the same float32 sum, the
+lower label of the two stays. Which offers are made depends on the order of
+relaxations: fixed on the CPU, free on a GPU, where such a rounding tie may
+then label a node differently from run to run (backtracking follows the
+costs either way, see :mod:`wdendrite.kernels.dendrite`).
 
 Kernels index a *padded* lattice: the lattice with a one-node border (in
 x, y and, for 3D, z), so a neighbour is always ``node + flat_offsets[k]``. The

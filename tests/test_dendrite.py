@@ -290,6 +290,43 @@ def test_weights_beyond_float32_resolution_never_make_cycles():
         assert np.all(den.cost[den.parent[child]] <= den.cost[child])
 
 
+def _rounding_tie_lattice():
+    """Node (0, 1) is reached from generator 0 at cost a = 100 + 2 ulp before its least cost
+    b = 100 + 1 ulp from generator 1, and a + 1000 and b + 1000 both round to 1100 at (1, 1)."""
+    f32 = np.float32
+    ulp = np.spacing(f32(100))
+    a, b, c1 = f32(100) + 2 * ulp, f32(100) + ulp, f32(50)
+    c2 = f32(b - c1)
+    assert f32(c1 + c2) == b and f32(a + f32(1000)) == f32(b + f32(1000))
+    w = np.full((2, 2, 4), 1e5, np.float32)  # directions: (0, 1), then (1, 0)
+    w[0, 0, 0], w[0, 0, 1], w[0, 0, 2] = a, c2, c1
+    w[1, 0, 1] = 1000
+    return wd.Lattice((2, 4), 4, weights=w)
+
+
+@pytest.mark.parametrize("delta", [None, 1.0, 1.0e4])
+def test_a_label_kept_by_a_rounding_tie_still_traces(delta, device):
+    # with wide buckets the search relaxes (0, 1) at its first cost, and (1, 1) keeps generator
+    # 0's label at the tied cost 1100 though no neighbour reproduces (1100, 0) any more; the
+    # walk then steps by cost alone, into generator 1's region, and labels the path by it
+    lat = _rounding_tie_lattice()
+    kw = {} if delta is None else {"delta": delta}
+    cf = wd.shortest_paths(lat, [[0, 0], [0, 3]], device=device, **kw)
+    den = wd.trace(cf, [[1, 1]])
+    assert [tuple(n) for n in den.nodes[den.path(int(np.flatnonzero((den.nodes == [1, 1]).all(1))[0]))]] == [
+        (1, 1), (0, 1), (0, 2), (0, 3)]
+    np.testing.assert_array_equal(den.cost, cf.dist[tuple(den.nodes.T)])
+    child = np.flatnonzero(den.parent >= 0)
+    steps = [(tuple(den.nodes[den.parent[c]]), tuple(den.nodes[c])) for c in child]
+    for (u, v), c in zip(steps, child):  # each step an edge whose weight reproduces the cost in float32
+        k = 0 if u[0] == v[0] else 1
+        lower = min(u, v)
+        assert np.float32(den.cost[den.parent[c]] + lat.weights[(k, *lower)]) == den.cost[c]
+    assert (den.label == 1).all()  # the generator every path reaches
+    if delta == 1.0e4:
+        assert cf.label[1, 1] == 0  # the search's tie rule kept generator 0 there
+
+
 def test_from_arrays_round_trip_and_checks():
     lat = wd.Lattice((30, 30), 8, weights=wd.weights.Uniform(seed=2))
     den = wd.trace(wd.shortest_paths(lat, [[15, 15]]), wd.endpoints.random(lat, 8, seed=1))

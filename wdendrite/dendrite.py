@@ -39,7 +39,9 @@ class Dendrite:
             dendrite: the cost field's ``dist`` for a traced dendrite; for a grown
             one each new branch continues the cost of the node it joins.
         label: ``(N,)`` int32 row of the generator (in the cost field's
-            generator list) the node's path leads to.
+            generator list) the node's path leads to: the cost field's
+            ``label`` there, except where a float32 tie let the search keep
+            another generator's row (the path then shows which one it reaches).
         generation: ``(N,)`` int32 growth iteration that added the node (0 first).
         endpoints: ``(M,)`` int64 rows of the nodes paths were traced from.
         origin, spacing: place nodes in the world (see :attr:`positions`).
@@ -195,6 +197,24 @@ def _endpoint_rows(extend: Dendrite | None, rows: np.ndarray, n: int) -> np.ndar
     return np.flatnonzero(flag)
 
 
+def _path_labels(label: np.ndarray, parent: np.ndarray, n_old: int) -> np.ndarray:
+    """The new nodes' labels as the generator their paths reach: each takes the label of the
+    last new node on its way down (a root, or the node that joins the dendrite).
+
+    Walks keep a label along exact steps, so this changes nothing unless a walk stepped by cost
+    alone (a float32 tie, see :mod:`wdendrite.kernels.dendrite`); it is then worked out by
+    pointer jumping (a few passes, however long the paths).
+    """
+    up = np.where(parent >= n_old, parent - n_old, np.arange(len(label)))
+    if np.array_equal(label[up], label):
+        return label
+    while True:
+        nxt = up[up]
+        if np.array_equal(nxt, up):
+            return label[up]
+        up = nxt
+
+
 def trace(
     costfield: CostField,
     endpoints,
@@ -305,7 +325,7 @@ def trace(
                 outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
             )
             n_new = int(new_count.numpy()[0])
-            listed = new_nodes.numpy()[:n_new]
+            listed = new_nodes[:n_new].numpy()
             # new rows in ascending node order, whatever order the walks listed them in. A lattice-sized
             # table maps padded nodes to positions; only the entries written are read, so the records
             # keep it for the next trace when small (a fresh one costs a page fault per page its
@@ -316,7 +336,7 @@ def trace(
             fresh = np.sort(listed)
             order = rows[fresh]
             fresh = fresh.astype(np.int64)
-            fresh_pred = new_pred.numpy()[:n_new][order]
+            fresh_pred = new_pred[:n_new].numpy()[order]
             all_padded = np.concatenate([old, fresh])
             # ... then the dendrite row of every node on it
             rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
@@ -332,8 +352,8 @@ def trace(
             break
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
-        cost = new_cost.numpy()[:n_new][order]
-        label = new_label.numpy()[:n_new][order]
+        cost = new_cost[:n_new].numpy()[order]
+        label = _path_labels(new_label[:n_new].numpy()[order], new_parent, len(old))
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])

@@ -31,13 +31,14 @@ class _Fields:
     are first asked for or the records are needed by another search, then in
     arrays of its own."""
 
-    __slots__ = ("arrays", "dist", "label", "spent")
+    __slots__ = ("arrays", "dist", "label", "spent", "host")
 
     def __init__(self, arrays):
         self.arrays = arrays
         self.dist: wp.array | None = None
         self.label: wp.array | None = None
         self.spent = False
+        self.host: dict = {}  # read-only host copies of dist and label, once asked for
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,7 +55,11 @@ class CostField:
     Tie rule: when several generators reach a node at the same least cost
     (to float32 rounding of the sums along the paths), ``label`` is the lowest
     of their rows. This is what an order-independent ``atomic_min`` on the
-    packed word ``(cost bits << 32) | row`` gives.
+    packed word ``(cost bits << 32) | row`` gives. Which paths' sums are offered
+    depends on the order of relaxations, though: where a costlier path from one
+    generator and the least one from another round to the same sum, the first
+    may be offered or not, so such a node's label can differ with ``delta`` and,
+    on a GPU, from run to run (costs never do).
     """
 
     lattice: Lattice
@@ -87,16 +92,23 @@ class CostField:
     @property
     def dist(self) -> np.ndarray:
         """float32 array of the lattice shape: least cost to any generator (inf where unreachable or above ``limit``)."""
-        out = self.dist_array.numpy()
-        out.flags.writeable = False
-        return out
+        return self._host("dist")
 
     @property
     def label(self) -> np.ndarray:
         """int32 array of the lattice shape: row of the nearest generator (-1 where ``dist`` is inf)."""
-        out = self.label_array.numpy()
-        out.flags.writeable = False
-        return out
+        return self._host("label")
+
+    def _host(self, name: str) -> np.ndarray:
+        """The read-only host array of field ``name``: a view on the CPU; copied from a GPU once,
+        then kept (the device arrays never change once made)."""
+        f = self._materialized()
+        kept = f.host.get(name)
+        if kept is None:
+            kept = getattr(f, name).numpy()
+            kept.flags.writeable = False
+            f.host[name] = kept
+        return kept
 
     def _materialized(self) -> _Fields:
         f = self._fields
@@ -483,7 +495,7 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
                                  4 * room)
         count.zero_()
         _records_pass(arrays, lattice, costfield.limit, band=(low, high), count=count, nodes=out)
-        found = out.numpy()[: int(count.numpy()[0])].copy()
+        found = out[: int(count.numpy()[0])].numpy().copy()  # only the listed part leaves a GPU
     # GPU threads append in any order (one CPU thread appends in index order)
     return found if device.is_cpu and arrays.usable is None else np.sort(found)
 
