@@ -134,6 +134,10 @@ def test_preview_is_a_nonblank_shaded_picture(device):
         (lambda: spheres(DEN, -1.0), ValueError, "radius"),
         (lambda: field_mesh(np.zeros((4, 4))), ValueError, "3D"),
         (lambda: field_mesh(np.zeros((4, 4, 4)), 1.0), ValueError, "level"),
+        # Warp's marching cubes (the CUDA path) says so too, instead of an empty mesh
+        (lambda: field_mesh(np.zeros((4, 4, 4)), 1.0, _backend="warp"), ValueError, "outside the field's range"),
+        (lambda: field_mesh(np.arange(64.0).reshape(4, 4, 4), -0.5, _backend="warp"), ValueError,
+         "outside the field's range"),
         (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 3), ValueError, "region"),
         (lambda: region_mesh(np.zeros((4, 4), np.int32), 0), ValueError, "3D"),
         (lambda: region_mesh(np.zeros((4, 4, 4), np.int32), 0, band=0.5), ValueError, "band"),

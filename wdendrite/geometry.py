@@ -199,6 +199,11 @@ def _check_field(field) -> np.ndarray | wp.array:
     return field
 
 
+def _check_level(host: np.ndarray, level: float) -> None:
+    if not (host.min() < level < host.max()):
+        raise ValueError(f"'level' {level} is outside the field's range [{host.min()}, {host.max()}]")
+
+
 def field_mesh(
     field,
     level: float = 0.0,
@@ -255,12 +260,13 @@ def field_mesh(
         verts, idx = IsoSurfaceMarchingCubes.extract(arr, level)
         v = verts.numpy().astype(np.float64)[:, ::-1]  # array axes (z, y, x) -> (x, y, z)
         f = idx.numpy().reshape(-1, 3).astype(np.int64)
+        if not len(f):  # a level inside the range always crosses some cube: say why there is no surface
+            _check_level(arr.numpy(), level)
     else:
         from skimage.measure import marching_cubes
 
         host = field.numpy() if isinstance(field, wp.array) else field
-        if not (host.min() < level < host.max()):
-            raise ValueError(f"'level' {level} is outside the field's range [{host.min()}, {host.max()}]")
+        _check_level(host, level)
         mask = None if band is None else np.abs(host - level) < band
         v, f, _, _ = marching_cubes(host, level, mask=mask)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
