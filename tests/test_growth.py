@@ -120,6 +120,35 @@ def test_no_endpoint_lands_on_the_dendrite_it_grows_from(cheap, monkeypatch):
         assert not [e for e in ends.tolist() if tuple(e) in on]
 
 
+@pytest.mark.parametrize("cheap", [0.0, 0.3, 1.0])
+def test_endpoints_lie_in_the_band_of_costs_from_the_dendrite(cheap, monkeypatch):
+    # thesis Fig 3.12 and Fig 3.15 ("endpoints are placed at successively smaller path cost from
+    # the structure"), in both modes: SciPy's costs from the generators and the dendrite so far
+    # (on the lattice's own weights) put every endpoint of iteration i in (d_i - r, d_i + r)
+    from scipy.sparse.csgraph import dijkstra
+
+    p = wd.FractalParams(count=6, d=150.0, alpha=1.6, beta=2.5, epsilon=25.0, cheap=cheap)
+    gens = np.array([[48, 48]])
+    drawn = []
+    real = growth.trace
+
+    def spy(cf, ends, *, extend=None, generation=None, **kwargs):
+        drawn.append((generation, np.asarray(ends).copy(), None if extend is None else extend.nodes.copy()))
+        return real(cf, ends, extend=extend, generation=generation, **kwargs)
+
+    monkeypatch.setattr(growth, "trace", spy)
+    den = wd.grow(LAT, gens, p, seed=4)
+    assert len(drawn) >= 3 and den.generation.max() >= 2
+    graph, r = LAT.to_csgraph(), p.band
+    for it, ends, before in drawn:
+        d = p.schedule()[it][1]
+        structure = gens if before is None else np.concatenate([gens, before])
+        cost = dijkstra(graph, indices=np.ravel_multi_index(tuple(structure.T), LAT.shape), min_only=True)
+        c = cost[np.ravel_multi_index(tuple(ends.T), LAT.shape)]
+        slack = 1e-4 * (d + r)  # float32 sums against SciPy's float64
+        assert np.all(c > max(d - r, 0.0) - slack) and np.all(c < d + r + slack), (it, c.min(), c.max())
+
+
 def test_competition_keeps_dendrites_apart():
     den = wd.grow(LAT, [[20, 20], [75, 75]], PARAMS, seed=2)
     child = den.parent >= 0

@@ -44,7 +44,10 @@ class FractalParams:
     cheap: float = 0.0
     """D, the weight factor of the dendrite's own edges, in [0, 1]. 0 makes the
     dendrite the new generator set ("new generators"); 0 < D <= 1 keeps the
-    first generators and multiplies the dendrite's edges by D ("cheap former paths")."""
+    first generators and multiplies the dendrite's edges by D ("cheap former
+    paths"): endpoints are still drawn by their cost from the dendrite, and their
+    paths lead to the first generators, joining the dendrite where it is cheap
+    enough to follow."""
     min_spacing: float | None = None
     """Least distance between endpoints drawn in one iteration (nodes), or None."""
 
@@ -206,21 +209,15 @@ def _rebase_costs(den: Dendrite, first: int, field_cost_of) -> Dendrite:
     return dataclasses.replace(den, cost=cost)
 
 
-def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing, taken=None):
+def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing):
     """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
     ``min_spacing`` apart) cannot hold that many; None when it holds none.
 
-    The band never reaches below cost 0, where the generators (and with new
-    generators the whole dendrite) lie; ``taken`` (flat node indices) excludes
-    the dendrite's nodes where they cost more (cheap former paths): a new
-    endpoint on the dendrite would add no path.
+    ``cf`` holds costs from the dendrite (its nodes cost 0). The band never reaches below
+    cost 0, so it never offers the dendrite's own nodes: an endpoint there would add no path.
     """
     lattice = cf.lattice
     cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, max(d - r, 0.0), d + r, within)
-    if taken is not None and len(taken) and len(cand):
-        off = np.ones(lattice.num_nodes, bool)
-        off[taken] = False
-        cand = cand[off[cand]]
     n = min(m, len(cand))
     while n > 0:
         try:
@@ -245,14 +242,19 @@ def grow(
 ) -> Dendrite:
     """Grow a fractal dendrite from ``generators`` (thesis Fig 3.12).
 
-    Each iteration draws endpoints in a cost band around the current dendrite,
-    traces them to it, and updates the cost field with a warm start: the
-    dendrite's nodes become generators (``params.cheap == 0``) or its edges get
-    cheaper (``0 < cheap <= 1``). Costs are searched only up to the
-    iteration's ``d + r``. The band never reaches below cost 0 nor offers the
-    dendrite's own nodes. Cheap former paths change stored weights: a lattice
-    that stores none (``store_weights=False``) has its weights stored once for
-    the growth, so it must fit in memory with them.
+    Each iteration draws endpoints whose path cost from the current dendrite
+    lies in the band, traces them, and updates the cost fields with warm
+    starts (only up to the next iteration's ``d + r`` for the costs from the
+    dendrite). With new generators (``params.cheap == 0``) the walks descend
+    the costs from the dendrite, so every new path ends on it. With cheap
+    former paths (``0 < cheap <= 1``) they descend the costs from the first
+    generators over the lattice whose dendrite edges cost ``cheap`` times as
+    much: a new path joins the dendrite where that pays, more eagerly the
+    smaller ``cheap`` (thesis section 3.3.2, Figs 3.14-3.15); this field is
+    searched over the whole lattice. The band never reaches below cost 0 nor
+    offers the dendrite's own nodes. Cheap former paths change stored
+    weights: a lattice that stores none (``store_weights=False``) has its
+    weights stored once for the growth, so it must fit in memory with them.
 
     Several generators grow competing dendrites: every node's ``label`` names
     the generator whose dendrite it belongs to, and the dendrites never share
@@ -315,15 +317,22 @@ def grow(
     lat = base_lat
     if start is not None and not new_generators:
         lat = lower_dendrite_weights(base_lat, start, params.cheap)
+    # cf: the costs walks follow (from the dendrite with new generators; from the first generators
+    # over the lattice with cheap former paths, searched whole: a walk may start far from them).
+    # sf: with cheap former paths, the costs from the dendrite, where endpoints are drawn (thesis
+    # Fig 3.15: "successively smaller path cost from the structure"); with new generators, cf itself
     cf: CostField | None = None
+    sf: CostField | None = None
     grew = False
     for it, (m, d) in enumerate(plan):
         if cf is None:
-            base = gens if not (new_generators and den is not None) else np.concatenate([gens, den.nodes])
-            cf = shortest_paths(lat, base, limit=d + r, device=device)
-        # with cheap former paths the dendrite's nodes cost more than 0: they are kept out of the band
-        taken = None if new_generators or den is None else np.ravel_multi_index(tuple(den.nodes.T), lattice.shape)
-        ep = _band_endpoints(cf, m, d, r, rng, within, params.min_spacing, taken)
+            structure = gens if den is None else np.concatenate([gens, den.nodes])
+            if new_generators:
+                cf = sf = shortest_paths(lat, structure, limit=d + r, device=device)
+            else:
+                cf = shortest_paths(lat, gens, device=device)
+                sf = cf if den is None else shortest_paths(base_lat, structure, limit=d + r, device=device)
+        ep = _band_endpoints(sf, m, d, r, rng, within, params.min_spacing)
         if ep is not None:
             grew = True
             first = 0 if den is None else len(den)
@@ -337,14 +346,17 @@ def grow(
             if it + 1 < len(plan):
                 # the next band lies below the next limit: nothing beyond it is searched
                 limit = plan[it + 1][1] + r
-                # the last cost field is not read again: the search may reuse its memory
-                if new_generators:
-                    # the new generators are the rows this iteration's walks added
-                    cf = shortest_paths(lat, np.concatenate([gens, den.nodes]), limit=limit, warm_start=cf,
-                                        _consume_warm_start=True, _walked=den._padded[first:])
-                else:
+                structure = np.concatenate([gens, den.nodes])
+                # the last cost fields are not read again: the searches may reuse their memory
+                if not new_generators:
                     lat = lower_dendrite_weights(base_lat, den, params.cheap)
-                    cf = shortest_paths(lat, gens, limit=limit, warm_start=cf, _consume_warm_start=True)
+                    cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf)
+                # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
+                # join the generators
+                sf = shortest_paths(base_lat, structure, limit=limit, warm_start=sf, _consume_warm_start=True,
+                                    _walked=den._padded[first:])
+                if new_generators:
+                    cf = sf
         if bar is not None:
             bar.update(1)
         elif callable(progress):
