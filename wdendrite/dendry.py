@@ -121,7 +121,9 @@ class DendryParams:
     none finer; a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
     Lichtenberg rule) links and queries search 7 x 7 cells (see ``search``)."""
     resolution: float = 1.0
-    """Level-1 cells per domain unit (> 0): the spacing of the main branches."""
+    """Level-1 cells per domain unit (> 0): the spacing of the main branches. Terrain slopes
+    multiply distances in domain units, so the relief of one tree scales as ``1 / resolution``;
+    the paper's unit is the level-1 cell (``resolution`` 1)."""
     smoothing: bool = True
     """Bend segments along Catmull-Rom splines through their neighbours (section 4.2). Bent segments
     reach farther, so with subdivision on links search at least 5 x 5 cells (see ``search``)."""
@@ -130,7 +132,8 @@ class DendryParams:
     beta: float = 0.5
     """Slope power of the terrain in [0, 2] (eq. 7): around a tree point of elevation z the slope is
     ``tan(theta) = smootherstep(clamp((z^beta - min) / (max - min), 0, 1))`` with the control's minimum
-    and maximum (the paper's control takes values in [0, 1]; z below 0 counts as 0)."""
+    and maximum (the paper's control takes values in [0, 1]; elevation refuses a control
+    outside that range)."""
     noise: float = 0.0
     """Relative random amplitude of each terrain primitive's slope term, in [0, 1]."""
     primitive_steps: int = 3
@@ -317,6 +320,18 @@ def _check_common(params, control, domain, control_domain):
     if control_domain is None:
         control_domain = control.domain if control is not None else _DEFAULT_CONTROL_DOMAIN
     return domain, rectangle("control_domain", control_domain)
+
+
+def _check_elevation_control(control: Control | None, output: str) -> None:
+    """Terrain slopes (eq. 7) take control values in [0, 1], as the paper's c: R^2 -> [0, 1] does."""
+    if output != "elevation" or control is None:
+        return
+    if control.minimum < 0.0 or control.maximum > 1.0:
+        raise ValueError(
+            f"output='elevation' needs a 'control' with values in [0, 1] (the paper's control c: R^2 -> [0, 1], "
+            f"which eq. 7's slopes assume), but this {control.kind} control spans [{control.minimum:.6g}, "
+            f"{control.maximum:.6g}]; scale it first, e.g. control.image((dem - dem.min()) / (dem.max() - dem.min()))"
+        )
 
 
 # finest grid coordinates |x * resolution| * 2^(finest level - 1) stay below this (see _check_reach)
@@ -608,6 +623,7 @@ def dendry(
         raise ValueError(f"Expected a 2D 'shape' (H, W), but got {shape!r}")
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
+    _check_elevation_control(control, output)
     r0, c0, h, w = _window(window, shape)
     (x0, y0), (x1, y1) = domain
     dx, dy = (x1 - x0) / shape[1], (y1 - y0) / shape[0]
@@ -691,6 +707,7 @@ def dendry_points(
         raise ValueError(f"'points' must be finite, but row {int(np.argmax(bad))} is {pts[np.argmax(bad)].tolist()}")
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, "pixel")
+    _check_elevation_control(control, output)
     if mode not in _POINT_MODES:
         raise ValueError(f"Expected 'mode' in {_POINT_MODES}, but got {mode!r}")
     n = len(pts)
