@@ -149,6 +149,23 @@ def test_endpoints_lie_in_the_band_of_costs_from_the_dendrite(cheap, monkeypatch
         assert np.all(c > max(d - r, 0.0) - slack) and np.all(c < d + r + slack), (it, c.min(), c.max())
 
 
+@pytest.mark.parametrize("cheap", [0.0, 0.2, 0.6])
+def test_every_node_is_labelled_by_the_generator_its_path_reaches(cheap):
+    # competing dendrites: with cheap former paths the costs of a later iteration may make another
+    # generator nearest to an old node; the branches joining it still belong to its dendrite
+    gens = np.array([[32, 32], [5, 5], [60, 10]])
+    lat = wd.Lattice((64, 64), 8, weights=wd.weights.Uniform(r=10, seed=1))
+    for seed in range(4):
+        den = wd.grow(lat, gens, wd.FractalParams(count=4, d=120.0, alpha=1.6, beta=3.0, epsilon=15.0, cheap=cheap),
+                      seed=seed)
+        assert den.generation.max() >= 2
+        # every row's root, by pointer jumping
+        root = np.where(den.parent >= 0, den.parent, np.arange(len(den)))
+        for _ in range(64):
+            root = root[root]
+        np.testing.assert_array_equal(gens[den.label], den.nodes[root])
+
+
 def test_competition_keeps_dendrites_apart():
     den = wd.grow(LAT, [[20, 20], [75, 75]], PARAMS, seed=2)
     child = den.parent >= 0

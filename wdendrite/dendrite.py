@@ -42,6 +42,8 @@ class Dendrite:
             generator list) the node's path leads to: the cost field's
             ``label`` there, except where a float32 tie let the search keep
             another generator's row (the path then shows which one it reaches).
+            Branches traced onto a dendrite (``trace(extend=...)``) take the
+            label of the node they join.
         generation: ``(N,)`` int32 growth iteration that added the node (0 first).
         endpoints: ``(M,)`` int64 rows of the nodes paths were traced from.
         origin, spacing: place nodes in the world (see :attr:`positions`).
@@ -197,21 +199,27 @@ def _endpoint_rows(extend: Dendrite | None, rows: np.ndarray, n: int) -> np.ndar
     return np.flatnonzero(flag)
 
 
-def _path_labels(label: np.ndarray, parent: np.ndarray, n_old: int) -> np.ndarray:
+def _path_labels(label: np.ndarray, parent: np.ndarray, old_label: np.ndarray) -> np.ndarray:
     """The new nodes' labels as the generator their paths reach: each takes the label of the
-    last new node on its way down (a root, or the node that joins the dendrite).
+    last new node on its way down, which is its own (a root) or, where it joins the dendrite
+    being extended, the label of the node it joins.
 
-    Walks keep a label along exact steps, so this changes nothing unless a walk stepped by cost
-    alone (a float32 tie, see :mod:`wdendrite.kernels.dendrite`); it is then worked out by
-    pointer jumping (a few passes, however long the paths).
+    ``parent`` numbers rows with the ``len(old_label)`` old rows first. Walks keep a label along
+    exact steps, so only joins and steps by cost alone (a float32 tie, see
+    :mod:`wdendrite.kernels.dendrite`) can change anything; the rest is worked out by pointer
+    jumping (a few passes, however long the paths).
     """
+    n_old = len(old_label)
+    own = label.copy()
+    joins = (parent >= 0) & (parent < n_old)
+    own[joins] = old_label[parent[joins]]
     up = np.where(parent >= n_old, parent - n_old, np.arange(len(label)))
-    if np.array_equal(label[up], label):
-        return label
+    if np.array_equal(own[up], own):
+        return own
     while True:
         nxt = up[up]
         if np.array_equal(nxt, up):
-            return label[up]
+            return own[up]
         up = nxt
 
 
@@ -235,7 +243,8 @@ def trace(
         costfield: from :func:`wdendrite.shortest_paths`.
         endpoints: ``(M, ndim)`` integer node coordinates with finite cost.
         extend: a dendrite to grow: walks stop when they reach one of its
-            nodes, and the new nodes are appended after its rows.
+            nodes, and the new nodes are appended after its rows; a new
+            branch takes the label of the node it joins.
         generation: value stored in ``Dendrite.generation`` for the new nodes
             (default: one more than ``extend``'s largest, else 0).
         _drawn: the endpoints are an int64 ``(M, ndim)`` array drawn by growth
@@ -353,7 +362,8 @@ def trace(
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
         cost = new_cost[:n_new].numpy()[order]
-        label = _path_labels(new_label[:n_new].numpy()[order], new_parent, len(old))
+        label = _path_labels(new_label[:n_new].numpy()[order], new_parent,
+                             np.zeros(0, np.int32) if extend is None else extend.label)
     stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])

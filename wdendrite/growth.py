@@ -145,19 +145,6 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     return lattice.with_weights(w)
 
 
-def _relabel(den: Dendrite, first: int, n_gens: int) -> Dendrite:
-    """Map labels that name dendrite rows (new-generators mode) back to the first generators.
-
-    New rows (from ``first`` on) point at older rows, whose labels are already mapped.
-    """
-    label = den.label.copy()
-    new = label[first:]
-    via_node = new >= n_gens
-    new[via_node] = den.label[new[via_node] - n_gens]
-    label[first:] = new
-    return dataclasses.replace(den, label=label)
-
-
 def _check_start(start, lattice: Lattice, n_gens: int) -> None:
     if not isinstance(start, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'start', but got {type(start).__name__}")
@@ -336,9 +323,8 @@ def grow(
         if ep is not None:
             grew = True
             first = 0 if den is None else len(den)
+            # (new branches take the label of the node they join: the first generators' rows)
             den = trace(cf, ep, extend=den, generation=it, _drawn=True)
-            if new_generators:
-                den = _relabel(den, first, len(gens))
             if first:
                 # before the next search reuses the records that hold this field
                 den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
