@@ -77,6 +77,11 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     # a re-run skips complete tasks; a lost output or a stale manifest is redone
     stamps = {m.name: m.stat().st_mtime_ns for m in manifests}
     (runs / "fractal_size32_seed0_cheap0.0.png").unlink()
+    # a killed write left its temporary behind: the task's re-run sweeps it away
+    from wdendrite.io import temporary_prefix
+
+    stray = runs / (temporary_prefix(runs / "fractal_size32_seed0_cheap0.0.png") + "k1ll3d00.png")
+    stray.write_bytes(b"half")
     stale = runs / "fractal_size32_seed1_cheap0.0.manifest.json"
     stale.write_text(json.dumps({**json.loads(stale.read_text()), "params": {"size": 99}}))
     code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
@@ -84,6 +89,7 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     assert "2 run, 8 already complete" in out
     redone = {m.name for m in runs.glob("*.manifest.json") if m.stat().st_mtime_ns != stamps[m.name]}
     assert redone == {"fractal_size32_seed0_cheap0.0.manifest.json", stale.name}
+    assert not stray.exists() and not [p for p in runs.iterdir() if p.name.startswith(".")]
 
 
 def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):

@@ -338,3 +338,23 @@ def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         cli.relief(**args)
     assert launches == []
+
+
+def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
+    # the command stages every output beside its path and renames them together; the writers must
+    # not stage again inside (a second, longer temporary name), and a 255-byte name must work
+    from wdendrite import io
+
+    made = []
+    real = io.tempfile.mkstemp
+
+    def spy(*args, **kwargs):
+        made.append(kwargs.get("prefix"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(io.tempfile, "mkstemp", spy)
+    long = tmp_path / ("b" * 251 + ".png")
+    cli.run_preset("fractal", {"size": 32}, [long, tmp_path / "f.npz"], device="cpu")
+    assert long.exists() and (tmp_path / "f.npz").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([long.name, "f.npz"])
+    assert len(made) == 2  # one temporary per output, made by the command

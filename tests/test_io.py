@@ -320,3 +320,13 @@ def test_load_dendrite_names_missing_arrays_and_files(tmp_path):
     (tmp_path / "d.json").mkdir()
     with pytest.raises(ValueError, match=r"'path' '.*d\.json' is a folder"):
         load_dendrite(tmp_path / "d.json")
+
+
+def test_names_up_to_the_file_system_limit_are_written(tmp_path):
+    # a 255-byte name is legal; the temporary beside it must fit as well (its name is shortened)
+    for stem in ("b" * 251, "é" * 125):
+        path = tmp_path / f"{stem}.png"
+        save_png(path, np.zeros((4, 4)))
+        assert path.exists()
+        assert not _leftovers(tmp_path)
+        path.unlink()

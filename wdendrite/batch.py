@@ -39,6 +39,7 @@ import shutil
 import sys
 import time
 from dataclasses import dataclass, field
+from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
@@ -231,12 +232,15 @@ def load_jobs(path) -> tuple[list[Task], dict]:
 
 
 def _sweep_temporaries(task: Task) -> None:
-    """Remove temporary files a killed run left behind for ``task`` (``.NAME.*`` beside each file it writes).
+    """Remove temporary files a killed run left behind for ``task`` (``.NAME.*`` beside each file it
+    writes, NAME shortened as :func:`wdendrite.io.temporary_prefix` does).
 
     Tiled partial files and their tile records are named differently and kept: a re-run resumes them.
     """
+    from .io import temporary_prefix
+
     for path in [*map(Path, task.outputs), task.manifest]:
-        for tmp in path.parent.glob(f".{path.name}.*"):
+        for tmp in path.parent.glob(glob_escape(temporary_prefix(path)) + "*"):
             if tmp.is_file():
                 tmp.unlink(missing_ok=True)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import json
 import os
 import re
@@ -46,13 +48,43 @@ def _umask() -> int:
     return current
 
 
+_NAME_BYTES = 255  # the longest file name common file systems take, in bytes
+
+
+def temporary_prefix(path) -> str:
+    """The start of the names of temporary files staged for ``path`` (beside it): a dot and the
+    file's name, shortened so that the random part and the suffix still fit in a file name."""
+    path = Path(path)
+    room = _NAME_BYTES - 2 - 8 - len(path.suffix.encode())  # the dots, mkstemp's 8 characters, the suffix
+    name = path.name.encode()[:room].decode(errors="ignore")
+    return f".{name}."
+
+
+_STAGED = contextvars.ContextVar("wdendrite_io_staged", default=False)
+
+
+@contextlib.contextmanager
+def writing_staged():
+    """Within this block the ``save_*`` functions write straight to the paths they are given:
+    for callers that already write to temporary files of their own and rename them together."""
+    token = _STAGED.set(True)
+    try:
+        yield
+    finally:
+        _STAGED.reset(token)
+
+
 def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     """Call ``write(tmp_path)`` on a temporary file beside ``path``, then rename it to ``path``.
 
-    An interrupted write leaves no half-written ``path`` behind.
+    An interrupted write leaves no half-written ``path`` behind. Inside
+    :func:`writing_staged`, ``write(path)`` is called on ``path`` itself.
     """
     path = _target(path, overwrite)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    if _STAGED.get():
+        write(str(path))
+        return path
+    fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
