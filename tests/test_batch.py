@@ -177,6 +177,16 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "lightning"\ntile = 64\n', ["'tile' is for"]),
     ('[[job]]\npreset = "fractal"\n', ["needs an output folder"]),
     ('out = "/proc/wdendrite-runs"\n[[job]]\npreset = "fractal"\nsize = 16\n', ["not writable"]),
+    # a value given in two places would be overwritten silently, and the file names would lie
+    ('out = "o"\n[[job]]\npreset = "lightning"\nseeds = [1, 2]\ngrid = { seed = [5, 6] }\n',
+     ["job 1 (lightning)", "grid 'seed'", "one place"]),
+    ('out = "o"\n[[job]]\npreset = "lightning"\nsize = 48\nparams = { shape = [32, 32] }\n',
+     ["params 'shape'", "one place"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsizes = [48, 0]\n', ["job 1 (fractal)", "'size'/'sizes'", "got 0"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 48.5\n', ["job 1 (fractal)", "got 48.5"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nformats = ["png", "PNG"]\n', ["'png' is listed twice"]),
+    ('out = "o"\n[[job]]\npreset = "tree"\nformats = ["svg"]\n', ["3D", "drop 'svg'"]),
+    ('out = "jobs.toml"\n[[job]]\npreset = "fractal"\n', ["is a file"]),
 ])
 def test_bad_job_files_exit_2_and_write_nothing(tmp_path, text, words):
     (tmp_path / "jobs.toml").write_text(text)
@@ -194,6 +204,13 @@ def test_unreachable_scheduler_exits_2(tmp_path):
     code, out, err = wd("batch", "jobs.toml", "--scheduler", "tcp://127.0.0.1:9", "--timeout", 1, cwd=tmp_path)
     assert code == 2 and "cannot reach the Dask scheduler" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
+    # remote workers bring their own GPUs: this machine (none here) does not decide "cuda"; a
+    # misspelt device is refused before anything is tried
+    code, out, err = wd("batch", "jobs.toml", "--scheduler", "tcp://127.0.0.1:9", "--timeout", 1, "--device", "cuda",
+                        cwd=tmp_path)
+    assert code == 2 and "cannot reach the Dask scheduler" in err
+    code, out, err = wd("batch", "jobs.toml", "--scheduler", "tcp://127.0.0.1:9", "--device", "gpu", cwd=tmp_path)
+    assert code == 2 and "--device must be cpu, cuda or cuda:N" in err
 
 
 @pytest.mark.parametrize("args, words", [
@@ -271,3 +288,11 @@ def test_a_value_a_preset_refuses_names_its_job(tmp_path):
     with pytest.raises(UsageError, match=r"job 2 \(dendry\): Expected 'levels' in \[1, 6\], but got 9"):
         batch.load_jobs(f)
     assert not (tmp_path / "runs").exists()
+
+
+def test_job_names_keep_letters_of_any_script(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nname = "été"\nsize = 16\n'
+                                        '[[job]]\npreset = "costs"\nname = "ötö"\nsize = 16\n'
+                                        '[[job]]\npreset = "costs"\nname = "a/b c"\nsize = 16\n')
+    tasks, _ = batch.load_jobs(tmp_path / "jobs.toml")
+    assert [t.name.split("_")[0] for t in tasks] == ["été", "ötö", "a-b-c"]

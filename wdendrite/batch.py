@@ -117,13 +117,15 @@ def _formats(value, where: str) -> list[str]:
         if "." + f not in SUFFIXES and f != "zarr":
             allowed = [s[1:] for s in SUFFIXES] + ["zarr"]
             raise UsageError(f"{where}: unknown format {f!r}{nearest(f, allowed)}; allowed: {', '.join(allowed)}")
+        if f in out:
+            raise UsageError(f"{where}: format {f!r} is listed twice in 'formats' {value!r}")
         out.append(f)
     return out
 
 
 def _slug(v) -> str:
     s = ",".join(_slug(x) for x in v) if isinstance(v, (list, tuple)) else str(v)
-    return re.sub(r"[^A-Za-z0-9.,+-]", "-", s)
+    return re.sub(r"[^\w.,+-]", "-", s)  # letters of any script, digits, _ . , + -
 
 
 def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
@@ -150,9 +152,23 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     sizes = _list(job, "size", "sizes", where, None)
     if sizes != [None] and not preset.size_param:
         raise UsageError(f"{where}: preset {name!r} has no size parameter")
+    # one place per value: a seed or size given twice would be overwritten, and file names would lie
+    for given, param, keys in ((seeds, "seed", "'seed'/'seeds'"), (sizes, preset.size_param, "'size'/'sizes'")):
+        for t, what in ((fixed, "params"), (grid, "grid")):
+            if given != [None] and param in t:
+                raise UsageError(f"{where}: {what} {param!r} and {keys} both set it; give it in one place")
+    sized = {}
+    for size in sizes:
+        if size is not None:
+            try:
+                sized[size] = preset.sized(size)
+            except UsageError:
+                raise UsageError(f"{where}: 'size'/'sizes' expects positive integers, but got {size!r}") from None
     fmts = _formats(job.get("formats", top_formats), where)
     if not preset.meshes and {"obj", "ply", "stl", "glb"} & set(fmts):
         raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop the mesh formats")
+    if preset.meshes and "svg" in fmts:
+        raise UsageError(f"{where}: preset {name!r} makes a 3D dendrite, which SVG cannot draw; drop 'svg'")
     tile = _tile(job.get("tile"), name, fmts, where)
     tasks = []
     for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
@@ -161,7 +177,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if seed is not None:
             values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed")
         if size is not None:
-            values[preset.size_param] = preset.sized(size)
+            values[preset.size_param] = sized[size]
         try:
             _, full = resolve(preset, values)
         except (ValueError, TypeError) as exc:  # a parameter dataclass refused a value: say which job
@@ -248,6 +264,8 @@ def _sweep_temporaries(task: Task) -> None:
 def _prepare_folder(folder: Path) -> None:
     from .cli import probe_folder
 
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"output folder {str(folder)!r} is a file; name a folder for 'out'")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         probe_folder(folder)
@@ -336,7 +354,7 @@ def tiled_array(tile_fn, shape, tile: int):
 
 
 def _dendry_tile(window, *, setup: dict, output: str, device):
-    from .cli import pick_device
+    from .cli import check_device_name, pick_device
     from .dendry import dendry
 
     return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)))
@@ -478,7 +496,7 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
 
 def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
     """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
-    from .cli import pick_device
+    from .cli import check_device_name, pick_device
 
     started = time.time()
     if manifest:
@@ -540,7 +558,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     """
     from tqdm.auto import tqdm
 
-    from .cli import pick_device
+    from .cli import check_device_name, pick_device
 
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise UsageError(f"--workers must be a positive integer, but got {workers!r}")
@@ -552,8 +570,14 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         raise UsageError("--workers sets the size of a LocalCluster: use it with --scheduler local")
     tasks, settings = load_jobs(path)
     device = device or settings["device"]
-    if device is not None or scheduler is None:
-        device = pick_device(device)  # validate here, before any work
+    # validated here, before any work
+    if scheduler is None:
+        device = pick_device(device)
+    elif device is not None:
+        check_device_name(device)
+        if scheduler == "local":
+            pick_device(device)  # the workers run on this machine: the device must be here
+        # a plain "cuda" stays as it is: each worker takes a GPU of its own (worker_device)
     if dry_run:
         for t in tasks:
             print(f"{'done' if t.complete() else 'todo'}  {t.name}  -> {', '.join(t.outputs)}")

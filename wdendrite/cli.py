@@ -38,6 +38,12 @@ SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG
 # --------------------------------------------------------------------------- devices and outputs
 
 
+def check_device_name(name) -> None:
+    """Raise :class:`UsageError` unless ``name`` spells a device (``cpu``, ``cuda``, ``cuda:N``)."""
+    if not re.fullmatch(r"cpu|cuda(:\d+)?", str(name)):
+        raise UsageError(f"--device must be cpu, cuda or cuda:N, but got {name!r}")
+
+
 def pick_device(name: str | None) -> str:
     """The Warp device for ``name`` (``cpu``, ``cuda``, ``cuda:N``; None: CUDA if present, else the CPU)."""
     import warp as wp
@@ -46,8 +52,7 @@ def pick_device(name: str | None) -> str:
     wp.init()
     if name is None:
         return "cuda:0" if wp.get_cuda_device_count() > 0 else "cpu"
-    if not re.fullmatch(r"cpu|cuda(:\d+)?", str(name)):
-        raise UsageError(f"--device must be cpu, cuda or cuda:N, but got {name!r}")
+    check_device_name(name)
     found = [str(d) for d in wp.get_devices()]
     want = "cuda:0" if name == "cuda" else name
     if want not in found:
