@@ -352,6 +352,21 @@ def test_from_arrays_round_trip_and_checks():
     # fractional rows are refused, not truncated to a row
     with pytest.raises(TypeError, match="integer rows for 'endpoints'"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0], [0, 1]], [-1, 0], endpoints=[1.5])
+    # placement and per-node values are checked, not wrapped, truncated or left to fail later
+    two = dict(shape=(5, 5), nodes=[[0, 0], [0, 1]], parent=[-1, 0])
+    for kw, exc, match in [
+        (dict(origin=(5.0,)), ValueError, "'origin'"),
+        (dict(origin=(0.0, np.nan)), ValueError, "'origin'"),
+        (dict(spacing=float("nan")), ValueError, "'spacing'"),
+        (dict(spacing=0.0), ValueError, "'spacing'"),
+        (dict(spacing=-2.0), ValueError, "'spacing'"),
+        (dict(label=[0.7, 0.0]), TypeError, "'label'"),
+        (dict(label=[-1, 0]), ValueError, r"'label' must lie in \[0, "),
+        (dict(generation=[2**40, 0]), ValueError, "'generation' must lie in"),
+        (dict(cost=[0.0, np.nan]), ValueError, "'cost' must be finite"),
+    ]:
+        with pytest.raises(exc, match=match):
+            wd.Dendrite.from_arrays(**two, **kw)
     with pytest.raises(ValueError, match=r"\(N, 2\)"):
         wd.Dendrite.from_arrays((5, 5), [[0, 0, 0]], [-1])
     with pytest.raises(ValueError, match="neighbour"):

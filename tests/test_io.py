@@ -304,6 +304,11 @@ def _dendrite_json(tmp_path, **change):
         (lambda d: _dendrite_json(d, parent=[0]), r"'path' '.*bad\.json' is not a dendrite file: .*'parent'"),
         (lambda d: _dendrite_json(d, spacing="a"), r"'path' '.*bad\.json' is not a dendrite file"),
         (lambda d: _dendrite_json(d, width=[1.0]), r"'path' '.*bad\.json' holds 1 widths"),
+        # values other tools could write: refused, not wrapped, truncated or failing later
+        (lambda d: _dendrite_json(d, origin=[0.0]), r"bad\.json' is not a dendrite file: .*'origin'"),
+        (lambda d: _dendrite_json(d, spacing=0), r"bad\.json' is not a dendrite file: .*'spacing'"),
+        (lambda d: _dendrite_json(d, shape=[40.7, 40.2]), r"bad\.json' is not a dendrite file: .*'shape'"),
+        (lambda d: _write(d / "deep.json", b"[" * 100000 + b"]" * 100000), r"deep\.json' .*nested too deeply"),
     ],
 )
 def test_load_dendrite_names_a_corrupt_file(tmp_path, make, match):

@@ -106,8 +106,21 @@ class Dendrite:
         if len(np.unique(padded)) != n:
             raise ValueError("'nodes' lists a node twice")
 
-        def per_node(name, value, dtype):
-            arr = np.zeros(n, dtype) if value is None else np.asarray(value, dtype=dtype).reshape(-1)
+        def per_node(name, value, dtype, low=None):
+            if value is None:
+                return np.zeros(n, dtype)
+            if np.dtype(dtype).kind == "i":
+                arr = _checks.integer_array(name, value).reshape(-1)
+                info = np.iinfo(dtype)
+                low = info.min if low is None else low
+                if arr.size and (arr.min() < low or arr.max() > info.max):
+                    raise ValueError(f"'{name}' must lie in [{low}, {info.max}], but ranges over "
+                                     f"[{arr.min()}, {arr.max()}]")
+                arr = arr.astype(dtype)
+            elif np.size(value) == 0:
+                arr = np.zeros(0, dtype)
+            else:
+                arr = _checks.finite_array(name, value, "1D (N,)", lambda s: True, dtype=dtype).reshape(-1)
             if arr.shape != (n,):
                 raise ValueError(f"Expected '{name}' of shape ({n},), but got shape {arr.shape}")
             return arr
@@ -124,9 +137,12 @@ class Dendrite:
         endpoints = _checks.integer_array("endpoints", endpoints, "rows").reshape(-1)
         if endpoints.size and (endpoints.min() < 0 or endpoints.max() >= n):
             raise ValueError(f"'endpoints' must be rows in [0, {n}), but range over [{endpoints.min()}, {endpoints.max()}]")
-        den = cls(shape, nodes, parent, per_node("cost", cost, np.float32), per_node("label", label, np.int32),
-                  per_node("generation", generation, np.int32), endpoints,
-                  padded, origin, float(spacing))
+        if origin is not None:
+            origin = tuple(_checks.finite_array("origin", origin, f"({len(shape)},)", lambda s: s == (len(shape),),
+                                                dtype=np.float64).tolist())
+        den = cls(shape, nodes, parent, per_node("cost", cost, np.float32), per_node("label", label, np.int32, 0),
+                  per_node("generation", generation, np.int32, 0), endpoints,
+                  padded, origin, _checks.positive("spacing", spacing))
         den.depth  # raises on a cycle
         return den
 

@@ -266,6 +266,8 @@ def _read_arrays(path: Path, fmt: str) -> dict:
             return {k: np.asarray(v) for k, v in data.items()}
     except (ValueError, EOFError, zipfile.BadZipFile, zlib.error) as err:  # ValueError: JSON, text, ragged lists
         raise refuse(f"{type(err).__name__}: {err}") from None
+    except RecursionError:  # JSON nested deeper than the parser goes
+        raise refuse("its JSON is nested too deeply") from None
     raise refuse(f"expected a JSON object, but it holds a {type(data).__name__}")
 
 
@@ -294,17 +296,19 @@ def load_dendrite(path):
         raise ValueError(f"'path' {str(path)!r} is not a dendrite file: missing {', '.join(map(repr, missing))}")
     try:
         den = Dendrite.from_arrays(
-            tuple(int(n) for n in raw["shape"]),
+            tuple(_checks.integer_array("shape", raw["shape"], "sizes").reshape(-1).tolist()),
             raw["nodes"],
             raw["parent"],
             cost=raw["cost"],
             label=raw["label"],
             generation=raw["generation"],
             endpoints=raw["endpoints"],
-            origin=tuple(float(x) for x in raw["origin"]),
-            spacing=float(raw["spacing"]),
+            origin=np.asarray(raw["origin"]).reshape(-1),
+            spacing=raw["spacing"].item() if np.ndim(raw["spacing"]) == 0 else raw["spacing"],
         )
-        width = raw["width"].astype(np.float32).reshape(-1)
+        width = _checks.finite_array("width", raw["width"], "1D (N,)", lambda s: len(s) == 1).reshape(-1)
+        if (width < 0).any():
+            raise ValueError(f"'width' must be non-negative, but its minimum is {width.min()}")
     except (TypeError, ValueError) as err:
         raise ValueError(f"'path' {str(path)!r} is not a dendrite file: {err}") from None
     if width.shape != (len(den),):
