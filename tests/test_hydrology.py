@@ -1,6 +1,7 @@
 """Hydrology metrics against hand-made DEMs and brute-force priority-flood / D8 references."""
 
 import heapq
+import warnings
 
 import numpy as np
 import pytest
@@ -68,6 +69,11 @@ def test_fill_equals_brute_force_priority_flood():
     z = np.ones((5, 5))
     z[2, 2] = 1.0 - 1e-12
     assert hydrology.fill(z)[2, 2] == 1.0 and hydrology.depressions(z).count == 1
+    # elevations beyond float32's range stay in float64, without a warning about the cast
+    z = rng.random((9, 11)) * 1e300
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(hydrology.fill(z), _priority_flood(z))
 
 
 def test_no_depressions_on_a_plane_or_a_dome():

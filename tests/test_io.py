@@ -238,6 +238,7 @@ def test_written_files_follow_the_umask(tmp_path):
         ("abc", TypeError, "'image', but got dtype <U3"),
         (np.zeros((0, 0)), ValueError, r"'image', but got shape \(0, 0\)"),
         (np.zeros((4, 4, 2)), ValueError, r"'image', but got shape \(4, 4, 2\)"),
+        (np.full((4, 4), 200, np.uint8), ValueError, r"values in \[0, 1\], but this uint8 image spans \[200, 200\]"),
     ],
 )
 def test_bad_png_images_name_image_and_leave_the_old_file(tmp_path, image, exc, match):

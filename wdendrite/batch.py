@@ -354,7 +354,7 @@ def tiled_array(tile_fn, shape, tile: int):
 
 
 def _dendry_tile(window, *, setup: dict, output: str, device):
-    from .cli import check_device_name, pick_device
+    from .cli import pick_device
     from .dendry import dendry
 
     return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)))
@@ -496,7 +496,7 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
 
 def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
     """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
-    from .cli import check_device_name, pick_device
+    from .cli import pick_device
 
     started = time.time()
     if manifest:

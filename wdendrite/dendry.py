@@ -118,7 +118,8 @@ class DendryParams:
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
-    none finer; a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
+    none finer, as the authors' implementation does (the paper allows a constant or one value per
+    level: give ``(d,) * levels`` for a constant); a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
     Lichtenberg rule) links and queries search 7 x 7 cells (see ``search``)."""
     resolution: float = 1.0
     """Level-1 cells per domain unit (> 0): the spacing of the main branches. Terrain slopes
@@ -213,7 +214,12 @@ class DendryParams:
 
     @staticmethod
     def min_slopes() -> tuple[float, ...]:
-        """Flint's minimum slope ``(2 mu - 1)^-0.6`` per level, ``mu`` 27, 9, 3, 1 at levels 2-5 (6 as 5)."""
+        """Flint's minimum slope ``(2 mu - 1)^-0.6`` per level, ``mu`` 27, 9, 3, 1 at levels 2-5 (6 as 5).
+
+        These are the authors' implementation's values (0.09, 0.18, 0.38, 1.0), fixed per level.
+        Section 5 of the paper puts ``mu = 1`` at the finest level in use, which for fewer than
+        5 levels would make the finest branches steeper (1.0 at level 2 of a 2-level tree).
+        """
         return tuple((2.0 * 3.0 ** max(5 - k, 0) - 1.0) ** -0.6 for k in range(1, 7))
 
 

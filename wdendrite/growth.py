@@ -47,7 +47,9 @@ class FractalParams:
     first generators and multiplies the dendrite's edges by D ("cheap former
     paths"): endpoints are still drawn by their cost from the dendrite, and their
     paths lead to the first generators, joining the dendrite where it is cheap
-    enough to follow."""
+    enough to follow. Every dendrite edge costs D times its own weight, whatever
+    iteration made it (the thesis' "iteratively decreasing" could also be read as
+    D^k for edges k iterations old)."""
     min_spacing: float | None = None
     """Least distance between endpoints drawn in one iteration (nodes), or None."""
 

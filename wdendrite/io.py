@@ -123,8 +123,9 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     (Pillow has no 16-bit RGB mode). The write is atomic.
 
     Raises:
-        ValueError: an empty image, a bad shape, NaN or inf values, ``bits`` not 8 or 16,
-            a missing folder, a ``path`` that is a folder.
+        ValueError: an empty image, a bad shape, NaN or inf values, integer values outside
+            [0, 1] (0-255 levels, say), ``bits`` not 8 or 16, a missing folder, a ``path`` that
+            is a folder.
         TypeError: an image that is not numbers (bool images are fine).
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
@@ -135,6 +136,10 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
                                lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=None)
     if bits not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
+    if img.dtype.kind in "iu" and (img.min() < 0 or img.max() > 1):
+        # float values beyond [0, 1] are clipped (light that saturates); integer ones are levels
+        raise ValueError(f"Expected 'image' values in [0, 1], but this {img.dtype} image spans [{img.min()}, "
+                         f"{img.max()}]; divide 8-bit levels by 255 (16-bit by 65535) first")
     data = _quantized(img, bits)
     if bits == 16 and img.ndim == 3:
         return atomic_write(path, lambda tmp: _png16_rgb(tmp, data), overwrite=overwrite)
@@ -354,12 +359,14 @@ def _svg_colour(name: str, value) -> None:
 
 def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", background: str | None = "white",
              overwrite: bool = False) -> Path:
-    """Write a 2D dendrite as SVG polylines, one per branch, in lattice pixel units.
+    """Write a 2D dendrite as SVG polylines, one per branch, in world units (its
+    ``positions``: lattice nodes for a traced dendrite, ``spacing`` apart for a refined one).
 
     Args:
         path: output ``.svg`` file; its folder must exist.
         dendrite: a non-empty 2D dendrite.
-        width: node widths as in :func:`wdendrite.render.node_widths` (stroke = 2 x mean width of a branch).
+        width: node widths as in :func:`wdendrite.render.node_widths` (stroke = 2 x mean width of a
+            branch), in the same world units: scale pixel widths by the dendrite's ``spacing``.
         side: optional side-branch width.
         color: stroke colour: an SVG colour name, ``#rgb``/``#rrggbb`` or a function such as
             ``rgb(10, 20, 30)``.

@@ -83,8 +83,11 @@ class Taper:
     """Shape of the taper, > 0 (1: linear in path cost, as for the papers' lightning)."""
     along: TaperAlong = "branch"
     """What ``d`` is measured along: ``"branch"`` from where a branch leaves its parent branch
-    (every side branch tapers on its own), ``"path"`` from the root (the whole path from root
-    to each tip), ``"dendrite"`` from the root with ``d_max`` the dendrite's largest cost."""
+    (every side branch tapers on its own, starting again at ``start``), ``"path"`` from the root
+    (the whole path from root to each tip), ``"dendrite"`` from the root with ``d_max`` the
+    dendrite's largest cost. The constructive path planning paper's eq. 2 takes ``d`` as the
+    path cost from the root, i.e. ``"path"`` or ``"dendrite"``; the default ``"branch"`` is
+    ours (side branches as bold as their start, for pictures with a separate ``side`` taper)."""
 
     def __post_init__(self):
         for name in ("start", "end", "beta"):
@@ -113,6 +116,9 @@ def thesis_width(factor: float, a: float = 1e-4) -> float:
 
     In the thesis a larger width factor gives a *narrower* path; ``a`` is about 1/10000.
     Combine with ``brightness(..., clamp=0.7)`` for the thesis' rule that values above 0.7 become 1.
+    ``d`` is the thesis' path cost on the weighted graph, so the ``T`` returned (167 for factor
+    0.6) is in the lattice's cost units: pass the lattice (``brightness(..., metric="path",
+    lattice=lat)``); in pixel distances it would be a halo 167 pixels wide.
     """
     factor = _checks.positive("factor", factor)
     a = _checks.positive("a", a)
