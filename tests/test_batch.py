@@ -127,6 +127,44 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     assert np.array_equal(np.load(out), value((0, 0, *shape)) + 1)
 
 
+def test_a_tiled_task_resumes_only_tiles_of_the_same_kind_of_device(tmp_path, monkeypatch):
+    # a killed run on one kind of device leaves tiles a run on another kind does not reuse
+    # (CUDA's pow and exp may round differently); on the same kind it resumes them
+    from wdendrite import cli
+
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\n'
+                                        'formats = "npy"\n')
+    task = batch.load_jobs(tmp_path / "jobs.toml")[0][0]
+    (tmp_path / "o").mkdir()
+    monkeypatch.setattr(cli, "pick_device", lambda name: name)  # a machine with every device
+    calls, dies = [], [True]
+
+    def tile(window, *, setup, output, device):
+        if dies[0] and len(calls) == 3:
+            raise KeyboardInterrupt  # the run is killed after three tiles
+        calls.append(device)
+        return np.zeros((window[2], window[3]), np.float32)
+
+    def run(device, killed):
+        calls.clear()
+        dies[0] = killed
+        if killed:
+            with pytest.raises(KeyboardInterrupt):
+                batch.run_tiled(task, device=device)
+        else:
+            batch.run_tiled(task, device=device)
+        return len(calls)
+
+    monkeypatch.setattr(batch, "_dendry_tile", tile)
+    total = len(batch.tile_windows((40, 40), 16))
+    assert run("cpu", killed=True) == 3
+    assert run("cuda:0", killed=False) == total  # the CPU's tiles are not reused on a GPU
+    task.manifest.unlink()
+    (tmp_path / "o" / "terrain_size40_seed0.npy").unlink()
+    assert run("cuda:0", killed=True) == 3
+    assert run("cuda:1", killed=False) == total - 3  # another GPU resumes them
+
+
 def test_tiles_on_a_local_cluster_equal_the_whole_image(tmp_path):
     distributed = pytest.importorskip("distributed")
     setup, whole = _whole_dendry(41, levels=2)

@@ -505,9 +505,11 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     dev = device if client is not None else pick_device(device)
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
     t0 = time.perf_counter()
+    # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
+    kind = None if dev is None else str(dev).split(":")[0]
     for out in task.outputs:
         write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress,
-                    key=json.dumps(task.params, sort_keys=True))
+                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
     rec = {"device": dev or "default of each worker", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
