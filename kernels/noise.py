@@ -181,9 +181,10 @@ def control_value(ctl: Control, p: wp.vec2) -> float:
     if k == KIND_RIDGED:
         return ridged(ctl.cols, ctl.grads, p * ctl.a[0], ctl.octaves, ctl.a[1], ctl.a[2], ctl.a[3])
     if k == KIND_LICHTENBERG:
+        # a[0] scales the bowl (1: the paper's); a positive factor keeps every comparison of links
         if wp.abs(p[0]) > 1.0 or wp.abs(p[1]) > 1.0:
-            return 16.0
-        return p[0] * p[0] + (p[1] + 1.0) * (p[1] + 1.0)
+            return 16.0 * ctl.a[0]
+        return ctl.a[0] * (p[0] * p[0] + (p[1] + 1.0) * (p[1] + 1.0))
     # image: pixel centres tile the rectangle lo-hi, row 0 at y = lo.y
     h = float(ctl.image.shape[0])
     w = float(ctl.image.shape[1])

@@ -629,15 +629,12 @@ def test_cached_equals_per_pixel_in_adversarial_setups(device, levels):
             assert np.array_equal(dendry((18, 18), window=(5, 9, 7, 6), mode="pixel", **kw), a[5:12, 9:15])
 
 
-def test_cached_equals_per_pixel_where_cells_have_no_segment(device, monkeypatch):
+def test_cached_equals_per_pixel_where_cells_have_no_segment(device):
     # a bounded control: cells outside the bowl own no segment, so some pixels cannot bound
-    # their primitives' answers and query them in full, next to pixels that use the shortlist.
-    # The bowl spans [0, 5], which terrains refuse (their slopes take values in [0, 1]); the
-    # modes must agree all the same, so the range check is lifted here
-    monkeypatch.setattr(importlib.import_module("wdendrite.dendry"), "_check_elevation_control", lambda c, o: None)
+    # their primitives' answers and query them in full, next to pixels that use the shortlist
     p = DendryParams(levels=2, eps=0.25, delta=0.05, beta=0.5, noise=0.05, resolution=2.0, seed=3)
     kw = dict(domain=((-1.4, -1.4), (1.4, 1.4)), control_domain=((-1.4, -1.4), (1.4, 1.4)), params=p,
-              control=control.lichtenberg(), output="elevation", device=device)
+              control=control.lichtenberg(scale=0.2), output="elevation", device=device)
     a = dendry((48, 48), **kw)
     b = dendry((48, 48), mode="pixel", **kw)
     assert np.array_equal(a, b, equal_nan=True), np.nanmax(np.abs(a - b))
@@ -762,6 +759,21 @@ def test_dem_amplification_follows_the_coarse_map(device):
     # and it adds detail the bicubic DEM does not have: valleys cut below it
     smooth = dem.grid((256, 256), device=device)
     assert np.mean(fine < smooth - 0.01) > 0.05
+
+
+def test_a_scaled_lichtenberg_bowl_grows_the_same_tree(device):
+    # scaling the bowl changes no link: the tree (distance, level) is the paper's at any scale, and
+    # the scale that fits terrains' [0, 1] makes an elevation
+    p = DendryParams(levels=3, eps=0.25, rule="lichtenberg", resolution=2.0)
+    kw = dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=p, device=device)
+    for output in ("distance", "level"):
+        want = dendry((40, 40), control=control.lichtenberg(), output=output, **kw)
+        for scale in (0.2, 3.0):
+            np.testing.assert_array_equal(dendry((40, 40), control=control.lichtenberg(scale), output=output, **kw), want)
+    z = dendry((40, 40), control=control.lichtenberg(0.2), output="elevation", **kw)
+    assert np.isfinite(z).all() and control.lichtenberg(0.2).maximum == 1.0
+    with pytest.raises(ValueError, match="'scale'"):
+        control.lichtenberg(0.0)
 
 
 def test_lichtenberg_tree_stays_in_its_bowl(device):

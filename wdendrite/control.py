@@ -268,15 +268,17 @@ def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 
     return Control("radial", dom, near, far, (cx, cy, r, 0.0))
 
 
-def lichtenberg() -> Control:
-    """The Lichtenberg bowl ``x^2 + (y + 1)^2`` on [-1, 1]^2 and 16 outside (bounded).
+def lichtenberg(scale: float = 1.0) -> Control:
+    """The Lichtenberg bowl ``scale * (x^2 + (y + 1)^2)`` on [-1, 1]^2 and ``16 * scale`` outside (bounded).
 
-    Its minimum and maximum are those on the domain: 0 at (0, -1) and 5 at (+-1, 1). The
-    value 16 outside the square is not counted: points there are outside the function, so
-    Dendry drops their segments, and the terrain's slopes (eq. 7) are normalised over the
-    range the tree's elevations take, [0, 5].
+    Its minimum and maximum are those on the domain: 0 at (0, -1) and ``5 * scale`` at
+    (+-1, 1). The value outside the square is not counted: points there are outside the
+    function, so Dendry drops their segments. ``scale`` (> 0) changes no link, so the tree is
+    the paper's for any value; terrains (``output="elevation"``) take controls in [0, 1], which
+    ``scale=0.2`` gives.
     """
-    return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0, bounded=True)
+    scale = positive("scale", scale)
+    return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0 * scale, (scale, 0.0, 0.0, 0.0), bounded=True)
 
 
 def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
