@@ -1,5 +1,7 @@
 """grow(): the Fig 3.12 schedule, both fractal modes, warm starts equal cold starts, competition, bad input."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -164,6 +166,19 @@ def test_every_node_is_labelled_by_the_generator_its_path_reaches(cheap):
         for _ in range(64):
             root = root[root]
         np.testing.assert_array_equal(gens[den.label], den.nodes[root])
+
+
+def test_cheap_former_paths_refuse_a_start_no_generator_reaches():
+    # a wall splits the lattice; the start dendrite lies beyond it: new generators grow from it,
+    # cheap former paths (which trace every branch to the generators) say why they cannot
+    mask = np.ones((40, 40), bool)
+    mask[:, 20] = False
+    lat = wd.Lattice((40, 40), 8, weights=wd.weights.Uniform(r=10, seed=1), mask=mask)
+    start = wd.Dendrite.from_arrays((40, 40), [[20, 30], [21, 30], [22, 30]], [-1, 0, 1])
+    p = wd.FractalParams(count=3, d=60.0, alpha=1.6, beta=3.0, epsilon=15.0)
+    assert len(wd.grow(lat, [[20, 5]], p, start=start, seed=0)) > 3
+    with pytest.raises(ValueError, match=r"'start' row 0 = \(20, 30\) cannot be reached"):
+        wd.grow(lat, [[20, 5]], dataclasses.replace(p, cheap=0.5), start=start, seed=0)
 
 
 def test_competition_keeps_dendrites_apart():

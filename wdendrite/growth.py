@@ -274,8 +274,9 @@ def grow(
         TypeError: ``lattice``, ``params``, ``start``, ``seed`` or ``progress`` of the wrong type.
         ValueError: bad ``generators`` (empty, out of bounds, on masked nodes), a ``start``
             from another lattice shape or whose labels do not index ``generators``, a
-            ``within`` of another shape, a negative ``seed``, or a schedule whose bands
-            hold no node at all (none grows, with or without ``start``).
+            ``within`` of another shape, a negative ``seed``, a schedule whose bands
+            hold no node at all (none grows, with or without ``start``), or with cheap
+            former paths a ``start`` node no generator reaches (searched before any draw).
     """
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
@@ -320,6 +321,16 @@ def grow(
                 cf = sf = shortest_paths(lat, structure, limit=d + r, device=device)
             else:
                 cf = shortest_paths(lat, gens, device=device)
+                if den is not None and len(den):
+                    # walks lead to the generators: a start node they cannot reach would leave its
+                    # surroundings' endpoints without a way down
+                    far = ~np.isfinite(_field_costs(cf, den._padded))
+                    if far.any():
+                        row = int(np.argmax(far))
+                        raise ValueError(
+                            f"'start' row {row} = {tuple(den.nodes[row].tolist())} cannot be reached from any of "
+                            "the 'generators' on this lattice; cheap former paths trace every branch to them "
+                            "(new generators, cheap = 0, grow from 'start' itself)")
                 sf = cf if den is None else shortest_paths(base_lat, structure, limit=d + r, device=device)
         ep = _band_endpoints(sf, m, d, r, rng, within, params.min_spacing)
         if ep is not None:
