@@ -167,6 +167,13 @@ def test_outputs_are_never_clobbered_or_half_written(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.png", "f.png", "file"]
 
 
+@pytest.mark.parametrize("ctl", ["perlin", "ridged", "radial", "plane", "lichtenberg"])
+def test_every_terrain_control_makes_a_terrain(tmp_path, ctl):
+    # every --control the terrain offers is one terrains take (values in [0, 1])
+    rec = cli.run_preset("terrain", {"size": 24, "control": ctl}, [tmp_path / "t.npy"], device="cpu")
+    assert np.isfinite(np.load(tmp_path / "t.npy")).all() and rec["outputs"]
+
+
 def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):
     # the second output fails while being written: the first is not left behind, and a file
     # already at the first path keeps its bytes
@@ -338,6 +345,13 @@ def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         cli.relief(**args)
     assert launches == []
+
+
+def test_an_upper_case_suffix_writes_the_file_named(tmp_path):
+    # NumPy appends ".npy" to a name not ending in it: f.NPY must still hold the field
+    cli.run_preset("fractal", {"size": 24}, [tmp_path / "f.NPY"], device="cpu")
+    assert np.load(tmp_path / "f.NPY").shape == (24, 24)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.NPY"]
 
 
 def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):

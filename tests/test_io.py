@@ -336,3 +336,21 @@ def test_names_up_to_the_file_system_limit_are_written(tmp_path):
         assert path.exists()
         assert not _leftovers(tmp_path)
         path.unlink()
+
+
+def test_temporary_prefixes_fit_and_stay_apart(tmp_path):
+    from wdendrite.io import temporary_prefix
+
+    # names that need no shortening keep the plain prefix; long ones are cut and marked with a hash
+    # of the whole name, so two long names with a common start (or a tiled partial) never share it
+    assert temporary_prefix(tmp_path / "f.png") == ".f.png."
+    a, b = ("a" * 241 + ".png", "a" * 241 + "_seed2.npy")
+    pa, pb = temporary_prefix(tmp_path / a), temporary_prefix(tmp_path / b)
+    assert pa != pb and not pb.startswith(pa) and not pa.startswith(pb)
+    assert not ("." + "a" * 241 + ".partial.npy").startswith(temporary_prefix(tmp_path / ("a" * 241 + ".npy")))
+    for p in (pa, pb):
+        assert len(os.fsencode(p)) + 8 + 4 <= 255
+    # a name that is not UTF-8 (bytes the file system allows) is written like any other
+    odd = os.fsdecode(b"\xff-odd.png")
+    save_png(tmp_path / odd, np.zeros((2, 2)))
+    assert (tmp_path / odd).exists() and not _leftovers(tmp_path)

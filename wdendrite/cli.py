@@ -123,9 +123,9 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             fd, name = tempfile.mkstemp(prefix=io.temporary_prefix(p), suffix=p.suffix,
                                         dir=p.parent if str(p.parent) else ".")
             os.close(fd)
-            os.chmod(name, 0o666 & ~io._umask())  # mkstemp's files are private; a plain open()'s are not
             tmp = Path(name)
             staged.append((tmp, p))
+            os.chmod(name, 0o666 & ~io._umask())  # mkstemp's files are private; a plain open()'s are not
             with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
                 _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
@@ -140,6 +140,13 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     return [str(p) for p in paths]
 
 
+def _save_npy(path, array: np.ndarray) -> None:
+    """``np.save`` to exactly ``path`` (given a name, NumPy appends ``.npy`` unless it ends so, as
+    ``f.NPY`` does not)."""
+    with open(path, "wb") as f:
+        np.save(f, array)
+
+
 def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -> None:
     """Write one output of ``result`` to ``path`` (an existing temporary file) as ``suf`` says."""
     if suf == ".png" and heightmap:
@@ -148,7 +155,7 @@ def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -
         io.save_png(path, _picture(result), overwrite=True)
     elif suf == ".npy":
         field = np.asarray(_field(result, preset), np.float32)
-        io.atomic_write(path, lambda tmp: np.save(tmp, field), overwrite=True)
+        io.atomic_write(path, lambda tmp: _save_npy(tmp, field), overwrite=True)
     elif suf in MESH:
         io.save_mesh(path, _need(result, "mesh", preset), overwrite=True)
     elif suf in DENDRITE:

@@ -53,11 +53,21 @@ _NAME_BYTES = 255  # the longest file name common file systems take, in bytes
 
 def temporary_prefix(path) -> str:
     """The start of the names of temporary files staged for ``path`` (beside it): a dot and the
-    file's name, shortened so that the random part and the suffix still fit in a file name."""
+    file's name. A name too long for the random part and the suffix to follow is shortened and
+    marked with a hash of the whole name, so that no other file's temporaries share the prefix."""
     path = Path(path)
-    room = _NAME_BYTES - 2 - 8 - len(path.suffix.encode())  # the dots, mkstemp's 8 characters, the suffix
-    name = path.name.encode()[:room].decode(errors="ignore")
-    return f".{name}."
+    name = os.fsencode(path.name)  # bytes as the file system takes them (undecodable names too)
+    room = _NAME_BYTES - 2 - 8 - len(os.fsencode(path.suffix))  # the dots, mkstemp's 8 characters, the suffix
+    if len(name) <= room:
+        return "." + os.fsdecode(name) + "."
+    mark = "~" + format(zlib.crc32(name), "08x")
+    cut = name[: room - len(mark)]
+    try:
+        name.decode()
+        short = cut.decode(errors="ignore")  # a UTF-8 name: cut at a character boundary
+    except UnicodeDecodeError:
+        short = os.fsdecode(cut)  # other bytes, escaped as the file system functions expect
+    return "." + short + mark + "."
 
 
 _STAGED = contextvars.ContextVar("wdendrite_io_staged", default=False)

@@ -282,9 +282,9 @@ class Lattice:
         store_weights: with a distribution as ``weights``, False stores no
             weight array: kernels recompute each weight from its hash, so a
             lattice too large for stored weights still works. The values equal
-            the stored ones bit for bit on the CPU; on a GPU, the ``Power`` and
-            ``Polynomial`` distributions' ``pow`` (CUDA's own) may differ from
-            the CPU's by a unit in the last place.
+            the stored ones bit for bit on the CPU; on a GPU, ``pow`` (CUDA's
+            own: in ``Power``, ``Polynomial``, and bias terms with an exponent
+            other than 1) may differ from the CPU's by a unit in the last place.
 
     Attributes:
         shape, ndim, connectivity: as given.
