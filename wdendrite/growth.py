@@ -348,7 +348,8 @@ def grow(
                 structure = np.concatenate([gens, den.nodes])
                 # the last cost fields are not read again: the searches may reuse their memory
                 if not new_generators:
-                    lat = lower_dendrite_weights(base_lat, den, params.cheap)
+                    # older dendrite edges are already cheap in lat: only this iteration's join them
+                    lat = lower_dendrite_weights(lat, den, params.cheap, rows=np.arange(first, len(den)))
                     cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf)
                 # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
                 # join the generators
