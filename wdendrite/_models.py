@@ -126,7 +126,7 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
     elif control == "plane":
         c = ctl.plane((0.0, 1.0))
     elif control == "lichtenberg":
-        c = ctl.lichtenberg(scale=0.2)  # [0, 1], as terrains take it; the tree is the same at any scale
+        c = ctl.lichtenberg(scale=0.2)  # [0, 1], as terrains take it; the values keep their order
     else:
         raise UsageError(f"--control must be one of {', '.join(typing.get_args(Control))}, got {control!r}")
     if drained:

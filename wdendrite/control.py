@@ -273,9 +273,10 @@ def lichtenberg(scale: float = 1.0) -> Control:
 
     Its minimum and maximum are those on the domain: 0 at (0, -1) and ``5 * scale`` at
     (+-1, 1). The value outside the square is not counted: points there are outside the
-    function, so Dendry drops their segments. ``scale`` (> 0) changes no link, so the tree is
-    the paper's for any value; terrains (``output="elevation"``) take controls in [0, 1], which
-    ``scale=0.2`` gives.
+    function, so Dendry drops their segments. ``scale`` (> 0) keeps the order of the values
+    (up to float32 rounding, which could make two nearly equal key points tie), so the tree is
+    the paper's; terrains (``output="elevation"``) take controls in [0, 1], which ``scale=0.2``
+    gives.
     """
     scale = positive("scale", scale)
     return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0 * scale, (scale, 0.0, 0.0, 0.0), bounded=True)
