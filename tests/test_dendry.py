@@ -882,6 +882,9 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(control=control.image(np.array([[120.0, 340.0], [80.0, 95.0]])), output="elevation"),
          r"values in \[0, 1\].*spans \[80, 340\].*scale it"),
         (dict(control=control.lichtenberg(), output="elevation"), r"lichtenberg control spans \[0, 5\]"),
+        # a plane in [0, 1] on its own domain, read over a wider one, leaves it
+        (dict(control=control.plane((0.0, 1.0)), control_domain=((0.0, 0.0), (1.0, 2.0)), output="elevation"),
+         r"plane control spans \[0, 2\] over 'control_domain'"),
     ],
 )
 def test_bad_dendry_input_raises_before_any_kernel(kw, match, launches):

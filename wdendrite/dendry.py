@@ -328,15 +328,28 @@ def _check_common(params, control, domain, control_domain):
     return domain, rectangle("control_domain", control_domain)
 
 
-def _check_elevation_control(control: Control | None, output: str) -> None:
-    """Terrain slopes (eq. 7) take control values in [0, 1], as the paper's c: R^2 -> [0, 1] does."""
+def _check_elevation_control(control: Control | None, output: str, control_domain) -> None:
+    """Terrain slopes (eq. 7) take control values in [0, 1], as the paper's c: R^2 -> [0, 1] does.
+
+    The values are those over ``control_domain``, where the query reads the control: a plane or
+    a ramp extends past its own domain (noise stays near [0, 1], an image keeps its border values,
+    the Lichtenberg bowl is bounded).
+    """
     if output != "elevation" or control is None:
         return
-    if control.minimum < 0.0 or control.maximum > 1.0:
+    lo, hi, where = control.minimum, control.maximum, ""
+    if control.kind in ("plane", "radial") and tuple(map(tuple, control_domain)) != tuple(map(tuple, control.domain)):
+        from . import control as _control
+
+        a = control.params
+        probe = (_control.plane((a[1], a[2]), offset=a[0], domain=control_domain) if control.kind == "plane"
+                 else _control.radial((a[0], a[1]), radius=a[2], domain=control_domain))
+        lo, hi, where = probe.minimum, probe.maximum, f" over 'control_domain' {control_domain!r}"
+    if lo < 0.0 or hi > 1.0:
         raise ValueError(
             f"output='elevation' needs a 'control' with values in [0, 1] (the paper's control c: R^2 -> [0, 1], "
-            f"which eq. 7's slopes assume), but this {control.kind} control spans [{control.minimum:.6g}, "
-            f"{control.maximum:.6g}]; scale it first, e.g. control.image((dem - dem.min()) / (dem.max() - dem.min()))"
+            f"which eq. 7's slopes assume), but this {control.kind} control spans [{lo:.6g}, {hi:.6g}]{where}; "
+            "scale it first, e.g. control.image((dem - dem.min()) / (dem.max() - dem.min()))"
         )
 
 
@@ -629,7 +642,7 @@ def dendry(
         raise ValueError(f"Expected a 2D 'shape' (H, W), but got {shape!r}")
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
-    _check_elevation_control(control, output)
+    _check_elevation_control(control, output, control_domain)
     r0, c0, h, w = _window(window, shape)
     (x0, y0), (x1, y1) = domain
     dx, dy = (x1 - x0) / shape[1], (y1 - y0) / shape[0]
@@ -713,7 +726,7 @@ def dendry_points(
         raise ValueError(f"'points' must be finite, but row {int(np.argmax(bad))} is {pts[np.argmax(bad)].tolist()}")
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, "pixel")
-    _check_elevation_control(control, output)
+    _check_elevation_control(control, output, control_domain)
     if mode not in _POINT_MODES:
         raise ValueError(f"Expected 'mode' in {_POINT_MODES}, but got {mode!r}")
     n = len(pts)
