@@ -120,12 +120,8 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     staged = []
     try:
         for p in paths:
-            fd, name = tempfile.mkstemp(prefix=io.temporary_prefix(p), suffix=p.suffix,
-                                        dir=p.parent if str(p.parent) else ".")
-            os.close(fd)
-            tmp = Path(name)
+            tmp = io.temporary_beside(p)
             staged.append((tmp, p))
-            os.chmod(name, 0o666 & ~io._umask())  # mkstemp's files are private; a plain open()'s are not
             with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
                 _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force

@@ -94,18 +94,29 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     if _STAGED.get():
         write(str(path))
         return path
-    fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
-    os.close(fd)
+    tmp = str(temporary_beside(path))
     try:
         write(tmp)
-        # mkstemp makes the file private (0600); give it the mode a plain open() would
-        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
     return path
+
+
+def temporary_beside(path) -> Path:
+    """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
+    stage ``path`` in, with the mode a plain ``open()`` would give it (mkstemp's are private)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        os.chmod(tmp, 0o666 & ~_umask())
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    return Path(tmp)
 
 
 def _png16_rgb(path, rgb: np.ndarray) -> None:
