@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32
-from .control import Control, perlin, rectangle
+from .control import Control, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
 
 __all__ = ["DendryParams", "default_control", "dendry", "dendry_points"]
@@ -339,11 +339,9 @@ def _check_elevation_control(control: Control | None, output: str, control_domai
         return
     lo, hi, where = control.minimum, control.maximum, ""
     if control.kind in ("plane", "radial") and tuple(map(tuple, control_domain)) != tuple(map(tuple, control.domain)):
-        from . import control as _control
-
         a = control.params
-        probe = (_control.plane((a[1], a[2]), offset=a[0], domain=control_domain) if control.kind == "plane"
-                 else _control.radial((a[0], a[1]), radius=a[2], domain=control_domain))
+        probe = (plane((a[1], a[2]), offset=a[0], domain=control_domain) if control.kind == "plane"
+                 else radial((a[0], a[1]), radius=a[2], domain=control_domain))
         lo, hi, where = probe.minimum, probe.maximum, f" over 'control_domain' {control_domain!r}"
     if lo < 0.0 or hi > 1.0:
         raise ValueError(
@@ -428,6 +426,13 @@ class _Slots:
         self.gaps = wp.zeros(entries, dtype=float, device=device)
         self.overflow = wp.zeros(1, dtype=int, device=device)
 
+    @staticmethod
+    def nbytes(slots: int, cap, *, shortlist: bool = False) -> int:
+        """Bytes ``_Slots(slots, cap, device, shortlist=shortlist)`` allocates: per slot its 8
+        blocks and bases, ``cap`` (points, cells, primitives) records, and the shortlist."""
+        per = 8 * 20 + cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE) + cap[2] * 12
+        return slots * (per + (cap[1] * 4 * 20 if shortlist else 0))
+
     def arrays(self):
         return [self.blocks, self.bases, self.pts1, self.keyp, self.verts, self.prims, self.nearby, self.gaps]
 
@@ -448,7 +453,7 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
     slot serves them all and stays in cache; CUDA threads run together and each needs its own.
     """
     cap = _slot_capacity(params, output)
-    per_slot = cap[0] * 16 + cap[1] * (16 + 12 * _STRIDE + 4 * 20) + cap[2] * 12 + 8 * 20
+    per_slot = _Slots.nbytes(1, cap, shortlist=True)  # with the shortlist's room for every output, as always
     if wp.get_device(device).is_cuda:
         slots = max(1, min(count, (256 * 2**20) // per_slot))
     else:
@@ -511,7 +516,7 @@ def _cached_storage(plans, params: DendryParams, device) -> _Slots:
     pts = max(sizes[0] for _, _, sizes in plans)
     cells = max(sum(sizes[1 : n + 1]) for _, _, sizes in plans)
     prims = max(sizes[_kd.PRIM] for _, _, sizes in plans)
-    fits_in_memory(pts * 16 + cells * (16 + 12 * _STRIDE) + prims * 12, device, "Dendry cached cells")
+    fits_in_memory(_Slots.nbytes(1, (pts, cells, prims)), device, "Dendry cached cells")
     return _Slots(1, (pts, cells, prims), device)
 
 
