@@ -165,6 +165,30 @@ def test_a_tiled_task_resumes_only_tiles_of_the_same_kind_of_device(tmp_path, mo
     assert run("cuda:1", killed=False) == total - 3  # another GPU resumes them
 
 
+def test_workers_without_a_device_key_their_tiles_by_their_one_default_kind(tmp_path):
+    # with a Dask client and no --device each worker runs on its own default device; the tiles'
+    # key needs that kind, and workers of different kinds cannot share one tiled file
+    class Client:
+        def __init__(self, kinds):
+            self.kinds = kinds
+
+        def run(self, fn):
+            assert fn is batch._default_device_kind
+            return self.kinds
+
+    assert batch._workers_device_kind(Client({"tcp://a": "cuda", "tcp://b": "cuda"})) == "cuda"
+    with pytest.raises(UsageError, match=r"default devices differ \(tcp://a: cpu, tcp://b: cuda\).*--device"):
+        batch._workers_device_kind(Client({"tcp://a": "cpu", "tcp://b": "cuda"}))
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\n'
+                                        'formats = "npy"\n')
+    task = batch.load_jobs(tmp_path / "jobs.toml")[0][0]
+    (tmp_path / "o").mkdir()
+    with pytest.raises(UsageError, match="differ"):
+        batch.run_tiled(task, client=Client({"x": "cpu", "y": "cuda"}))
+    assert not list((tmp_path / "o").iterdir())  # refused before any tile
+    assert batch._default_device_kind() == "cpu"  # this machine has no GPU
+
+
 def test_tiles_on_a_local_cluster_equal_the_whole_image(tmp_path):
     distributed = pytest.importorskip("distributed")
     setup, whole = _whole_dendry(41, levels=2)

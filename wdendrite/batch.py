@@ -494,6 +494,23 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     return final
 
 
+def _default_device_kind() -> str:
+    """The kind of device (``cpu`` or ``cuda``) this process would run on without ``--device``."""
+    from .cli import pick_device
+
+    return pick_device(None).split(":")[0]
+
+
+def _workers_device_kind(client) -> str:
+    """The one kind of default device of every Dask worker (refused when they differ)."""
+    kinds = client.run(_default_device_kind)
+    if len(set(kinds.values())) > 1:
+        seen = ", ".join(f"{k}: {n}" for k, n in sorted(kinds.items()))
+        raise UsageError(f"the Dask workers' default devices differ ({seen}); a tiled file must be "
+                         "computed on one kind of device: pass --device cpu or --device cuda")
+    return next(iter(kinds.values()), "cpu")
+
+
 def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
     """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
     from .cli import pick_device
@@ -506,11 +523,11 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
     t0 = time.perf_counter()
     # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
-    kind = None if dev is None else str(dev).split(":")[0]
+    kind = _workers_device_kind(client) if dev is None else str(dev).split(":")[0]
     for out in task.outputs:
         write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress,
                     key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
-    rec = {"device": dev or "default of each worker", "seconds": round(time.perf_counter() - t0, 4)}
+    rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
     if manifest:
