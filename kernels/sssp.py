@@ -299,6 +299,47 @@ def mark_lowered_kernel(
         k += 1
 
 
+@wp.kernel
+def mark_listed_lowered_kernel(
+    nodes: wp.array(dtype=wp.int32),
+    dirs: wp.array(dtype=wp.int32),
+    values: wp.array(dtype=float),
+    write: int,
+    flat_offsets: wp.array(dtype=wp.int32),
+    mask: wp.array(dtype=wp.uint8),
+    stride: int,
+    nw: int,
+    far_id: int,
+    far_slot: int,
+    state: wp.array(dtype=wp.uint64),
+    aux: wp.array(dtype=wp.int32),
+    counts: wp.array(dtype=wp.int32),
+    far_min: wp.array(dtype=float),
+    far_out: wp.array(dtype=wp.int32),
+):
+    """Queue both ends of the listed edges, whose weights went down in place (warm start).
+
+    Edge ``i`` leaves padded node ``nodes[i]`` in direction ``dirs[i]``; with
+    ``write`` its new weight ``values[i]`` is first stored in these records
+    (records other than the host's, which already hold it).
+    """
+    i = wp.tid()
+    node = nodes[i]
+    k = dirs[i]
+    if write != 0:
+        aux[node * stride + WEIGHT0 + k] = wp.cast(values[i], wp.int32)
+    other = node + flat_offsets[k]
+    if mask[node] == wp.uint8(0) or mask[other] == wp.uint8(0):
+        return
+    for end in range(2):
+        n = node
+        if end == 1:
+            n = other
+        word = state_at(state, stride, n)
+        if word != UNREACHED:
+            push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+
+
 @wp.func
 def relax_edge(
     other: int,

@@ -133,6 +133,39 @@ def test_warm_start_equals_cold_start(problem, data):
 
 @SETTINGS
 @given(problems(), st.data())
+def test_warm_start_after_edges_lowered_in_place_equals_cold_start(problem, data):
+    # growth with cheap former paths lowers its own lattice's edges in place and names them
+    lat, gens = problem
+    own = lat.with_weights(lat.weights)
+    split = data.draw(st.integers(1, len(gens)))
+    fifo = data.draw(st.booleans())
+    first = wd.shortest_paths(own, gens[:split], _fifo=fifo)
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    dirs = rng.integers(0, len(lat.offsets), size=data.draw(st.integers(0, 12)))
+    coords = np.stack([rng.integers(0, n, size=len(dirs)) for n in lat.shape], axis=1).reshape(-1, lat.ndim)
+    inside = np.all((coords + lat.offsets[dirs] >= 0) & (coords + lat.offsets[dirs] < lat.shape), axis=1)
+    dirs, coords = dirs[inside], coords[inside]
+    dirs, keep = np.unique(np.ravel_multi_index((dirs, *coords.T), lat.weights.shape), return_index=True)
+    dirs, coords = np.unravel_index(dirs, lat.weights.shape)[0], coords[keep]
+    factor = data.draw(st.floats(0.01, 1.0))
+    expected = lat.weights.copy()
+    idx = (dirs, *coords.T)
+    expected[idx] = expected[idx] * np.float32(factor)
+    if data.draw(st.booleans()):
+        lowered = own._lower_in_place(dirs, coords, factor, "cpu")
+    else:  # records other than the host's (a GPU's) take the new weights from the search itself
+        lowered = (own.padded_indices(coords), dirs.astype(np.int32), expected[idx], None)
+    warm = wd.shortest_paths(own, gens, warm_start=first, _lowered=lowered, _fifo=fifo)
+    np.testing.assert_array_equal(own.weights, expected)
+    cold = wd.shortest_paths(lat.with_weights(expected), gens)
+    np.testing.assert_array_equal(warm.dist.view(np.uint32), cold.dist.view(np.uint32))
+    np.testing.assert_array_equal(warm.label, cold.label)
+    with pytest.raises(ValueError, match="own lattice"):
+        wd.shortest_paths(lat.with_weights(expected), gens, warm_start=warm, _lowered=lowered)
+
+
+@SETTINGS
+@given(problems(), st.data())
 def test_warm_start_with_a_lower_limit_equals_cold_start(problem, data):
     lat, gens = problem
     split = data.draw(st.integers(1, len(gens)))

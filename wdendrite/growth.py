@@ -132,19 +132,28 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
         raise ValueError(f"Expected 'factor' in (0, 1], but got {factor!r}: former paths only get cheaper")
     if tuple(dendrite.shape) != lattice.shape:
         raise ValueError(f"'dendrite' has shape {tuple(dendrite.shape)}, but 'lattice' has shape {lattice.shape}")
+    dirs, lower = _dendrite_edges(lattice, dendrite, rows)
+    w = lattice.weights.copy()
+    idx = (dirs,) + tuple(lower.T)
+    w[idx] = w[idx] * np.float32(factor)
+    return lattice.with_weights(w)
+
+
+def _dendrite_edges(lattice: Lattice, dendrite: Dendrite, rows=None) -> tuple[np.ndarray, np.ndarray]:
+    """The edges from ``rows`` (default: all) to their parents as ``(dirs, lower)``: the
+    direction of each and the coordinates of its lower end, where its weight is stored."""
     rows = np.arange(len(dendrite)) if rows is None else np.asarray(rows, dtype=np.int64)
     rows = rows[dendrite.parent[rows] >= 0]
     a, b = dendrite.nodes[rows], dendrite.nodes[dendrite.parent[rows]]
-    w = lattice.weights.copy()
     step = b - a
+    dirs, lower = [], []
     for k, off in enumerate(lattice.offsets):
         fwd = np.all(step == off, axis=1)
         bwd = np.all(step == -off, axis=1)
-        # the weight of an undirected edge is stored at its lower end
-        lower = np.concatenate([a[fwd], b[bwd]])
-        idx = (np.full(len(lower), k),) + tuple(lower.T)
-        w[idx] = w[idx] * np.float32(factor)
-    return lattice.with_weights(w)
+        ends = np.concatenate([a[fwd], b[bwd]])
+        lower.append(ends)
+        dirs.append(np.full(len(ends), k, dtype=np.int64))
+    return np.concatenate(dirs), np.concatenate(lower).reshape(-1, lattice.ndim)
 
 
 def _check_start(start, lattice: Lattice, n_gens: int) -> None:
@@ -349,8 +358,16 @@ def grow(
                 # the last cost fields are not read again: the searches may reuse their memory
                 if not new_generators:
                     # older dendrite edges are already cheap in lat: only this iteration's join them
-                    lat = lower_dendrite_weights(lat, den, params.cheap, rows=np.arange(first, len(den)))
-                    cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf)
+                    new_rows = np.arange(first, len(den))
+                    lowered = None
+                    if lat is base_lat:
+                        # growth's own copy, whose later edges are lowered in place
+                        lat = lower_dendrite_weights(lat, den, params.cheap, rows=new_rows)
+                    else:
+                        dirs, lower = _dendrite_edges(lat, den, new_rows)
+                        lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
+                    cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf,
+                                        _lowered=lowered)
                 # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
                 # join the generators
                 sf = shortest_paths(base_lat, structure, limit=limit, warm_start=sf, _consume_warm_start=True,

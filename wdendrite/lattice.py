@@ -530,6 +530,30 @@ class Lattice:
             stamps=_Stamps(),
         )
 
+    def _lower_in_place(self, dirs: np.ndarray, coords: np.ndarray, factor: float, device) -> tuple:
+        """Multiply the weights of edges ``(dirs[i], coords[i])`` by ``factor``, in place.
+
+        For growth's own copy of a lattice only (lattices are otherwise never
+        changed). The host records change here; records on ``device`` get the
+        new values from the next warm search (:func:`~wdendrite.sssp.shortest_paths`'
+        ``_lowered``), and records on any other device are dropped. Returns
+        ``(padded nodes, dirs, new weights, the records that hold them)`` for that search.
+        """
+        if self._weights is None or not self._stored:
+            raise ValueError("only a lattice whose host records hold every weight is lowered in place")
+        keep = str(wp.get_device(device))
+        for key in [k for k in self._device_arrays if k not in ("cpu", keep)]:
+            del self._device_arrays[key]
+        idx = (np.asarray(dirs),) + tuple(np.asarray(coords).T)
+        values = self._weights[idx] * np.float32(factor)
+        self._weights.flags.writeable = True
+        try:
+            self._weights[idx] = values
+        finally:
+            self._weights.flags.writeable = False
+        return (self.padded_indices(coords), np.asarray(dirs, np.int32), values.astype(np.float32),
+                self._device_arrays["cpu"])
+
     def padded_indices(self, coords: np.ndarray) -> np.ndarray:
         """Flat indices in the kernels' padded lattice of ``(G, ndim)`` node coordinates (int32)."""
         return padded_index_of(coords, self.shape).astype(np.int32)

@@ -321,6 +321,7 @@ def shortest_paths(
     _max_threads: int | None = None,
     _consume_warm_start: bool = False,
     _walked: np.ndarray | None = None,
+    _lowered: tuple | None = None,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -350,6 +351,10 @@ def shortest_paths(
             start's, given by growth, whose generators are the warm start's
             followed by nodes its walks just added on this lattice: those rows
             are not checked again.
+        _lowered: ``(padded nodes, dirs, new weights, records)`` from growth's
+            ``Lattice._lower_in_place`` on ``warm_start``'s own lattice: only
+            these edges went down since the warm start (the search's records
+            take the new weights unless they are ``records``, which hold them).
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -409,7 +414,20 @@ def shortest_paths(
             release_records(arrays, consumed=warm_start if _consume_warm_start else None)
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
-            if lattice.stores_weights and old_arrays.aux is not arrays.aux:
+            if _lowered is not None:
+                if warm_start.lattice is not lattice:
+                    raise ValueError("'_lowered' edges belong to the warm start's own lattice")
+                nodes, dirs, values, held = _lowered
+                if len(nodes):
+                    wp.launch(
+                        _k.mark_listed_lowered_kernel,
+                        dim=len(nodes),
+                        inputs=[wp.array(nodes, dtype=wp.int32), wp.array(dirs, dtype=wp.int32),
+                                wp.array(values, dtype=float), int(arrays is not held), arrays.flat_offsets, arrays.mask,
+                                arrays.stride, arrays.nw, far_id, 2],
+                        outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                    )
+            elif lattice.stores_weights and old_arrays.aux is not arrays.aux:
                 wp.launch(
                     _k.mark_lowered_kernel,
                     dim=size,
