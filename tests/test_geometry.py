@@ -165,7 +165,7 @@ def test_marching_only_near_the_surface_gives_the_same_mesh():
     lat = wd.Lattice((20, 22, 24), 6, weights=wd.weights.Uniform(r=10, seed=7))
     cf = wd.shortest_paths(lat, np.array([[2, 11, 12], [18, 3, 3], [18, 19, 21], [10, 20, 2]]))
     rock = region_mesh(cf.label, 0)
-    field = np.pad(signed_region_field(cf.label == 0, band=2.0), 1, constant_values=1.5)
+    field = np.pad(signed_region_field(cf.label == 0, band=2.0), 1, constant_values=0.5)
     v, f, _, _ = marching_cubes(field, 0.0)
     assert len(rock.faces) == len(f) and rock.is_watertight
     np.testing.assert_allclose(np.sort(rock.vertices, axis=0), np.sort(v[:, ::-1] - 1.0, axis=0), atol=1e-5)
@@ -248,3 +248,72 @@ def test_bad_scalars_and_fields_raise_before_any_kernel(call, exc, match, launch
     assert set(launches) <= {"nonfinite_kernel"}  # a Warp field is checked in place
     isosurface(DEN, 1.0)
     assert launches  # so the empty record above means that no kernel ran
+
+
+def _degenerate_faces(mesh) -> int:
+    return int(np.count_nonzero(mesh.area_faces <= 1e-12))
+
+
+@pytest.mark.parametrize("backend", ["auto", "warp"])
+def test_a_level_held_exactly_by_nodes_gives_a_closed_surface_without_pinches(backend):
+    # distances between lattice nodes are square roots of integers: with radius 1 or 2 many nodes lie
+    # exactly on the level, where marching cubes would put vertices on nodes and pinch the surface
+    for r in (1.0, 2.0):
+        mesh = isosurface(DEN, r) if backend == "auto" else None
+        if mesh is not None:
+            assert mesh.is_watertight and _degenerate_faces(mesh) == 0 and mesh.volume > 0
+    z, y, x = np.mgrid[:9, :9, :9]
+    field = np.maximum(np.abs(z - 4), np.maximum(np.abs(y - 4), np.abs(x - 4))).astype(np.float32)  # a cube
+    mesh = field_mesh(field, 2.0, _backend=backend)
+    assert mesh.is_watertight and _degenerate_faces(mesh) == 0
+    # nodes at the level count as outside: the cube ends a thousandth of a step inside them
+    np.testing.assert_allclose(mesh.bounds, [[2.001, 2.001, 2.001], [5.999, 5.999, 5.999]], atol=1e-5)
+    assert np.array_equal(field, np.maximum(np.abs(z - 4), np.maximum(np.abs(y - 4), np.abs(x - 4))))  # unchanged
+
+
+@pytest.mark.parametrize("backend", ["auto", "warp"])
+def test_open_surfaces_point_toward_the_outside_too(backend):
+    # low values are inside: the surface's normals point up the field, whether or not it is closed
+    z = np.arange(7, dtype=np.float32)[:, None, None] * np.ones((7, 7, 7), np.float32)
+    for field, out_z in ((2.5 - z, -1.0), (z - 2.5, 1.0)):
+        mesh = field_mesh(field, 0.0, _backend=backend)
+        normals = mesh.face_normals
+        np.testing.assert_allclose(normals[:, 2], out_z, atol=1e-6)  # world z is array axis 0
+    sphere = field_mesh(np.sqrt((z - 3) ** 2 + (z.transpose(1, 0, 2) - 3) ** 2 + (z.transpose(2, 1, 0) - 3) ** 2)
+                        .astype(np.float32), 2.2, _backend=backend)
+    assert sphere.is_watertight and sphere.volume > 0
+
+
+def test_isosurface_with_path_costs_is_closed_and_takes_no_lattice_with_euclidean_distances():
+    mesh = isosurface(DEN, 6.0, metric="path", lattice=LAT)  # radius in path-cost units (weights 1-11)
+    assert mesh.is_watertight and mesh.volume > 0
+    assert isosurface(DEN, 1.5, metric="path").is_watertight
+    with pytest.raises(ValueError, match="'lattice' is only used with metric='path'"):
+        isosurface(DEN, 1.5, lattice=LAT)
+
+
+def test_thin_branches_stay_one_piece():
+    # chains along a straight, a face-diagonal and a body-diagonal step, tapering far below a node
+    for step in ((1, 0, 0), (0, 1, 1), (1, 1, 1)):
+        nodes = np.array([2, 2, 2]) + np.arange(8)[:, None] * np.array(step)
+        den = wd.Dendrite.from_arrays((14, 14, 14), nodes, np.arange(-1, 7))
+        mesh = isosurface(den, Taper(1.2, 0.1))
+        assert len(mesh.split(only_watertight=False)) == 1, step
+    assert len(isosurface(DEN, 0.2).split(only_watertight=False)) == 1
+
+
+@pytest.mark.parametrize("shape", [(2, 9, 9), (1, 9, 9), (3, 1, 5)])
+def test_a_region_touching_the_lattice_edge_ends_halfway_past_its_last_nodes(shape):
+    mesh = region_mesh(np.zeros(shape, np.int64), 0)
+    hi = np.array(shape[::-1], float) - 0.5  # (x, y, z)
+    np.testing.assert_allclose(mesh.bounds, [[-0.5, -0.5, -0.5], hi], atol=1e-5)
+    assert mesh.is_watertight and mesh.volume == pytest.approx(np.prod(shape), rel=0.35)
+
+
+def test_preview_refuses_an_empty_list_and_a_bad_size():
+    mesh = spheres(DEN, 1.0)
+    with pytest.raises(ValueError, match="'mesh' is an empty list"):
+        preview([])
+    for size in (100, (100,), (100, 0), (100.0, 100), "ab"):
+        with pytest.raises(ValueError, match="'size'"):
+            preview(mesh, size=size)

@@ -223,7 +223,9 @@ def field_mesh(
 
     Args:
         field: ``(D, H, W)`` NumPy array or float32 Warp array; nodes below
-            ``level`` are inside.
+            ``level`` are inside, nodes at it or above outside (a node exactly at
+            the level is moved above it by a thousandth of its least difference
+            from a neighbour, so that no vertex sits on a node and pinches the surface).
         level: iso value.
         spacing: world distance between field nodes, > 0.
         origin: world position ``(z, y, x)`` of node (0, 0, 0).
@@ -257,7 +259,7 @@ def field_mesh(
         from warp.geometry import IsoSurfaceMarchingCubes
 
         arr = field if isinstance(field, wp.array) else wp.array(field, dtype=float, device=dev)
-        verts, idx = IsoSurfaceMarchingCubes.extract(arr, level)
+        verts, idx = IsoSurfaceMarchingCubes.extract(_lift_level(arr, level), level)
         v = verts.numpy().astype(np.float64)[:, ::-1]  # array axes (z, y, x) -> (x, y, z)
         f = idx.numpy().reshape(-1, 3).astype(np.int64)
         if not len(f):  # a level inside the range always crosses some cube: say why there is no surface
@@ -267,14 +269,16 @@ def field_mesh(
 
         host = field.numpy() if isinstance(field, wp.array) else field
         _check_level(host, level)
+        at = host == level
+        if at.any():  # (only those nodes change: a float64 field keeps its other values)
+            lifted = _lift_level(wp.array(host, dtype=float, device="cpu"), level).numpy()
+            host = np.where(at, lifted.astype(host.dtype), host)
         mask = None if band is None else np.abs(host - level) < band
         v, f, _, _ = marching_cubes(host, level, mask=mask)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
-    # the orientation rules of the two marching cubes differ; low values are inside, so a closed
-    # surface must enclose a positive volume
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    if np.einsum("ij,ij->", a, np.cross(b - a, c - a)) < 0:
-        f = f[:, ::-1]
+    # both marching cubes, once their axes are reversed to (x, y, z), wind faces toward the low
+    # values (the inside), closed surface or not: reversed, they point outward
+    f = f[:, ::-1]
     mesh = _trimesh(v * spacing + org[::-1], f)
     if smooth:
         import trimesh
@@ -283,8 +287,23 @@ def field_mesh(
     return mesh
 
 
+def _lift_level(arr: wp.array, level: float) -> wp.array:
+    """A float32 copy of ``arr`` where the nodes exactly at ``level`` lie just above it."""
+    lifted = wp.empty_like(arr)
+    level32 = np.float32(level)
+    wp.launch(_kg.lift_level_kernel, dim=arr.shape,
+              inputs=[arr, float(level32), float(np.nextafter(level32, np.float32(np.inf)))], outputs=[lifted],
+              device=arr.device)
+    return lifted
+
+
 def _padded(field: np.ndarray, value: float) -> np.ndarray:
     return np.pad(field, 1, mode="constant", constant_values=value)
+
+
+MIN_ISO_RADIUS = 0.6
+"""Least radius (node units) of a Euclidean :func:`isosurface`: chains of nodes along any of the
+26 directions stay one piece from it on (0.5 breaks diagonal chains apart)."""
 
 
 def isosurface(
@@ -304,10 +323,15 @@ def isosurface(
 
     Args:
         dendrite: a non-empty 3D dendrite.
-        radius: radius in lattice node units (constant > 0, Taper or ``(N,)`` array).
+        radius: radius (constant > 0, Taper or ``(N,)`` array): in lattice node
+            units with ``metric="euclidean"``, where radii below
+            :data:`MIN_ISO_RADIUS` (0.6) are raised to it (marching cubes on the
+            node grid breaks thinner branches into beads); in path-cost units
+            with ``metric="path"``.
         side: optional radius of side branches.
         metric: ``"euclidean"`` or ``"path"`` (path cost over ``lattice``).
-        lattice: lattice of the path costs (default: unit weights, 26-connected).
+        lattice: lattice of the path costs, ``metric="path"`` only (default: unit
+            weights, 26-connected).
         smooth: Taubin smoothing iterations after marching cubes.
         device: Warp device for the distance field.
 
@@ -315,12 +339,17 @@ def isosurface(
         A closed :class:`trimesh.Trimesh` (the field is padded so the surface closes at the lattice's edge).
 
     Raises:
-        ValueError: an empty or 2D dendrite, a bad radius, ``metric`` or ``smooth`` (before any kernel runs).
+        ValueError: an empty or 2D dendrite, a bad radius, ``metric`` or ``smooth``,
+            a ``lattice`` with the Euclidean metric (before any kernel runs).
     """
     den = _check_3d(dendrite, "isosurface()")
     _choice("metric", metric, _METRICS)
+    if metric == "euclidean" and lattice is not None:
+        raise ValueError("'lattice' is only used with metric='path', but metric is 'euclidean'")
     smooth = _int_arg("smooth", smooth, 0)  # checked again by field_mesh, but only after the kernels ran
     r = node_widths(den, radius, side=side, _name="radius")
+    if metric == "euclidean":
+        r = np.maximum(r, np.float32(MIN_ISO_RADIUS))
     limit = float(r.max()) + 2.0
     dist, label = _nearest(den, limit, metric, lattice, None, device)
     out = wp.empty(dist.shape[0], dtype=float, device=dist.device)
@@ -330,8 +359,9 @@ def isosurface(
     # a border just below the limit: outside the surface, but inside the cubes marching cubes visits
     field = _padded(out.numpy().reshape(den.shape), limit - 0.01)
     org = np.asarray(den.origin, np.float64) - den.spacing
-    # cubes the surface crosses start within sqrt(3) of a node inside, i.e. below the limit
-    band = limit - 1e-3 if dist.device.is_cpu else None
+    # cubes the surface crosses start within sqrt(3) of a node inside, i.e. below the limit (Euclidean
+    # steps are <= 1 per node; path costs may step further, so every cube is visited there)
+    band = limit - 1e-3 if dist.device.is_cpu and metric == "euclidean" else None
     return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device=dist.device)
 
 
@@ -398,8 +428,8 @@ def region_mesh(labels, region, *, band: float = 2.0, smooth: int = 0, spacing: 
     field = signed_region_field(inside, band=band, device=device)
     # boundary nodes hold +-1/2 and their neighbours +-3/2: the crossed cubes start there
     cpu = _checks.device(device).is_cpu
-    # the border outside the lattice acts as outside nodes next to the boundary (+3/2)
-    return field_mesh(_padded(field, 1.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
+    # the border outside the lattice acts as outside boundary nodes (+1/2): the surface lies halfway
+    return field_mesh(_padded(field, 0.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
                       band=2.0 if cpu else None, device=device)
 
 
@@ -481,9 +511,12 @@ def preview(
     Returns:
         ``(H, W, 3)`` float32 in [0, 1], ready for :func:`wdendrite.io.save_png`.
     """
-    verts, faces, face_colors = _scene(mesh, color)
-    if len(size) != 2 or any(_int_arg("size", s, 1) <= 0 for s in size):
+    if isinstance(mesh, (list, tuple)) and not len(mesh):
+        raise ValueError("'mesh' is an empty list: there is nothing to show")
+    if not isinstance(size, (list, tuple)) or len(size) != 2 or any(
+            isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s <= 0 for s in size):
         raise ValueError(f"Expected 'size' as (H, W) positive ints, but got {size!r}")
+    verts, faces, face_colors = _scene(mesh, color)
     bg = _rgb_triple("background", background)
     el = math.radians(_checks.finite("elevation", elevation))
     az = math.radians(_checks.finite("azimuth", azimuth))

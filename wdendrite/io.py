@@ -197,6 +197,10 @@ def _format(path, format, allowed: tuple[str, ...], what: str) -> str:
 def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False) -> Path:
     """Write a :class:`trimesh.Trimesh` as OBJ, PLY, STL or GLB (atomically).
 
+    Meshes are ``z``-up (lattice axis 0). OBJ, PLY and STL keep their
+    coordinates; GLB follows glTF 2.0, which is ``y``-up, so it holds
+    ``(x, z, -y)``: a tree stands upright in glTF viewers.
+
     Args:
         path: output file; its folder must exist.
         mesh: the mesh.
@@ -216,7 +220,14 @@ def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False)
     if not len(mesh.faces):
         raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh', but it has none")
     _checks.finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
+    if fmt == "glb":
+        mesh = mesh.copy()
+        mesh.apply_transform(_Z_UP_TO_Y_UP)
     return atomic_write(path, lambda tmp: mesh.export(tmp, file_type=fmt), overwrite=overwrite)
+
+
+# (x, y, z) -> (x, z, -y): a rotation by -90 degrees about x, keeping the faces' orientation
+_Z_UP_TO_Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 0], [0, 0, 0, 1]])
 
 
 def _widths_for(dendrite, width) -> np.ndarray:
