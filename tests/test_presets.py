@@ -168,6 +168,10 @@ def test_bad_input(call, match):
         (presets.competition, dict(shape=(32, 32), count=0), "count"),
         (presets.taper_demo, dict(shape=(32, 32), endpoints=0), "endpoints"),
         (presets.moss, dict(shape=(16, 16, 16), endpoints=0), "endpoints"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), toward=()), "'toward' as a non-empty list"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), toward="axis"), "'toward' as a non-empty list"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), toward=("axis", "up")), "'toward' in"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), strength=-1.0), "'strength'"),
     ],
 )
 def test_bad_preset_values_raise_before_any_kernel(func, kw, match, launches):
@@ -182,3 +186,44 @@ def test_the_fractal_command_checks_its_schedule_before_the_lattice(launches):
     with pytest.raises(ValueError, match="cheap"):
         _models.fractal(32, cheap=2.0)
     assert launches == []
+
+
+@pytest.mark.parametrize("func, kw, where", [
+    (presets.elm_tree, dict(shape=(8, 8, 8), endpoints=500), "in the crown"),
+    (presets.staghorn_coral, dict(shape=(12, 12, 12), endpoints=300, refine_n=None), "on the dome"),
+    (presets.moss, dict(shape=(12, 12, 12), endpoints=400), "in the band above the plane"),
+    (presets.tropism_objects, dict(shape=(10, 10, 10), endpoints=300), "in the upper part"),
+])
+def test_too_many_endpoints_are_reported_against_the_presets_own_parameter(func, kw, where):
+    with pytest.raises(ValueError, match=rf"^'endpoints' = {kw['endpoints']} is more than fit {where} of the "):
+        func(**kw)
+
+
+def test_moss_scales_its_default_endpoints_with_the_volume():
+    import inspect
+
+    assert inspect.signature(presets.moss).parameters["endpoints"].default is None
+    den = presets.moss((12, 16, 16)).dendrite  # 400 at 40 x 96 x 96 would not fit here
+    assert len(den.endpoints) == round(400 * 12 * 16 * 16 / (40 * 96 * 96))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_rock_stays_clear_of_the_lattice_walls(seed):
+    # its neighbours surround it evenly, so the central region closes before the walls
+    label = presets.rock((32, 32, 32), seed=seed).parts["costfield"].label
+    inside = label == 0
+    walls = [inside[0], inside[-1], inside[:, 0], inside[:, -1], inside[:, :, 0], inside[:, :, -1]]
+    assert inside.sum() > 0.02 * inside.size and not any(w.any() for w in walls)
+
+
+def test_tree_spheres_and_isosurfaces_hold_together():
+    spheres = presets.elm_tree((32, 32, 32), endpoints=6, geometry="spheres")
+    den = spheres.dendrite
+    r = np.linalg.norm(spheres.mesh.vertices.reshape(len(den), -1, 3)
+                       - den.positions[:, None, ::-1], axis=2).max(axis=1)
+    step = np.linalg.norm(den.positions[den.parent[den.parent >= 0]] - den.positions[den.parent >= 0], axis=1)
+    # every sphere reaches at least halfway to its parent: the tree is a chain of touching beads
+    assert np.all(r[den.parent >= 0] + r[den.parent[den.parent >= 0]] >= step - 1e-6)
+    assert r.min() == pytest.approx(0.5 * 3**0.5, rel=1e-3)  # the twigs' taper alone is thinner at 32^3
+    iso = presets.elm_tree((32, 32, 32), endpoints=6, geometry="isosurface").mesh
+    assert len(iso.split(only_watertight=False)) == 1

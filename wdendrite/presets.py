@@ -425,9 +425,22 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
 _GEOMETRIES = ("spheres", "tubes", "isosurface")
 
 
+def _endpoints_in(name: str, count: int, where: str, shape, draw) -> np.ndarray:
+    """``draw()``'s endpoints; a request that cannot be met is reported against the preset's parameter ``name``."""
+    try:
+        return draw()
+    except ValueError as exc:
+        size = " x ".join(map(str, shape))
+        raise ValueError(f"'{name}' = {count} is more than fit {where} of the {size} lattice: {exc}") from None
+
+
+# spheres this far apart (a body diagonal) touch when their radius is at least half of it
+_MIN_SPHERE_RADIUS = 0.5 * 3**0.5
+
+
 def _tree_mesh(den: Dendrite, radius, side, geometry: str):
     if geometry == "spheres":
-        return _geo.spheres(den, radius, side=side)
+        return _geo.spheres(den, np.maximum(_r.node_widths(den, radius, side=side), _MIN_SPHERE_RADIUS))
     if geometry == "tubes":
         return _geo.tubes(den, radius, side=side)
     if geometry == "isosurface":
@@ -437,7 +450,9 @@ def _tree_mesh(den: Dendrite, radius, side, geometry: str):
 
 def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes", seed: int = 0) -> Result:
     """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
-    (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small)."""
+    (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small).
+    Spheres are at least 0.87 nodes wide (neighbours along a diagonal touch) and isosurfaces 0.6
+    (:data:`wdendrite.geometry.MIN_ISO_RADIUS`), so thin twigs stay joined."""
     shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if geometry not in _GEOMETRIES:
         raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
@@ -445,8 +460,9 @@ def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes"
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     crown = _ep.Disc((0.72 * d, h / 2, w / 2), 0.42 * min(h, w)).mask(shape)
     crown[: int(0.45 * d)] = False
-    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
-                _ep.random(lat, endpoints, within=crown, seed=seed, min_spacing=0.08 * d))
+    ends = _endpoints_in("endpoints", endpoints, "in the crown", shape,
+                         lambda: _ep.random(lat, endpoints, within=crown, seed=seed, min_spacing=0.08 * d))
+    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ends)
     scale = d / 80.0
     radius = _r.Taper(2.4 * scale, 0.6 * scale, beta=0.3, along="path")
     side = _r.Taper(1.5 * scale, 0.35 * scale, beta=0.2, along="branch")
@@ -459,10 +475,14 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
     """3D objects from spatially varying weights (constructive path planning Fig. 5): the same endpoints, biased
     toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``."""
     shape = _shape(shape, 3)
+    if isinstance(toward, str) or not isinstance(toward, (list, tuple)) or not toward:
+        raise ValueError(f"Expected 'toward' as a non-empty list of tropisms from {_w._TOWARD}, but got {toward!r}")
+    for t in toward:
+        _w.Tropism(t, strength=strength)  # each kind and the strength checked before any search
     d, h, w = shape
-    ep = _ep.random(shape, _checks.integer("endpoints", endpoints, low=1),
-                    within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)),
-                    seed=seed, min_spacing=0.08 * d)
+    endpoints = _checks.integer("endpoints", endpoints, low=1)
+    ep = _endpoints_in("endpoints", endpoints, "in the upper part", shape, lambda: _ep.random(
+        shape, endpoints, within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)), seed=seed, min_spacing=0.08 * d))
     pics, meshes, dens = [], {}, {}
     for t in toward:
         lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength))
@@ -484,8 +504,9 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     dome = _ep.Disc((0.1 * d, h / 2, w / 2), 0.85 * d).mask(shape) & ~_ep.Disc((0.1 * d, h / 2, w / 2), 0.55 * d).mask(shape)
     dome[: int(0.3 * d)] = False
-    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]),
-                _ep.random(lat, endpoints, within=dome, seed=seed, min_spacing=0.12 * d))
+    ends = _endpoints_in("endpoints", endpoints, "on the dome", shape,
+                         lambda: _ep.random(lat, endpoints, within=dome, seed=seed, min_spacing=0.12 * d))
+    den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ends)
     coarse = den
     if refine_n:
         den, _ = refine(den, lat, n=refine_n, seed=seed)
@@ -499,7 +520,13 @@ def _rock_field(shape, neighbours: int, seed: int):
     rng = _checks.rng(seed)
     lat = Lattice(shape, 6, weights=_w.Uniform(r=10, seed=seed))
     c = (np.asarray(shape) - 1) / 2.0
-    dirs = rng.normal(size=(neighbours, 3))
+    # directions spread evenly over the sphere (a Fibonacci lattice), turned at random and jittered:
+    # independent random directions left gaps through which the rock ran into the lattice's walls
+    k = np.arange(neighbours) + 0.5
+    polar, turn = np.arccos(1.0 - 2.0 * k / neighbours), np.pi * (1.0 + 5**0.5) * k
+    dirs = np.stack([np.cos(polar), np.sin(polar) * np.cos(turn), np.sin(polar) * np.sin(turn)], axis=1)
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    dirs = dirs @ (q * np.sign(np.diag(r))).T + 0.15 * rng.normal(size=(neighbours, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     ring = np.clip(np.round(c + dirs * 0.42 * np.asarray(shape)), 0, np.asarray(shape) - 1).astype(np.int64)
     gens = np.concatenate([np.round(c).astype(np.int64)[None], ring])
@@ -542,15 +569,21 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
                                          "lattice": lichen_lat})
 
 
-def moss(shape=(40, 96, 96), *, endpoints: int = 400, seed: int = 0) -> Result:
-    """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15)."""
-    shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
+def moss(shape=(40, 96, 96), *, endpoints: int | None = None, seed: int = 0) -> Result:
+    """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15).
+    ``endpoints`` defaults to 400 at the default shape, in proportion to the volume elsewhere."""
+    shape = _shape(shape, 3)
     d, h, w = shape
+    if endpoints is None:
+        endpoints = max(1, round(400 * d * h * w / (40 * 96 * 96)))
+    endpoints = _checks.integer("endpoints", endpoints, low=1)
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     yy, xx = np.mgrid[:h, :w]
     plane = np.stack([np.zeros(h * w, np.int64), yy.ravel(), xx.ravel()], axis=1)
     cf = shortest_paths(lat, plane)
     band = _ep.Box((0.35 * d, 1, 1), (0.9 * d, h - 2, w - 2))
-    den = trace(cf, _ep.random(lat, endpoints, within=band, seed=seed, min_spacing=2.0))
+    ends = _endpoints_in("endpoints", endpoints, "in the band above the plane", shape,
+                         lambda: _ep.random(lat, endpoints, within=band, seed=seed, min_spacing=2.0))
+    den = trace(cf, ends)
     mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)
     return Result(_geo.preview(mesh, color=_MOSS, elevation=35), den, mesh, parts={"lattice": lat})
