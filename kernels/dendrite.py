@@ -42,14 +42,19 @@ def predecessor(
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     state: wp.array(dtype=wp.uint64),
+    hops: wp.array(dtype=wp.int32),
+    use_hops: int,
 ) -> int:
     """The neighbour a least-cost path to ``node`` comes from (-1 if none).
 
     A neighbour qualifies when its word plus the edge reproduces ``node``'s
     word. Normally its own word is smaller; when an edge weight vanishes in
     float32 rounding next to a large cost, a neighbour with the *same* word
-    qualifies too, and to keep walks from circling such neighbours are taken
-    only after strictly smaller ones, and only toward a lower node index.
+    qualifies too (a *plateau* of equal words), and to keep walks from
+    circling such neighbours are taken only after strictly smaller ones, and
+    only toward a lower node index or, with ``use_hops``, toward a node one
+    step nearer the plateau's way out (``hops``, counted by the host when a
+    walk found no lower index to go to; 0 where a plateau is left).
     When no neighbour reproduces the word (a tie the search's label kept, see
     the module docstring), the first one reproducing the cost from a lower
     cost is taken.
@@ -74,8 +79,12 @@ def predecessor(
                     if offer == word:
                         if src < word:
                             return other
-                        if level_match < 0 and other < node:
-                            level_match = other
+                        if level_match < 0:
+                            if use_hops == 0:
+                                if other < node:
+                                    level_match = other
+                            elif hops[node] > 0 and hops[other] == hops[node] - 1:
+                                level_match = other
                     elif cost_match < 0 and (offer >> wp.uint64(32)) == (word >> wp.uint64(32)):
                         # the cost alone, from a strictly lower cost (so walks cannot circle)
                         if packed_cost(src) < packed_cost(word):
@@ -99,6 +108,8 @@ def trace_kernel(
     visit_id: int,
     zero_claimed: int,
     max_steps: int,
+    hops: wp.array(dtype=wp.int32),
+    use_hops: int,
     aux: wp.array(dtype=wp.int32),
     new_nodes_out: wp.array(dtype=wp.int32),
     new_pred_out: wp.array(dtype=wp.int32),
@@ -142,7 +153,7 @@ def trace_kernel(
             new_pred_out[at] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
-        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, state)
+        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, state, hops, use_hops)
         new_pred_out[at] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK

@@ -274,20 +274,51 @@ def test_8_connected_branches_can_cross_inside_a_cell_as_documented():
     assert _diagonal_crossings(den) > 0
 
 
-def test_weights_beyond_float32_resolution_never_make_cycles():
-    # 1 + v^8 spans 16 orders of magnitude: float32 costs swallow the cheap edges,
-    # so equal-cost neighbours appear; tracing must still end (forest) or say why
-    lat = wd.Lattice((120, 120), 8, weights=wd.weights.Polynomial(n=8, seed=0))
+def _edge_weight(lat, a, b):
+    """Weight of the lattice edge between nodes ``a`` and ``b`` (coordinates)."""
+    step = np.asarray(b) - np.asarray(a)
+    for k, off in enumerate(lat.offsets):
+        if np.array_equal(step, off):
+            return lat.weights[(k, *a)]
+        if np.array_equal(step, -off):
+            return lat.weights[(k, *b)]
+    raise AssertionError(f"{a} and {b} are not neighbours")
+
+
+@pytest.mark.parametrize("weights", [wd.weights.Polynomial(n=8, seed=0), wd.weights.Power(alpha=6.0, max=100.0, seed=3)])
+def test_weights_beyond_float32_resolution_still_trace_every_endpoint(weights):
+    # 1 + v^8 and R^6 span 12-16 orders of magnitude: float32 costs swallow the cheap edges, so
+    # plateaus of equal costs appear, whose way down may lie toward higher node indices
+    lat = wd.Lattice((120, 120), 8, weights=weights)
     cf = wd.shortest_paths(lat, [[60, 60]])
     ends = wd.endpoints.random(lat, 20, seed=0, min_spacing=10)
-    try:
-        den = wd.trace(cf, ends)
-    except ValueError as exc:
-        assert "float32" in str(exc) and "endpoints" in str(exc)
-    else:
-        assert den.depth.max() < len(den)
-        child = den.parent >= 0
-        assert np.all(den.cost[den.parent[child]] <= den.cost[child])
+    den = wd.trace(cf, ends)
+    assert den.depth.max() < len(den) and np.array_equal(den.nodes[den.parent < 0], [[60, 60]])
+    assert len(den.endpoints) == 20
+    np.testing.assert_array_equal(den.cost, cf.dist[tuple(den.nodes.T)])
+    for row in np.flatnonzero(den.parent >= 0):  # every step reproduces its cost in float32
+        up = den.parent[row]
+        assert np.float32(den.cost[up] + _edge_weight(lat, den.nodes[row], den.nodes[up])) == den.cost[row]
+        assert den.cost[up] <= den.cost[row]
+
+
+def test_a_plateau_whose_way_down_lies_toward_higher_indices_is_crossed(device):
+    # edge (0,0)-(0,1) weighs 1e-6, nothing next to 1e6: both nodes cost 1e6 with the generator on either side
+    w = np.ones((2, 1, 3), np.float32)
+    w[0, 0, 0], w[0, 0, 1] = 1e-6, 1e6
+    for gen, end, path in (([0, 2], [0, 0], [(0, 0), (0, 1), (0, 2)]), ([0, 0], [0, 2], [(0, 2), (0, 1), (0, 0)])):
+        lat = wd.Lattice((1, 3), 4, weights=w if gen == [0, 2] else w[:, :, ::-1].copy())
+        den = wd.trace(wd.shortest_paths(lat, [gen], device=device), [end])
+        assert [tuple(n) for n in den.nodes[den.path(int(den.endpoints[0]))]] == path
+
+
+def test_growth_with_very_wide_power_weights_grows():
+    for seed in range(3):
+        lat = wd.Lattice((32, 32), 8, weights=wd.weights.Power(alpha=6.0, max=100.0, seed=seed))
+        top = float(np.nanmax(np.where(np.isfinite(d := wd.shortest_paths(lat, [[16, 16]]).dist), d, np.nan)))
+        den = wd.grow(lat, [[16, 16]], wd.FractalParams(count=4, d=top / 2, alpha=1.5, beta=2.0, epsilon=top / 20),
+                      seed=seed)
+        assert len(den.endpoints) > 4 and den.depth.max() < len(den)
 
 
 def _rounding_tie_lattice():

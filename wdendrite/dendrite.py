@@ -239,6 +239,51 @@ def _path_labels(label: np.ndarray, parent: np.ndarray, old_label: np.ndarray) -
         up = nxt
 
 
+def _plateau_hops(costfield: CostField, old: np.ndarray, padded_shape) -> np.ndarray:
+    """Steps from every node of a plateau to its nearest way out, as int32 over the padded lattice.
+
+    A plateau is a connected set of nodes with one packed word (cost and
+    label) joined by edges whose weight vanishes in float32 next to that
+    cost. Its ways out are its nodes that a neighbour of lower cost reaches
+    at their cost (what the walk's predecessor rule takes first), nodes of
+    cost 0 and nodes of ``old`` (the dendrite being extended), all 0. Other
+    nodes hold -10 (never one step from anything).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    lattice = costfield.lattice
+    dist, label, shape = costfield.dist, costfield.label, lattice.shape
+    n = lattice.num_nodes
+    flat = np.arange(n, dtype=np.int64).reshape(shape)
+    out = dist == 0
+    if len(old):
+        out[tuple(coords_of_padded(old, shape).T)] = True
+    tails, heads = [], []
+    for k, off in enumerate(lattice.offsets):
+        # edge a -> b = a + off, its weight stored at a
+        a = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, shape))
+        b = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, shape))
+        da, db, w = dist[a], dist[b], lattice.weights[k][a]
+        with np.errstate(invalid="ignore", over="ignore"):
+            reach_b, reach_a = da + w, db + w  # float32 sums, as the kernels make them
+        out[b] |= (da < db) & (reach_b == db)
+        out[a] |= (db < da) & (reach_a == da)
+        flat_equal = (da == db) & (label[a] == label[b]) & (reach_b == da) & np.isfinite(da)
+        tails.append(flat[a][flat_equal])
+        heads.append(flat[b][flat_equal])
+    hops = np.full(n, -10, np.int64)
+    tails, heads = np.concatenate(tails), np.concatenate(heads)
+    sources = np.flatnonzero(out.ravel())
+    if len(tails) and len(sources):
+        graph = coo_matrix((np.ones(len(tails)), (tails, heads)), shape=(n, n)).tocsr()
+        steps = dijkstra(graph, directed=False, indices=sources, min_only=True, unweighted=True)
+        hops = np.where(np.isfinite(steps), steps, -10).astype(np.int64)
+    padded = np.full(int(np.prod(padded_shape)), -10, np.int32)
+    padded[lattice.padded_indices(np.argwhere(np.ones(shape, bool)))] = hops
+    return padded
+
+
 def trace(
     costfield: CostField,
     endpoints,
@@ -318,6 +363,7 @@ def trace(
         claim_zero = bool(len(old) and len(gen_rows) >= len(old)
                           and np.array_equal(gen_rows[len(gen_rows) - len(old):], extend.nodes))
         size = arrays.mask.shape[0]
+        hops = None  # plateau steps, counted only once a walk finds no lower index to go to
         while True:
             # walks mark the records' stamps: generators first, then the nodes already on the dendrite
             root_id = arrays.fresh_ids(2)
@@ -346,7 +392,8 @@ def trace(
                 _kd.trace_kernel,
                 dim=len(starts),
                 inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw,
-                        arrays.hashed, arrays.mask, arrays.state, root_id, visit_id, int(claim_zero), size],
+                        arrays.hashed, arrays.mask, arrays.state, root_id, visit_id, int(claim_zero), size,
+                        wp.zeros(1, dtype=wp.int32) if hops is None else hops, int(hops is not None)],
                 outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
             )
             n_new = int(new_count.numpy()[0])
@@ -374,6 +421,11 @@ def trace(
                 if not (held.all() and np.array_equal(all_padded[at], linked)):
                     claim_zero = False
                     continue
+            if hops is None and status.numpy().any():
+                # walks stuck on a plateau of equal words whose way out lies toward higher indices:
+                # walk again, stepping across plateaus toward their ways out
+                hops = wp.array(_plateau_hops(costfield, old, arrays.padded_shape), dtype=wp.int32)
+                continue
             break
         new_parent = np.where(fresh_pred >= 0, rows[np.maximum(fresh_pred, 0)], -1).astype(np.int64)
         end_rows = rows[starts].astype(np.int64)
@@ -387,7 +439,8 @@ def trace(
         raise ValueError(
             f"backtracking from 'endpoints' row {row} = {tuple(pts[row].tolist())} found no way down: path costs "
             f"reach {float(np.nanmax(np.where(np.isfinite(dist), dist, np.nan))):.3g}, where float32 cannot add the "
-            "lattice's smallest weights any more; use weights spanning fewer orders of magnitude"
+            "lattice's smallest weights any more, and no neighbour leads to a lower cost; is the cost field "
+            "from this lattice?"
         )
     coords = coords_of_padded(fresh, lattice.shape)
     def _cat(name, new, dtype):
