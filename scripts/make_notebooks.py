@@ -37,7 +37,8 @@ def show(img, scale=1):
 NOTEBOOKS = {
     "01_quickstart": [
         ("md", "# wdendrite quickstart\n\nA random-weighted lattice, least-cost paths from a generator, "
-               "backtracking from endpoints into a dendrite, and a picture of it. Every step is a Warp kernel; "
+               "backtracking from endpoints into a dendrite, and a picture of it. The searches, the backtracking "
+               "and the rendering are Warp kernels; "
                "the same code runs on the CPU and on CUDA (`wp.ScopedDevice('cuda:0')`)."),
         ("code", SETUP),
         ("code", '''\
@@ -74,7 +75,9 @@ show(res.image)'''),
         ("code", '''\
 res = presets.fractal_grid(48 if SMALL else 170)
 show(res.image)'''),
-        ("md", "**Weight distributions** `W = 1 + v^n`: Manhattan-like for n = 0 to erratic for n = 8 (thesis 4.2):"),
+        ("md", "**Weight distributions** `W = 1 + v^n`: Manhattan-like for n = 0 to erratic for n = 8 (thesis 4.2; "
+               "for n > 4 the preset draws v from (0, 100^(4/n)), so that float32 path costs still resolve every "
+               "edge):"),
         ("code", '''\
 res = presets.weight_distributions((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
@@ -240,9 +243,13 @@ with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_
     corner = arr[:size, :2 * size].compute()
 show((corner - corner.min()) / (corner.max() - corner.min()))'''),
         ("code", '''\
-tiled = np.load(folder / "runs" / f"terrain_size{4 * size}_seed0.npy", mmap_mode="r")
-print(tiled.shape, tiled.dtype)
-show(cli.relief(np.asarray(tiled[::4, ::4]), 16.0 / size))'''),
+import json
+name = folder / "runs" / f"terrain_size{4 * size}_seed0"
+tiled = np.load(name.with_suffix(".npy"), mmap_mode="r")
+extent = json.loads(name.with_suffix(".manifest.json").read_text())["params"]["extent"]
+print(tiled.shape, tiled.dtype, "extent", extent)
+# every 4th pixel: a pixel of the picture spans 4 of the file's
+show(cli.relief(np.asarray(tiled[::4, ::4]), extent * 4 / tiled.shape[1]))'''),
     ],
 }
 

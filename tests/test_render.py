@@ -289,3 +289,10 @@ def test_an_absent_device_is_a_value_error_naming_it(launches):
     with pytest.raises(ValueError, match="'device'"):
         wd.render.glow(np.zeros((8, 8), np.float32), device="cuda:9")
     assert launches == []
+
+
+@pytest.mark.parametrize("value", [-1.0, 0.0, float("nan"), float("inf"), -float("inf")])
+def test_a_width_that_must_be_positive_says_so_for_every_bad_value(value):
+    # one message for every value it refuses (a negative one had been told "non-negative")
+    with pytest.raises(ValueError, match=r"Expected a positive finite number for 'width', but got"):
+        brightness(DEN, value)

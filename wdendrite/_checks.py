@@ -187,9 +187,9 @@ def nonnegative(name: str, value, *, allow_none: bool = True, allow_inf: bool = 
 
 def positive(name: str, value) -> float:
     """Return ``value`` as a finite float > 0."""
-    x = nonnegative(name, value, allow_none=False)
-    if x == 0:
-        raise ValueError(f"Expected a positive number for '{name}', but got {value!r}")
+    x = _number(name, value)
+    if not (0 < x < math.inf):  # (NaN fails too)
+        raise ValueError(f"Expected a positive finite number for '{name}', but got {value!r}")
     return x
 
 

@@ -406,8 +406,9 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: a 3D or empty dendrite, a colour that is not an SVG colour, a missing
-            folder, a ``path`` that is a folder.
+        ValueError: a 3D or empty dendrite, a colour holding characters that cannot appear in
+            an SVG paint value (the name itself is not checked: viewers skip strokes of an
+            unknown colour), a missing folder, a ``path`` that is a folder.
         TypeError: a colour that is not a string.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """

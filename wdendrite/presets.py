@@ -197,7 +197,9 @@ def _polynomial(shape, n: float, seed: int):
 
 
 def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 20, seed: int = 0) -> Result:
-    """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic."""
+    """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic.
+    For n > 4, v is drawn from (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays
+    1e8 and float32 path costs resolve every edge (with 1e16 cheap edges vanish from the sums)."""
     shape = _shape(shape, 2)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed) for n in ns],
                                       _checks.integer("endpoints", endpoints, low=1), seed)

@@ -321,7 +321,11 @@ class Polynomial(Distribution):
     """The thesis' weights ``W = length * (1 + v ** n)``, v uniform in (0, 100) (section 4.2).
 
     n = 0 gives constant weights (Manhattan paths), 1 the simple dendrite,
-    3 to 4 erratic paths (lightning), 8 very erratic ones.
+    3 to 4 erratic paths (lightning), 8 very erratic ones. Path costs are
+    float32: from n = 5 on the weights span more than it resolves, so along a
+    costly path the cheapest edges add nothing, and such stretches are crossed
+    in the fewest steps rather than by their least cost
+    (:func:`~wdendrite.presets.weight_distributions` caps v for n > 4 instead).
     """
 
     n: float = 1.0
