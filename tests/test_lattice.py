@@ -210,3 +210,16 @@ def test_records_filled_from_a_distribution_equal_its_samples(shape, conn, usabl
             stored = usable & (padded[nb] | ~inside)
             np.testing.assert_array_equal(got[k][stored], want[k][stored])
             assert (got[k][~usable] == 0).all()
+
+
+def test_weights_across_an_axis_of_size_1_must_be_positive_and_the_message_says_why():
+    # DESIGN: entries whose neighbour falls outside are ignored -- except along an axis of size 1,
+    # where refinement interpolates them; the message must not leave a user guessing
+    w = np.ones((2, 1, 5), np.float32)
+    w[1] = 0.0  # direction (1, 0) leaves the 1 x 5 lattice everywhere
+    with pytest.raises(ValueError, match=r"direction 1 \(1, 0\) leaves a lattice of shape \(1, 5\) along an axis "
+                                         r"of size 1.*kept \(refinement interpolates them\)"):
+        wd.Lattice((1, 5), 4, weights=w)
+    w3 = np.ones((2, 3, 5), np.float32)
+    w3[1, -1] = 0.0  # on a 3 x 5 lattice the outside row is ignored
+    wd.Lattice((3, 5), 4, weights=w3)

@@ -120,9 +120,13 @@ def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask, raw=Non
         if low.any():
             where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(low)[0], src)))
             given = weights[where] if raw is None else raw[where]
+            kept = "" if dst is not None else (
+                f"; direction {k} {tuple(offsets[k].tolist())} leaves a lattice of shape {shape} along an axis of "
+                "size 1, whose entries are kept (refinement interpolates them), so they must be positive too")
             raise ValueError(
                 f"'weights' must be positive on usable edges, but has value {given.item()!r}"
                 f"{_checks.float32_note(given)} at index {where} ({int(low.sum())} such entries in direction {k})"
+                + kept
             )
 
 
