@@ -317,3 +317,33 @@ def test_preview_refuses_an_empty_list_and_a_bad_size():
     for size in (100, (100,), (100, 0), (100.0, 100), "ab"):
         with pytest.raises(ValueError, match="'size'"):
             preview(mesh, size=size)
+
+
+@pytest.mark.parametrize("joints", [False, True])
+def test_tubes_stay_closed_once_welded_as_stl_does(tmp_path, joints):
+    import trimesh
+
+    # a straight run (one tube, no caps inside), a bend and a fork, rooted at (1, 4, 4)
+    nodes = [[1, 4, 4], [2, 4, 4], [3, 4, 4], [4, 4, 4], [5, 5, 4], [5, 6, 4], [5, 3, 4], [6, 2, 4]]
+    den = wd.Dendrite.from_arrays((9, 9, 9), nodes, [-1, 0, 1, 2, 3, 4, 3, 6], origin=(0.1, 0.2, 0.3),
+                                  spacing=0.7)
+    mesh = tubes(den, Taper(0.3, 0.1), sides=7, joints=joints)
+    assert mesh.is_watertight and mesh.volume > 0
+    welded = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)  # what loaders and STL do
+    if not joints:
+        assert welded.is_watertight and welded.is_winding_consistent
+        # the straight runs 0-1-2-3 and 3-6-7 are one tube each, the bent 3-4-5 two
+        assert len(mesh.split(only_watertight=False)) == 4
+    path = wd.io.save_mesh(tmp_path / "t.stl", mesh)
+    back = trimesh.load(path, force="mesh")
+    assert back.volume == pytest.approx(mesh.volume, rel=1e-5)
+    if not joints:
+        assert back.is_watertight
+
+
+def test_a_single_straight_chain_is_one_closed_tube():
+    den = wd.Dendrite.from_arrays((8, 8, 8), [[1, 4, 4], [2, 4, 4], [3, 4, 4]], [-1, 0, 1])
+    mesh = tubes(den, 1.0, joints=False, sides=8)
+    assert len(mesh.faces) == 2 * 8 * 2 + 2 * 8 and mesh.is_watertight
+    polygon_area = 0.5 * 8 * np.sin(2 * np.pi / 8)
+    assert mesh.volume == pytest.approx(polygon_area * 2.0, rel=1e-9)

@@ -140,9 +140,11 @@ def tubes(
 ):
     """A tube along every edge of a 3D dendrite with tapered radii, merged into one mesh.
 
-    Each edge (node to parent) is a capped cone from the node's radius to the
-    parent's; with ``joints`` a low-resolution sphere fills each node so bends
-    look round.
+    Each edge (node to parent) is a cone from the node's radius to the
+    parent's; edges continuing in a straight line share their rings, so a
+    straight run is one closed tube, and other edges are capped at both ends.
+    With ``joints`` a low-resolution sphere fills each node so bends look round
+    (the spheres and tubes overlap: closed pieces, not one solid).
 
     Args:
         dendrite: a non-empty 3D dendrite.
@@ -162,7 +164,8 @@ def tubes(
     child = np.flatnonzero(den.parent >= 0)
     parts_v, parts_f = [], []
     if len(child):
-        v, f = _frustums(pos[child], pos[den.parent[child]], r[child], r[den.parent[child]], sides)
+        v, f = _straight_runs_joined(den, child, *_frustums(pos[child], pos[den.parent[child]], r[child],
+                                                            r[den.parent[child]], sides), sides)
         parts_v.append(v)
         parts_f.append(f)
     if joints or not len(child):
@@ -170,6 +173,40 @@ def tubes(
         parts_f.append(f + sum(len(p) for p in parts_v))
         parts_v.append(v)
     return _trimesh(np.concatenate(parts_v), np.concatenate(parts_f))
+
+
+def _straight_runs_joined(den: Dendrite, child: np.ndarray, verts: np.ndarray, faces: np.ndarray, sides: int):
+    """Join the frustums of :func:`_frustums` (edge ``e`` from ``child[e]`` to its parent) where a node
+    continues its only child's edge in the same direction: both caps there go, and the upper frustum
+    takes the lower one's end ring (the same points: the same centre, radius and frame). A straight
+    run is then one closed tube; caps met head on had made an edge of four faces once welded (STL)."""
+    per = 2 * sides + 2
+    step = den.nodes[den.parent[child]] - den.nodes[child]
+    n_children = np.bincount(den.parent[child], minlength=len(den))
+    edge_of = np.full(len(den), -1, np.int64)
+    edge_of[child] = np.arange(len(child))
+    # edge e -> the edge of its child below, where that child is its parent's only one
+    below = np.full(len(child), -1, np.int64)
+    only = child[n_children[den.parent[child]] == 1]  # nodes that are their parent's only child
+    only = only[edge_of[den.parent[only]] >= 0]  # ... whose parent has an edge too (not a root)
+    below[edge_of[den.parent[only]]] = edge_of[only]
+    straight = below >= 0
+    straight[straight] = np.all(step[straight] == step[below[straight]], axis=1)
+    # faces of each frustum: sides x 2 wall, then sides of the end cap, then sides of the start cap
+    group = np.repeat(np.arange(4), sides)
+    keep = np.ones((len(child), 4 * sides), bool)
+    keep[straight] &= group != 3  # this edge's start cap
+    keep[below[straight]] &= group != 2  # the end cap of the edge below
+    # the start ring of a straight edge is the end ring of the edge below
+    remap = np.arange(len(verts))
+    upper = np.flatnonzero(straight)[:, None] * per + np.arange(sides)
+    lower = below[straight][:, None] * per + sides + np.arange(sides)
+    remap[upper.ravel()] = lower.ravel()
+    faces = remap[faces.reshape(len(child), 4 * sides, 3)[keep]]
+    used = np.zeros(len(verts), bool)
+    used[faces] = True
+    new_index = np.cumsum(used) - 1
+    return verts[used], new_index[faces]
 
 
 def _check_field(field) -> np.ndarray | wp.array:
