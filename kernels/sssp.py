@@ -261,6 +261,30 @@ def seed_kernel(
         push_far(node, 0.0, far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
 
 
+@wp.func
+def queue_ends(
+    node: int,
+    other: int,
+    far_id: int,
+    far_slot: int,
+    stride: int,
+    nw: int,
+    state: wp.array(dtype=wp.uint64),
+    aux: wp.array(dtype=wp.int32),
+    counts: wp.array(dtype=wp.int32),
+    far_min: wp.array(dtype=float),
+    far_out: wp.array(dtype=wp.int32),
+):
+    """Queue both ends of a lowered edge that a search has reached, at their costs (warm start)."""
+    for end in range(2):
+        n = node
+        if end == 1:
+            n = other
+        word = state_at(state, stride, n)
+        if word != UNREACHED:
+            push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+
+
 @wp.kernel
 def mark_lowered_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
@@ -288,14 +312,7 @@ def mark_lowered_kernel(
         e = node * stride + WEIGHT0 + k
         other = node + flat_offsets[k]
         if wp.cast(aux[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
-            for end in range(2):
-                n = node
-                if end == 1:
-                    n = other
-                word = state_at(state, stride, n)
-                if word != UNREACHED:
-                    push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot,
-                             far_min)
+            queue_ends(node, other, far_id, far_slot, stride, nw, state, aux, counts, far_min, far_out)
         k += 1
 
 
@@ -329,15 +346,8 @@ def mark_listed_lowered_kernel(
     if write != 0:
         aux[node * stride + WEIGHT0 + k] = wp.cast(values[i], wp.int32)
     other = node + flat_offsets[k]
-    if mask[node] == wp.uint8(0) or mask[other] == wp.uint8(0):
-        return
-    for end in range(2):
-        n = node
-        if end == 1:
-            n = other
-        word = state_at(state, stride, n)
-        if word != UNREACHED:
-            push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+    if mask[node] != wp.uint8(0) and mask[other] != wp.uint8(0):
+        queue_ends(node, other, far_id, far_slot, stride, nw, state, aux, counts, far_min, far_out)
 
 
 @wp.func
