@@ -103,6 +103,8 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     calls = []
 
     def dies_after_five(window):
+        if window == batch.PROBE_WINDOW:  # the setup's check, before any file is made
+            return value(window)
         if len(calls) == 5:
             raise KeyboardInterrupt  # the run is killed
         calls.append(window)
@@ -113,7 +115,7 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
         batch.write_tiled(dies_after_five, shape, tile, out)
     assert not out.exists()  # nothing half-written under the final name
     seen = []
-    batch.write_tiled(lambda w: seen.append(w) or value(w), shape, tile, out)
+    batch.write_tiled(lambda w: w == batch.PROBE_WINDOW or seen.append(w) or value(w), shape, tile, out)
     assert len(seen) == len(batch.tile_windows(shape, tile)) - 5 and not set(seen) & set(calls)
     assert np.array_equal(np.load(out), value((0, 0, *shape)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.npy"]
@@ -122,7 +124,8 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         batch.write_tiled(dies_after_five, shape, tile, out, key="levels=2")
     seen.clear()
-    batch.write_tiled(lambda w: seen.append(w) or value(w) + 1, shape, tile, out, key="levels=3")
+    batch.write_tiled(lambda w: (w == batch.PROBE_WINDOW or seen.append(w) or True) and value(w) + 1, shape, tile,
+                      out, key="levels=3")
     assert len(seen) == len(batch.tile_windows(shape, tile))
     assert np.array_equal(np.load(out), value((0, 0, *shape)) + 1)
 
@@ -140,6 +143,8 @@ def test_a_tiled_task_resumes_only_tiles_of_the_same_kind_of_device(tmp_path, mo
     calls, dies = [], [True]
 
     def tile(window, *, setup, output, device):
+        if window == batch.PROBE_WINDOW:
+            return np.zeros((1, 1), np.float32)
         if dies[0] and len(calls) == 3:
             raise KeyboardInterrupt  # the run is killed after three tiles
         calls.append(device)
@@ -249,6 +254,9 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "fractal"\nformats = ["png", "PNG"]\n', ["'png' is listed twice"]),
     ('out = "o"\n[[job]]\npreset = "tree"\nformats = ["svg"]\n', ["3D", "drop 'svg'"]),
     ('out = "jobs.toml"\n[[job]]\npreset = "fractal"\n', ["is a file"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nseeds = [0, -1]\n', ["job 1 (fractal)", "[0, 2**32)", "got -1"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["png", "npz"]\n', ["makes no dendrite", "'npz'"]),
+    ('out = "o"\n[[job]]\npreset = "rock"\nformats = ["obj", "json"]\n', ["makes no dendrite", "'json'"]),
 ])
 def test_bad_job_files_exit_2_and_write_nothing(tmp_path, text, words):
     (tmp_path / "jobs.toml").write_text(text)

@@ -372,3 +372,53 @@ def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
     assert long.exists() and (tmp_path / "f.npz").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([long.name, "f.npz"])
     assert len(made) == 2  # one temporary per output, made by the command
+
+
+@pytest.mark.parametrize("args, config, words", [
+    (["tropisms", "--size", "32"], "toward = []\n", ["config key 'toward'", "but got []"]),
+    (["weight-distributions", "--size", "32"], "ns = []\n", ["config key 'ns'", "but got []"]),
+    (["simple-dendrite"], "shape = [64, 32]\nsize = 100\n", ["gives 'size' and 'shape'"]),
+    (["dla-imitation", "--size", "32", "--alpha", "0"], None, ["positive finite number for 'alpha'"]),
+    (["dla-imitation", "--size", "32", "--alpha", "1e308"], None, ["'alpha' = 1e+308 over 'iterations' = 4"]),
+    (["fractal-grid", "--cell", "32", "--iterations", "1000000000000"], None, ["'iterations' = 1000000000000"]),
+    (["dendry", "--size", "32", "--frequency", "1e308"], None, ["'frequency' = 1e+308", "2**22"]),
+    (["terrain", "--size", "32", "-o", "t.png", "-o", "t.npz"], None, ["'terrain' makes no dendrite"]),
+    (["rock", "--size", "16", "-o", "r.svg"], None, ["'rock' makes no dendrite", "or a mesh"]),
+    (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
+    (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["'seed'"]),
+    (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),
+])
+def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    if config is not None:
+        (tmp_path / "c.toml").write_text(config)
+        args = [*args, "--config", "c.toml"]
+    assert cli.main([*args, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err and "endpoints' = 24" not in err
+    for w in words:
+        assert w in err, (w, err)
+    assert not list(tmp_path.iterdir()) or [p.name for p in tmp_path.iterdir()] == ["c.toml"]
+
+
+def test_huge_but_valid_values_run(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["letters", "--size", "32", "--paths-per-1000", "1e308", "-o", "l.png", "--quiet"]) == 0
+    assert cli.main(["lightning", "--size", "32", "--glow-radius", "1e308", "-o", "g.npy", "--quiet"]) == 0
+    assert np.isfinite(np.load(tmp_path / "g.npy")).all()
+
+
+def test_a_tiled_terrain_refused_by_its_tiles_leaves_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["terrain", "--size", "64", "--tile", "16", "--extent", "1e30", "-o", "big.npy", "--quiet"]) == 2
+    assert not list(tmp_path.iterdir())  # no hidden partial file, no tile marks
+
+
+def test_a_reader_that_goes_away_does_not_make_a_finished_run_fail(tmp_path):
+    p = subprocess.run(f"{sys.executable} -m wdendrite.cli fractal --size 16 -o f.png --quiet | true",
+                       shell=True, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert "Traceback" not in p.stderr and (tmp_path / "f.png").exists()
+    p = subprocess.run(["bash", "-c", f"set -o pipefail; {sys.executable} -m wdendrite.cli fractal --size 16 "
+                                      "-o g.png --quiet | true"], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr

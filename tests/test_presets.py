@@ -193,10 +193,36 @@ def test_the_fractal_command_checks_its_schedule_before_the_lattice(launches):
     (presets.staghorn_coral, dict(shape=(12, 12, 12), endpoints=300, refine_n=None), "on the dome"),
     (presets.moss, dict(shape=(12, 12, 12), endpoints=400), "in the band above the plane"),
     (presets.tropism_objects, dict(shape=(10, 10, 10), endpoints=300), "in the upper part"),
+    (presets.simple_dendrite, dict(shape=(8, 8), endpoints=100), "in"),
+    (presets.weight_distributions, dict(shape=(8, 8), endpoints=100), "in"),
+    (presets.tropisms, dict(shape=(8, 8)), "on one cost contour"),
+    (presets.taper_demo, dict(shape=(8, 8), endpoints=100), "in the lower half"),
 ])
 def test_too_many_endpoints_are_reported_against_the_presets_own_parameter(func, kw, where):
-    with pytest.raises(ValueError, match=rf"^'endpoints' = {kw['endpoints']} is more than fit {where} of the "):
+    count = kw.get("endpoints", 20)
+    with pytest.raises(ValueError, match=rf"^'endpoints' = {count} is more than fit {where} (of )?the "):
         func(**kw)
+    # other errors keep their own words
+    with pytest.raises(ValueError, match=r"^Expected .*'seed'"):
+        func(**kw, seed=-1)
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(alpha=1e308), r"'alpha' = 1e\+308 over 'iterations' = 4 shrinks"),
+    (dict(iterations=10**12), r"'alpha' = 2.0 over 'iterations' = 1000000000000 shrinks"),
+    (dict(alpha=0.0), r"'alpha'"),
+])
+def test_fractal_schedules_that_overflow_are_refused_by_name(kw, match, launches):
+    with pytest.raises(ValueError, match=match):
+        presets.dla_imitation((32, 32), **kw)
+    assert launches == []
+
+
+def test_letters_take_any_density_and_refuse_a_height_pillow_cannot_draw():
+    den = presets.letters("I", height=20, paths_per_1000=1e308).dendrite
+    assert len(den.endpoints) == int(presets.letters("I", height=20).parts["mask"].sum())  # every node
+    with pytest.raises(ValueError, match=r"'height' = 100000 is too large for Pillow"):
+        presets.letters("Hello", height=100000)
 
 
 def test_moss_scales_its_default_endpoints_with_the_volume():

@@ -247,3 +247,6 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
 
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}
 """The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""
+
+
+costs.makes_dendrite = dendry.makes_dendrite = terrain.makes_dendrite = False  # (checked before they run)

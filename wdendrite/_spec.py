@@ -201,6 +201,8 @@ class Param:
 
 def _items(v, *, allow_x: bool) -> list:
     if isinstance(v, (list, tuple)):
+        if not v:
+            raise ValueError  # (an empty TOML list: the caller names the key and what it expects)
         return list(v)
     if isinstance(v, str):
         parts = re.split(r"[,x]" if allow_x else ",", v.strip())
@@ -312,6 +314,8 @@ class Preset:
     size_param: str | None = None
     meshes: bool = False
     """True for 3D presets (they return a mesh)."""
+    dendrite: bool = True
+    """False for presets that make no dendrite (their function's ``makes_dendrite`` attribute)."""
 
     @property
     def default_size(self):
@@ -361,6 +365,7 @@ def make_preset(name: str, func) -> Preset:
     p.size_param = next((n for n in SIZE_NAMES if n in p.params), None)
     shape = p.params.get("shape")
     p.meshes = bool(shape and isinstance(shape.default, tuple) and len(shape.default) == 3)
+    p.dendrite = bool(getattr(func, "makes_dendrite", True))
     return p
 
 
@@ -469,6 +474,8 @@ def parse_config(path, preset: Preset) -> dict:
     """Typed values from a TOML file whose keys are ``preset``'s parameters (``size`` allowed too)."""
     path = Path(path)
     raw = read_toml(path, "--config")
+    if "size" in raw and preset.size_param in raw and preset.size_param != "size":
+        raise UsageError(f"config file {str(path)!r} gives 'size' and {preset.size_param!r}; give one of them")
     out = {}
     for k, v in raw.items():
         if k == "size" and preset.size_param:

@@ -167,6 +167,9 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     fmts = _formats(job.get("formats", top_formats), where)
     if not preset.meshes and {"obj", "ply", "stl", "glb"} & set(fmts):
         raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop the mesh formats")
+    if not preset.dendrite and {"npz", "json", "svg"} & set(fmts):
+        raise UsageError(f"{where}: preset {name!r} makes no dendrite; drop the formats "
+                         f"{', '.join(repr(f) for f in fmts if f in ('npz', 'json', 'svg'))}")
     if preset.meshes and "svg" in fmts:
         raise UsageError(f"{where}: preset {name!r} makes a 3D dendrite, which SVG cannot draw; drop 'svg'")
     tile = _tile(job.get("tile"), name, fmts, where)
@@ -176,6 +179,8 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}") for p, v in zip(grid, combo)})
         if seed is not None:
             values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed")
+            if not 0 <= values["seed"] < 2**32:
+                raise UsageError(f"{where}: 'seed'/'seeds' must be in [0, 2**32), but got {seed!r}")
         if size is not None:
             values[preset.size_param] = sized[size]
         try:
@@ -446,6 +451,10 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
     return partial, marks
 
 
+PROBE_WINDOW = (0, 0, 1, 1)
+"""The window :func:`write_tiled` computes first, to check the setup before it makes any file."""
+
+
 def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "") -> Path:
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
@@ -462,8 +471,14 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         client: a ``distributed.Client`` (None: compute here, one tile after another).
         progress: a callable told ``(done, total)`` after every tile.
         key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
+
+    Raises:
+        whatever ``tile_fn`` raises; computed here, it is first tried on one pixel, so that a
+        setup it refuses fails before the partial file is made.
     """
     final = Path(path)
+    if client is None:
+        tile_fn(PROBE_WINDOW)  # one pixel first: a setup the tiles refuse leaves no partial file behind
     partial, marks = _open_partial(final, shape, tile, key)
     target = _Target(partial, marks)
     windows = tile_windows(shape, tile)

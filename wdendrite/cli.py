@@ -75,26 +75,33 @@ def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -
     """Validate output paths before any work: known suffix, existing writable folder, no clobbering."""
     out = []
     for p in paths:
-        p = Path(p)
-        if p.resolve() in [q.resolve() for q in out]:
-            raise UsageError(f"-o/--out {str(p)!r} is given twice")
-        if p.suffix.lower() not in suffixes:
-            raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
-                             f"use one of {', '.join(suffixes)}")
-        folder = p.parent if str(p.parent) else Path(".")
-        if not folder.is_dir():
-            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
         try:
-            probe_folder(folder)
-        except OSError as exc:
-            raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable "
-                             f"({exc.strerror})") from None
-        if p.is_dir() and p.suffix.lower() != ".zarr":  # a Zarr store is a folder; nothing else is
-            raise UsageError(f"-o/--out {str(p)!r} is a folder; name a file")
-        if p.exists() and not force:
-            raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
-        out.append(p)
+            out.append(_checked_output(Path(p), out, force, suffixes))
+        except OSError as exc:  # a name the file system refuses (too long, say)
+            raise UsageError(f"-o/--out {str(p)!r}: {exc.strerror or exc}") from None
     return out
+
+
+def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
+    """``p`` if it may be written (see :func:`check_outputs`); ``out``: the paths checked before it."""
+    if p.resolve() in [q.resolve() for q in out]:
+        raise UsageError(f"-o/--out {str(p)!r} is given twice")
+    if p.suffix.lower() not in suffixes:
+        raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
+                         f"use one of {', '.join(suffixes)}")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
+    try:
+        probe_folder(folder)
+    except OSError as exc:
+        raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} is not writable "
+                         f"({exc.strerror})") from None
+    if p.is_dir() and p.suffix.lower() != ".zarr":  # a Zarr store is a folder; nothing else is
+        raise UsageError(f"-o/--out {str(p)!r} is a folder; name a file")
+    if p.exists() and not force:
+        raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
+    return p
 
 
 def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "") -> list[str]:
@@ -163,7 +170,9 @@ def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -
 def _need(result, attr: str, preset: str):
     value = getattr(result, attr, None)
     if value is None:
-        raise UsageError(f"preset {preset!r} makes no {attr}; write a .png or .npy instead")
+        raise UsageError(f"preset {preset!r} makes no {attr}; write a .png or .npy"
+                         + (", or a mesh (.obj, .ply, .stl, .glb)" if getattr(result, "mesh", None) is not None
+                            else "") + " instead")
     return value
 
 
@@ -237,6 +246,9 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     for p in paths:
         if p.suffix.lower() in MESH and not preset.meshes:
             raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write .png, .npy, .npz, .json or .svg")
+        if p.suffix.lower() in DENDRITE + SVG and not preset.dendrite:
+            raise UsageError(f"preset {name!r} makes no dendrite; write .png or .npy"
+                             + (", or a mesh (.obj, .ply, .stl, .glb)" if preset.meshes else "") + " instead")
         if p.suffix.lower() in SVG and preset.meshes:
             raise UsageError(f"preset {name!r} makes a 3D dendrite, which SVG cannot draw; "
                              "write .png, .obj, .ply, .stl, .glb, .npz or .json")
@@ -434,6 +446,10 @@ def main(argv=None) -> int:
             size_note = ""
         print(f"wdendrite: error: {exc}{size_note}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader of our report went away (``| head``): the outputs are written, the report is not needed
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except MemoryError as exc:
         print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
         return 2

@@ -190,6 +190,13 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
+    with np.errstate(over="ignore"):
+        reach = float(np.max(np.abs(np.asarray(dom, np.float64))) * params[0] * np.float64(params[2]) ** (octaves - 1))
+    if not reach <= 2**22:
+        raise ValueError(
+            f"'frequency' = {frequency!r} (with 'lacunarity' = {lacunarity!r} over {octaves} octaves) samples the "
+            f"noise at coordinates up to {reach:.3g} over 'domain' {dom}, beyond the 2**22 = 4194304 that float32 "
+            "resolves (the noise would be flat, then NaN); lower 'frequency', 'lacunarity' or 'octaves'")
     probe = Control(kind, dom, 0.0, 1.0, params, seed, octaves)
     lo, hi = _extremes(probe)
     return Control(kind, dom, lo, hi, params, seed, octaves)

@@ -29,11 +29,16 @@ from . import _checks
 from . import sssp as _sssp
 from .lattice import Lattice
 
-__all__ = ["Box", "Disc", "Image", "Polygon", "Region", "Triangle", "biased", "in_band", "manual", "random"]
+__all__ = ["Box", "Disc", "Image", "Polygon", "Region", "TooManyEndpoints", "Triangle", "biased", "in_band", "manual",
+           "random"]
 
 
 # ---------------------------------------------------------------------------
 # regions
+
+
+class TooManyEndpoints(ValueError):
+    """A request for more endpoints than the candidate nodes (or their spacing) allow."""
 
 
 class Region:
@@ -280,7 +285,7 @@ def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: floa
         if len(kept) == count:
             break
     if len(kept) < count:
-        raise ValueError(
+        raise TooManyEndpoints(
             f"Could place only {len(kept)} of {count} endpoints at least 'min_spacing' = {spacing:g} apart "
             f"among {len(cand)} candidate nodes (each tried once, in random order); "
             "lower 'count' or 'min_spacing', or widen the region"
@@ -315,9 +320,9 @@ def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why:
         cand = cand[dens[cand] > 0]
         why.append(lambda n=len(cand): f"{n} with positive 'density'")
     if len(cand) == 0:
-        raise ValueError("No candidate nodes for endpoints: " + _describe(why))
+        raise TooManyEndpoints("No candidate nodes for endpoints: " + _describe(why))
     if count > len(cand):
-        raise ValueError(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: "
+        raise TooManyEndpoints(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: "
                          + _describe(why))
     if density is None and min_spacing is None:
         # a uniform draw without replacement, in random order: no key per candidate needed

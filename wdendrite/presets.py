@@ -117,14 +117,21 @@ def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, s
     lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     cf = shortest_paths(lat, gen)
-    den = trace(cf, _ep.random(lat, endpoints, seed=seed))
+    den = trace(cf, _endpoints_in("endpoints", endpoints, "in", shape, lambda: _ep.random(lat, endpoints, seed=seed)))
     return Result(_drawing(den), den, parts={"lattice": lat})
 
 
 def _fractal_params(cell: int, mean: float, alpha: float, beta: float, iterations: int, count: int) -> FractalParams:
     d = 0.4 * cell * mean
+    FractalParams(count=count, d=d, alpha=alpha, beta=beta, epsilon=d / 2)  # alpha, beta and count first
     # epsilon between the last and the next d, so the schedule has exactly `iterations` steps
-    eps = d / alpha ** (iterations - 0.5)
+    try:
+        eps = d / float(alpha) ** (iterations - 0.5)
+    except OverflowError:
+        eps = 0.0
+    if not eps > 0:
+        raise ValueError(f"'alpha' = {alpha!r} over 'iterations' = {iterations!r} shrinks the cost d below the "
+                         "smallest float: lower either")
     return FractalParams(count=count, d=d, alpha=alpha, beta=beta, epsilon=eps)
 
 
@@ -167,7 +174,8 @@ def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, 
 def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band: bool = False):
     """One drawing per weight distribution; endpoints fixed, or (``band``) on one cost contour of each field."""
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
-    ep = _ep.random(shape, endpoints, seed=seed, min_spacing=min(shape) / 12)
+    ep = _endpoints_in("endpoints", endpoints, "in", shape,
+                      lambda: _ep.random(shape, endpoints, seed=seed, min_spacing=min(shape) / 12))
     panels, dens = [], []
     for dist in distributions:
         lat = Lattice(shape, 8, weights=dist)
@@ -175,7 +183,8 @@ def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band:
         if band:
             # the contour is stretched toward the cheap side, and so is the dendrite
             d = float(np.quantile(cf.dist[np.isfinite(cf.dist)], 0.25))
-            ep = _ep.in_band(cf, endpoints, d, 0.08 * d, seed=seed, min_spacing=min(shape) / 20)
+            ep = _endpoints_in("endpoints", endpoints, "on one cost contour of", shape, lambda: _ep.in_band(
+                cf, endpoints, d, 0.08 * d, seed=seed, min_spacing=min(shape) / 20))
         den = trace(cf, ep)
         dens.append(den)
         panels.append(_drawing(den, 1.2))
@@ -240,11 +249,16 @@ def _text_mask(text: str, height: int) -> np.ndarray:
         font = ImageFont.load_default(size=max(8, int(height * 0.8)))
     except TypeError:  # Pillow without FreeType: the small bitmap font, scaled up below
         font = ImageFont.load_default()
-    left, top, right, bottom = ImageDraw.Draw(Image.new("L", (1, 1))).textbbox((0, 0), text, font=font)
-    img = Image.new("L", (right - left + 8, bottom - top + 8), 0)
-    ImageDraw.Draw(img).text((4 - left, 4 - top), text, fill=255, font=font)
-    scale = height / img.height
-    img = img.resize((max(1, round(img.width * scale)), height), Image.BILINEAR)
+    except OSError as exc:  # a size FreeType refuses
+        raise ValueError(f"'height' = {height} is too large for Pillow to draw 'text' {text!r}: {exc}") from None
+    try:
+        left, top, right, bottom = ImageDraw.Draw(Image.new("L", (1, 1))).textbbox((0, 0), text, font=font)
+        img = Image.new("L", (right - left + 8, bottom - top + 8), 0)
+        ImageDraw.Draw(img).text((4 - left, 4 - top), text, fill=255, font=font)
+        scale = height / img.height
+        img = img.resize((max(1, round(img.width * scale)), height), Image.BILINEAR)
+    except (OSError, ValueError, MemoryError, Image.DecompressionBombError) as exc:
+        raise ValueError(f"'height' = {height} is too large for Pillow to draw 'text' {text!r}: {exc}") from None
     return np.asarray(img) > 127
 
 
@@ -273,8 +287,9 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
         # each letter part grows from its node nearest to the part's centre
         gens.append(pts[np.argmin(((pts - pts.mean(axis=0)) ** 2).sum(axis=1))])
     cf = shortest_paths(lat, np.array(gens))
-    m = max(1, int(region.sum() * per_1000 / 1000.0))
-    den = trace(cf, _ep.random(lat, min(m, int(region.sum())), seed=seed))
+    usable = int(region.sum())
+    m = max(1, int(usable * min(per_1000 / 1000.0, 1.0)))  # (at most every node)
+    den = trace(cf, _ep.random(lat, m, seed=seed))
     return Result(_drawing(den, 1.0), den, parts={"mask": region, "lattice": lat})
 
 
@@ -333,7 +348,7 @@ def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed, name: str) -> 
     try:
         return _ep.biased(lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near,
                           min_spacing=0.04 * min(h, w))
-    except ValueError as exc:  # too many for the room near the stroke: say which parameter asked
+    except _ep.TooManyEndpoints as exc:  # too many for the room near the stroke: say which parameter asked
         raise ValueError(f"'{name}' = {count} is more than fit near the main stroke of a {h} x {w} picture: {exc}") from None
 
 
@@ -413,8 +428,8 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
     widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
     lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))
     cf = shortest_paths(lat, [[3, shape[1] // 2]])
-    ep = _ep.biased(lat, endpoints, seed=seed, power=2.0, within=_ep.Box(
-        (shape[0] // 2, 2), (shape[0] - 3, shape[1] - 3)))
+    ep = _endpoints_in("endpoints", endpoints, "in the lower half of", shape, lambda: _ep.biased(
+        lat, endpoints, seed=seed, power=2.0, within=_ep.Box((shape[0] // 2, 2), (shape[0] - 3, shape[1] - 3))))
     den = trace(cf, ep)
     values = [_r.brightness(den, wd_) for wd_ in widths]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
@@ -431,9 +446,9 @@ def _endpoints_in(name: str, count: int, where: str, shape, draw) -> np.ndarray:
     """``draw()``'s endpoints; a request that cannot be met is reported against the preset's parameter ``name``."""
     try:
         return draw()
-    except ValueError as exc:
+    except _ep.TooManyEndpoints as exc:
         size = " x ".join(map(str, shape))
-        raise ValueError(f"'{name}' = {count} is more than fit {where} of the {size} lattice: {exc}") from None
+        raise ValueError(f"'{name}' = {count} is more than fit {where} the {size} lattice: {exc}") from None
 
 
 # spheres this far apart (a body diagonal) touch when their radius is at least half of it
@@ -462,7 +477,7 @@ def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes"
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     crown = _ep.Disc((0.72 * d, h / 2, w / 2), 0.42 * min(h, w)).mask(shape)
     crown[: int(0.45 * d)] = False
-    ends = _endpoints_in("endpoints", endpoints, "in the crown", shape,
+    ends = _endpoints_in("endpoints", endpoints, "in the crown of", shape,
                          lambda: _ep.random(lat, endpoints, within=crown, seed=seed, min_spacing=0.08 * d))
     den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ends)
     scale = d / 80.0
@@ -483,7 +498,7 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
         _w.Tropism(t, strength=strength)  # each kind and the strength checked before any search
     d, h, w = shape
     endpoints = _checks.integer("endpoints", endpoints, low=1)
-    ep = _endpoints_in("endpoints", endpoints, "in the upper part", shape, lambda: _ep.random(
+    ep = _endpoints_in("endpoints", endpoints, "in the upper part of", shape, lambda: _ep.random(
         shape, endpoints, within=_ep.Box((0.4 * d, 2, 2), (d - 3, h - 3, w - 3)), seed=seed, min_spacing=0.08 * d))
     pics, meshes, dens = [], {}, {}
     for t in toward:
@@ -506,7 +521,7 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     dome = _ep.Disc((0.1 * d, h / 2, w / 2), 0.85 * d).mask(shape) & ~_ep.Disc((0.1 * d, h / 2, w / 2), 0.55 * d).mask(shape)
     dome[: int(0.3 * d)] = False
-    ends = _endpoints_in("endpoints", endpoints, "on the dome", shape,
+    ends = _endpoints_in("endpoints", endpoints, "on the dome of", shape,
                          lambda: _ep.random(lat, endpoints, within=dome, seed=seed, min_spacing=0.12 * d))
     den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ends)
     coarse = den
@@ -543,6 +558,9 @@ def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: 
     lat, cf = _rock_field(shape, neighbours, seed)
     mesh = _geo.region_mesh(cf.label, 0, smooth=smooth)
     return Result(_geo.preview(mesh, color=_ROCK), None, mesh, parts={"costfield": cf, "lattice": lat})
+
+
+rock.makes_dendrite = False  # (the command refuses dendrite formats before running it)
 
 
 def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 8, seed: int = 0) -> Result:
@@ -584,7 +602,7 @@ def moss(shape=(40, 96, 96), *, endpoints: int | None = None, seed: int = 0) -> 
     plane = np.stack([np.zeros(h * w, np.int64), yy.ravel(), xx.ravel()], axis=1)
     cf = shortest_paths(lat, plane)
     band = _ep.Box((0.35 * d, 1, 1), (0.9 * d, h - 2, w - 2))
-    ends = _endpoints_in("endpoints", endpoints, "in the band above the plane", shape,
+    ends = _endpoints_in("endpoints", endpoints, "in the band above the plane of", shape,
                          lambda: _ep.random(lat, endpoints, within=band, seed=seed, min_spacing=2.0))
     den = trace(cf, ends)
     mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)

@@ -475,7 +475,8 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
 
     Args:
         value: ``(H, W)`` brightness.
-        radius: blur scale in pixels, > 0 (box half-width ``radius * sqrt(3 / passes)``).
+        radius: blur scale in pixels, > 0 (box half-width ``radius * sqrt(3 / passes)``); radii
+            beyond four image diagonals (times ``sqrt(passes)``) blur as that one does, to a near-even glow.
         passes: box filters per axis, >= 1.
         device: Warp device (default: Warp's default device).
 
@@ -491,6 +492,8 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
     radius = _checks.positive("radius", radius)
     if isinstance(passes, bool) or not isinstance(passes, (int, np.integer)) or passes < 1:
         raise ValueError(f"Expected an integer 'passes' >= 1, but got {passes!r}")
+    # a blur much wider than the image spreads it evenly: no wider box changes the result's look
+    radius = min(radius, 4.0 * float(np.hypot(*img.shape)) * math.sqrt(passes))
     # a box of half-width h has variance h (h + 1) / 3; pick h so the passes add up to radius^2
     half = max(1, int(round(0.5 * (math.sqrt(1.0 + 12.0 * radius * radius / passes) - 1.0))))
     device = _checks.device(device)
