@@ -160,6 +160,7 @@ def test_bad_input(call, match):
         (presets.elm_tree, dict(shape=(16, 16, 16), geometry="cubes"), "geometry"),
         (presets.lichen_on_rock, dict(shape=(16, 16, 16), count=0), "count"),
         (presets.rock, dict(shape=(16, 16, 16), smooth=-1), "smooth"),
+        (presets.rock, dict(shape=(16, 16, 16), smooth=10**12), r"'smooth' in \[0, 1000\]"),
         (presets.letters, dict(text="A", height=32, paths_per_1000=-1), "paths_per_1000"),
         (presets.fractal_grid, dict(cell=32, alphas=(2.0, 1.0)), "alpha"),
         (presets.dla_imitation, dict(shape=(32, 32), alpha=1), "alpha"),

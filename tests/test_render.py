@@ -296,3 +296,10 @@ def test_a_width_that_must_be_positive_says_so_for_every_bad_value(value):
     # one message for every value it refuses (a negative one had been told "non-negative")
     with pytest.raises(ValueError, match=r"Expected a positive finite number for 'width', but got"):
         brightness(DEN, value)
+
+
+def test_taper_widths_beyond_float32_are_refused():
+    with pytest.raises(ValueError, match=r"'start' <= 1e30 for Taper"):
+        Taper(1e308, 1.0)
+    with pytest.raises(ValueError, match=r"'end' <= 1e30 for Taper"):
+        Taper(1.0, 1e31)

@@ -42,7 +42,7 @@ UNITS = {
     "epsilon": "weight units", "extent": "domain units", "resolution": "cells per domain unit",
     "frequency": "features per control unit", "paths_per_1000": "paths per 1000 nodes", "start": "pixels",
     "end": "pixels", "cheap": "fraction", "eps": "fraction of a cell", "delta": "fraction of a segment",
-    "minor_gain": "fraction", "glow_gain": "fraction", "noise": "fraction", "strength": "factor",
+    "minor_gain": "fraction", "glow_gain": "gain", "noise": "fraction", "strength": "factor",
     "alpha": "dimensionless", "alphas": "dimensionless", "beta": "dimensionless", "betas": "dimensionless",
     "ns": "exponents", "seed": "", "text": "", "toward": "", "geometry": "", "rule": "", "output": "",
     "control": "", "smoothing": "", "subdivision": "", "drained": "", "colormap": "",

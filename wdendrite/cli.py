@@ -108,7 +108,8 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     """Write what a preset returned to each path, the format taken from the suffix.
 
     ``.png``: the picture (8-bit RGB), or with ``heightmap`` the 2D field as a 16-bit grey PNG
-    scaled from its minimum to its maximum; ``.npy``: the field (float32); ``.obj/.ply/.stl/.glb``:
+    scaled from its minimum to its maximum; ``.npy``: the field (float32; without one, as for the 3D
+    presets, the picture's luminance); ``.obj/.ply/.stl/.glb``:
     the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
 
     All or nothing: every output is first written to a temporary file beside its path, and

@@ -144,7 +144,9 @@ def fractal_grid(
     count: int = 4,
     seed: int = 0,
 ) -> Result:
-    """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8)."""
+    """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8).
+    ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
+    holds every panel's, keyed by ``(alpha, beta)``."""
     cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
     for b in betas:  # every panel's schedule checked before the first grows
         for a in alphas:
@@ -554,7 +556,7 @@ def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: 
     """A "rock": the region of the lattice nearest (in path cost) to a central generator, meshed
     (2007 paper, Fig. 10 and Table 2: 128^3)."""
     shape, neighbours = _shape(shape, 3), _checks.integer("neighbours", neighbours, low=4)
-    smooth = _checks.integer("smooth", smooth, low=0)
+    smooth = _checks.integer("smooth", smooth, low=0, high=1000)  # (rocks look smooth by 10)
     lat, cf = _rock_field(shape, neighbours, seed)
     mesh = _geo.region_mesh(cf.label, 0, smooth=smooth)
     return Result(_geo.preview(mesh, color=_ROCK), None, mesh, parts={"costfield": cf, "lattice": lat})
@@ -591,7 +593,12 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
 
 def moss(shape=(40, 96, 96), *, endpoints: int | None = None, seed: int = 0) -> Result:
     """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15).
-    ``endpoints`` defaults to 400 at the default shape, in proportion to the volume elsewhere."""
+
+    Args:
+        shape: lattice shape (D, H, W).
+        endpoints: number of endpoints (default: 400 at the default shape, in proportion to the volume elsewhere).
+        seed: seed of the weights and the endpoints.
+    """
     shape = _shape(shape, 3)
     d, h, w = shape
     if endpoints is None:

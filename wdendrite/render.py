@@ -97,6 +97,8 @@ class Taper:
             x = _checks.nonnegative(name, value, allow_none=False)
             if x == 0:
                 raise ValueError(f"Expected a positive '{name}' for Taper, but got {value!r}")
+            if name != "beta" and x > 1e30:  # widths are float32
+                raise ValueError(f"Expected '{name}' <= 1e30 for Taper (float32 widths), but got {value!r}")
         _choice("along", self.along, _ALONG)
 
     def widths(self, d: np.ndarray, d_max: np.ndarray) -> np.ndarray:
