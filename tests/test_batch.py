@@ -103,7 +103,7 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     calls = []
 
     def dies_after_five(window):
-        if window == batch.PROBE_WINDOW:  # the setup's check, before any file is made
+        if window[2:] == (1, 1):  # the setup's check, before any file is made
             return value(window)
         if len(calls) == 5:
             raise KeyboardInterrupt  # the run is killed
@@ -115,7 +115,7 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
         batch.write_tiled(dies_after_five, shape, tile, out)
     assert not out.exists()  # nothing half-written under the final name
     seen = []
-    batch.write_tiled(lambda w: w == batch.PROBE_WINDOW or seen.append(w) or value(w), shape, tile, out)
+    batch.write_tiled(lambda w: w[2:] == (1, 1) or seen.append(w) or value(w), shape, tile, out)
     assert len(seen) == len(batch.tile_windows(shape, tile)) - 5 and not set(seen) & set(calls)
     assert np.array_equal(np.load(out), value((0, 0, *shape)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.npy"]
@@ -124,7 +124,7 @@ def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         batch.write_tiled(dies_after_five, shape, tile, out, key="levels=2")
     seen.clear()
-    batch.write_tiled(lambda w: (w == batch.PROBE_WINDOW or seen.append(w) or True) and value(w) + 1, shape, tile,
+    batch.write_tiled(lambda w: (w[2:] == (1, 1) or seen.append(w) or True) and value(w) + 1, shape, tile,
                       out, key="levels=3")
     assert len(seen) == len(batch.tile_windows(shape, tile))
     assert np.array_equal(np.load(out), value((0, 0, *shape)) + 1)
@@ -143,7 +143,7 @@ def test_a_tiled_task_resumes_only_tiles_of_the_same_kind_of_device(tmp_path, mo
     calls, dies = [], [True]
 
     def tile(window, *, setup, output, device):
-        if window == batch.PROBE_WINDOW:
+        if window[2:] == (1, 1):
             return np.zeros((1, 1), np.float32)
         if dies[0] and len(calls) == 3:
             raise KeyboardInterrupt  # the run is killed after three tiles

@@ -410,8 +410,10 @@ def test_huge_but_valid_values_run(tmp_path, monkeypatch):
 
 def test_a_tiled_terrain_refused_by_its_tiles_leaves_nothing(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["terrain", "--size", "64", "--tile", "16", "--extent", "1e30", "-o", "big.npy", "--quiet"]) == 2
-    assert not list(tmp_path.iterdir())  # no hidden partial file, no tile marks
+    for extent in ("1e30", "270000"):  # refused at every pixel; refused only far from the origin
+        assert cli.main(["terrain", "--size", "64", "--tile", "16", "--extent", extent, "-o", "big.npy",
+                         "--quiet"]) == 2
+        assert not list(tmp_path.iterdir())  # no hidden partial file, no tile marks
 
 
 def test_a_reader_that_goes_away_does_not_make_a_finished_run_fail(tmp_path):

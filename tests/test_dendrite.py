@@ -302,6 +302,15 @@ def test_weights_beyond_float32_resolution_still_trace_every_endpoint(weights):
         assert den.cost[up] <= den.cost[row]
 
 
+def test_plateaus_are_crossed_alike_with_weights_not_stored():
+    dist = wd.weights.Polynomial(n=8, seed=0)
+    ends = wd.endpoints.random((60, 60), 12, seed=1, min_spacing=6)
+    dens = [wd.trace(wd.shortest_paths(wd.Lattice((60, 60), 8, weights=dist, store_weights=s), [[30, 30]]), ends)
+            for s in (True, False)]
+    for f in ("nodes", "parent", "cost", "label"):
+        np.testing.assert_array_equal(getattr(dens[0], f), getattr(dens[1], f))
+
+
 def test_a_plateau_whose_way_down_lies_toward_higher_indices_is_crossed(device):
     # edge (0,0)-(0,1) weighs 1e-6, nothing next to 1e6: both nodes cost 1e6 with the generator on either side
     w = np.ones((2, 1, 3), np.float32)

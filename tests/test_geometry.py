@@ -341,6 +341,16 @@ def test_tubes_stay_closed_once_welded_as_stl_does(tmp_path, joints):
         assert back.is_watertight
 
 
+def test_a_straight_run_through_a_fork_welds_closed():
+    # node 1 continues 0-1-2 straight on and also has a side branch: the straight run is still one tube
+    import trimesh
+
+    den = wd.Dendrite.from_arrays((8, 8, 8), [[1, 4, 4], [2, 4, 4], [3, 4, 4], [2, 5, 4]], [-1, 0, 1, 1])
+    mesh = tubes(den, 0.3, joints=False, sides=8)
+    welded = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
+    assert welded.is_watertight and len(mesh.split(only_watertight=False)) == 2
+
+
 def test_a_single_straight_chain_is_one_closed_tube():
     den = wd.Dendrite.from_arrays((8, 8, 8), [[1, 4, 4], [2, 4, 4], [3, 4, 4]], [-1, 0, 1])
     mesh = tubes(den, 1.0, joints=False, sides=8)

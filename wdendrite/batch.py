@@ -46,7 +46,8 @@ import numpy as np
 
 from ._spec import UsageError, all_presets, nearest, read_toml, resolve
 
-__all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "run_file", "run_task", "run_tiled", "tile_windows",
+__all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "probe_windows", "run_file", "run_task", "run_tiled",
+           "tile_windows",
            "need_zarr", "tiled_array", "worker_device", "write_tiled"]
 
 _TOP_KEYS = ("out", "device", "formats", "job")
@@ -451,8 +452,12 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
     return partial, marks
 
 
-PROBE_WINDOW = (0, 0, 1, 1)
-"""The window :func:`write_tiled` computes first, to check the setup before it makes any file."""
+def probe_windows(shape) -> list[tuple[int, int, int, int]]:
+    """The one-pixel windows at the image's corners, which :func:`write_tiled` computes first to check
+    the setup before it makes any file (a domain's largest coordinates lie at its corners)."""
+    h, w = shape
+    return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
+
 
 
 def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "") -> Path:
@@ -473,12 +478,14 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
 
     Raises:
-        whatever ``tile_fn`` raises; computed here, it is first tried on one pixel, so that a
-        setup it refuses fails before the partial file is made.
+        whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
+        pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial file
+        is made.
     """
     final = Path(path)
     if client is None:
-        tile_fn(PROBE_WINDOW)  # one pixel first: a setup the tiles refuse leaves no partial file behind
+        for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
+            tile_fn(window)
     partial, marks = _open_partial(final, shape, tile, key)
     target = _Target(partial, marks)
     windows = tile_windows(shape, tile)

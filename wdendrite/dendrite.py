@@ -260,11 +260,12 @@ def _plateau_hops(costfield: CostField, old: np.ndarray, padded_shape) -> np.nda
     if len(old):
         out[tuple(coords_of_padded(old, shape).T)] = True
     tails, heads = [], []
+    weights = lattice.weights  # (sampled once for a lattice that does not store them)
     for k, off in enumerate(lattice.offsets):
         # edge a -> b = a + off, its weight stored at a
         a = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, shape))
         b = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, shape))
-        da, db, w = dist[a], dist[b], lattice.weights[k][a]
+        da, db, w = dist[a], dist[b], weights[k][a]
         with np.errstate(invalid="ignore", over="ignore"):
             reach_b, reach_a = da + w, db + w  # float32 sums, as the kernels make them
         out[b] |= (da < db) & (reach_b == db)
@@ -279,9 +280,11 @@ def _plateau_hops(costfield: CostField, old: np.ndarray, padded_shape) -> np.nda
         graph = coo_matrix((np.ones(len(tails)), (tails, heads)), shape=(n, n)).tocsr()
         steps = dijkstra(graph, directed=False, indices=sources, min_only=True, unweighted=True)
         hops = np.where(np.isfinite(steps), steps, -10).astype(np.int64)
-    padded = np.full(int(np.prod(padded_shape)), -10, np.int32)
-    padded[lattice.padded_indices(np.argwhere(np.ones(shape, bool)))] = hops
-    return padded
+    padded = np.full(tuple(padded_shape), -10, np.int32)
+    pad = [(p - n) // 2 for p, n in zip(padded_shape, (1,) * (3 - lattice.ndim) + shape)]
+    inner = tuple(slice(p, n - p) for p, n in zip(pad, padded_shape))
+    padded[inner] = hops.reshape((1,) * (3 - lattice.ndim) + shape)
+    return padded.ravel()
 
 
 def trace(

@@ -144,7 +144,10 @@ def tubes(
     parent's; edges continuing in a straight line share their rings, so a
     straight run is one closed tube, and other edges are capped at both ends.
     With ``joints`` a low-resolution sphere fills each node so bends look round
-    (the spheres and tubes overlap: closed pieces, not one solid).
+    (the spheres and tubes overlap: closed pieces, not one solid). Caps of
+    different edges meet at their node, and may share points there: a loader
+    that welds vertices (STL always does) can find edges of more than two
+    faces at bends and forks; straight runs weld cleanly.
 
     Args:
         dendrite: a non-empty 3D dendrite.
@@ -176,8 +179,8 @@ def tubes(
 
 
 def _straight_runs_joined(den: Dendrite, child: np.ndarray, verts: np.ndarray, faces: np.ndarray, sides: int):
-    """Join the frustums of :func:`_frustums` (edge ``e`` from ``child[e]`` to its parent) where a node
-    continues its only child's edge in the same direction: both caps there go, and the upper frustum
+    """Join the frustums of :func:`_frustums` (edge ``e`` from ``child[e]`` to its parent) where a node's
+    edge continues a child's edge in the same direction: both caps there go, and the upper frustum
     takes the lower one's end ring (the same points: the same centre, radius and frame). A straight
     run is then one closed tube; caps met head on had made an edge of four faces once welded (STL)."""
     per = 2 * sides + 2
@@ -187,11 +190,12 @@ def _straight_runs_joined(den: Dendrite, child: np.ndarray, verts: np.ndarray, f
     edge_of[child] = np.arange(len(child))
     # edge e -> the edge of its child below, where that child is its parent's only one
     below = np.full(len(child), -1, np.int64)
-    only = child[n_children[den.parent[child]] == 1]  # nodes that are their parent's only child
-    only = only[edge_of[den.parent[only]] >= 0]  # ... whose parent has an edge too (not a root)
-    below[edge_of[den.parent[only]]] = edge_of[only]
+    # the child (if any) whose edge its parent's edge continues straight on, siblings or not: at most
+    # one child lies straight below a node
+    lined = child[edge_of[den.parent[child]] >= 0]  # children whose parent has an edge too (not a root)
+    lined = lined[np.all(step[edge_of[lined]] == step[edge_of[den.parent[lined]]], axis=1)]
+    below[edge_of[den.parent[lined]]] = edge_of[lined]
     straight = below >= 0
-    straight[straight] = np.all(step[straight] == step[below[straight]], axis=1)
     # faces of each frustum: sides x 2 wall, then sides of the end cap, then sides of the start cap
     group = np.repeat(np.arange(4), sides)
     keep = np.ones((len(child), 4 * sides), bool)
