@@ -424,3 +424,13 @@ def test_a_reader_that_goes_away_does_not_make_a_finished_run_fail(tmp_path):
                                       "-o g.png --quiet | true"], cwd=tmp_path, capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 0, p.stderr
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "2.5"])
+def test_a_bad_integer_for_a_common_option_is_one_line(value, capsys):
+    for option in ("--size", "--seed"):
+        with pytest.raises(SystemExit) as exc:
+            cli.main(["fractal", option, value])
+        err = capsys.readouterr().err.strip()
+        assert exc.value.code == 2 and len(err.splitlines()) == 1, err
+        assert f"argument {option}: invalid int value: '{value}'" in err and "--help" in err

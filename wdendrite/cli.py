@@ -280,15 +280,15 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that suggests the nearest name for an unknown subcommand or choice."""
+    """argparse that suggests the nearest name for an unknown subcommand or choice, in one line
+    (the usage block is left to ``--help``)."""
 
     def error(self, message):
         m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if m:
             choices = re.findall(r"'([^']*)'", m.group(2))
             message += nearest(m.group(1), choices)
-        self.print_usage(sys.stderr)
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _add_common(p, preset) -> None:
