@@ -171,10 +171,14 @@ def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -
 def _need(result, attr: str, preset: str):
     value = getattr(result, attr, None)
     if value is None:
-        raise UsageError(f"preset {preset!r} makes no {attr}; write a .png or .npy"
-                         + (", or a mesh (.obj, .ply, .stl, .glb)" if getattr(result, "mesh", None) is not None
-                            else "") + " instead")
+        raise _makes_no(preset, attr, getattr(result, "mesh", None) is not None)
     return value
+
+
+def _makes_no(preset: str, what: str, meshes: bool) -> UsageError:
+    """The error for an output a preset cannot make, naming the outputs it can."""
+    return UsageError(f"preset {preset!r} makes no {what}; write .png or .npy"
+                      + (", or a mesh (.obj, .ply, .stl, .glb)" if meshes else "") + " instead")
 
 
 def _picture(result) -> np.ndarray:
@@ -248,8 +252,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
         if p.suffix.lower() in MESH and not preset.meshes:
             raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write .png, .npy, .npz, .json or .svg")
         if p.suffix.lower() in DENDRITE + SVG and not preset.dendrite:
-            raise UsageError(f"preset {name!r} makes no dendrite; write .png or .npy"
-                             + (", or a mesh (.obj, .ply, .stl, .glb)" if preset.meshes else "") + " instead")
+            raise _makes_no(name, "dendrite", preset.meshes)
         if p.suffix.lower() in SVG and preset.meshes:
             raise UsageError(f"preset {name!r} makes a 3D dendrite, which SVG cannot draw; "
                              "write .png, .obj, .ply, .stl, .glb, .npz or .json")

@@ -11,7 +11,7 @@ import warp as wp
 
 from . import _checks
 from .kernels import dendrite as _kd
-from .lattice import coords_of_padded, padded_index_of
+from .lattice import coords_of_padded, edge_slices, padded_index_of
 from .sssp import CostField, load_state, read_states
 
 __all__ = ["Dendrite", "trace"]
@@ -262,9 +262,7 @@ def _plateau_hops(costfield: CostField, old: np.ndarray, padded_shape) -> np.nda
     tails, heads = [], []
     weights = lattice.weights  # (sampled once for a lattice that does not store them)
     for k, off in enumerate(lattice.offsets):
-        # edge a -> b = a + off, its weight stored at a
-        a = tuple(slice(max(0, -o), s - max(0, o)) for o, s in zip(off, shape))
-        b = tuple(slice(max(0, o), s - max(0, -o)) for o, s in zip(off, shape))
+        a, b = edge_slices(off, shape)  # edge a -> b = a + off, its weight stored at a
         da, db, w = dist[a], dist[b], weights[k][a]
         with np.errstate(invalid="ignore", over="ignore"):
             reach_b, reach_a = da + w, db + w  # float32 sums, as the kernels make them
@@ -424,7 +422,8 @@ def trace(
                 if not (held.all() and np.array_equal(all_padded[at], linked)):
                     claim_zero = False
                     continue
-            if hops is None and status.numpy().any():
+            stuck = np.flatnonzero(status.numpy() != 0)
+            if hops is None and len(stuck):
                 # walks stuck on a plateau of equal words whose way out lies toward higher indices:
                 # walk again, stepping across plateaus toward their ways out
                 hops = wp.array(_plateau_hops(costfield, old, arrays.padded_shape), dtype=wp.int32)
@@ -435,7 +434,6 @@ def trace(
         cost = new_cost[:n_new].numpy()[order]
         label = _path_labels(new_label[:n_new].numpy()[order], new_parent,
                              np.zeros(0, np.int32) if extend is None else extend.label)
-    stuck = np.flatnonzero(status.numpy() != 0)
     if len(stuck):
         row = int(stuck[0])
         dist = costfield.dist

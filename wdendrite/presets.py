@@ -247,13 +247,11 @@ def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
 def _text_mask(text: str, height: int) -> np.ndarray:
     from PIL import Image, ImageDraw, ImageFont
 
-    try:
-        font = ImageFont.load_default(size=max(8, int(height * 0.8)))
-    except TypeError:  # Pillow without FreeType: the small bitmap font, scaled up below
-        font = ImageFont.load_default()
-    except OSError as exc:  # a size FreeType refuses
-        raise ValueError(f"'height' = {height} is too large for Pillow to draw 'text' {text!r}: {exc}") from None
-    try:
+    try:  # (a size FreeType refuses, or an image Pillow will not make, is reported against 'height')
+        try:
+            font = ImageFont.load_default(size=max(8, int(height * 0.8)))
+        except TypeError:  # Pillow without FreeType: the small bitmap font, scaled up below
+            font = ImageFont.load_default()
         left, top, right, bottom = ImageDraw.Draw(Image.new("L", (1, 1))).textbbox((0, 0), text, font=font)
         img = Image.new("L", (right - left + 8, bottom - top + 8), 0)
         ImageDraw.Draw(img).text((4 - left, 4 - top), text, fill=255, font=font)
@@ -347,11 +345,8 @@ def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed, name: str) -> 
     free[tuple(stroke.nodes.T)] = False
     near = ndimage.distance_transform_edt(free) < 0.22 * w
     near[: h // 5] = False
-    try:
-        return _ep.biased(lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near,
-                          min_spacing=0.04 * min(h, w))
-    except _ep.TooManyEndpoints as exc:  # too many for the room near the stroke: say which parameter asked
-        raise ValueError(f"'{name}' = {count} is more than fit near the main stroke of a {h} x {w} picture: {exc}") from None
+    return _endpoints_in(name, count, "near the main stroke of", lat.shape, lambda: _ep.biased(
+        lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near, min_spacing=0.04 * min(h, w)))
 
 
 def _sky(shape) -> np.ndarray:
