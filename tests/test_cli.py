@@ -1,6 +1,7 @@
 """The `wdendrite` command, run as a real subprocess (exit codes, messages, files), plus its registry."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -64,7 +65,9 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
             assert "--" + prm.name.replace("_", "-") in text, (name, prm.name)
             assert "(default:" in text
         if preset.size_param:
-            assert "--size" in text and "[nodes]" in text
+            # a picture's side is in pixels, a lattice's in nodes
+            unit = "pixels" if name in ("dendry", "terrain") else "nodes"
+            assert re.search(r"--size N largest side; sets '\w+' \(default: \d+\) \[" + unit + r"\]", text), (name, text)
 
 
 def test_formats_from_the_suffix(tmp_path):
@@ -424,6 +427,14 @@ def test_a_reader_that_goes_away_does_not_make_a_finished_run_fail(tmp_path):
                                       "-o g.png --quiet | true"], cwd=tmp_path, capture_output=True, text=True,
                        timeout=120)
     assert p.returncode == 0, p.stderr
+
+
+def test_a_run_with_stdout_and_stderr_closed_finishes(tmp_path):
+    # Python then has no sys.stderr: the progress bar (shown after half a second) must stay off,
+    # it had failed inside tqdm's lock and hung the run
+    p = subprocess.run(["bash", "-c", f"{sys.executable} -m wdendrite.cli terrain --size 256 -o t.png >&- 2>&-"],
+                       cwd=tmp_path, timeout=120)
+    assert p.returncode == 0 and (tmp_path / "t.png").exists()
 
 
 @pytest.mark.parametrize("value", ["nan", "inf", "2.5"])

@@ -137,6 +137,8 @@ def test_coral_is_refined():
         (lambda: LightningParams(glow_radius=0), "glow_radius"),
         (lambda: LightningParams(minor_gain=2.0), "minor_gain"),
         (lambda: LightningParams(main_width=-1.0), "main_width"),
+        # the weights' bound in the preset's own words: it has an 'alpha' but no 'max'
+        (lambda: LightningParams(alpha=1e30), r"^'alpha' of the lightning's power weights .* got 1e\+30$"),
         (lambda: presets.letters(mask=np.zeros((10, 10), bool)), "non-empty"),
         # more forks than fit near the stroke: the parameter is named, not the endpoints' 'count'
         (lambda: presets.lightning((64, 64), params=LightningParams(forks=5000, minor_forks=0)), "'forks' = 5000"),

@@ -250,3 +250,4 @@ MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terra
 
 
 costs.makes_dendrite = dendry.makes_dendrite = terrain.makes_dendrite = False  # (checked before they run)
+dendry.units = terrain.units = {"size": "pixels"}  # (shown in --help; the table says nodes)

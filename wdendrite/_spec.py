@@ -82,6 +82,20 @@ def nearest(word: str, names) -> str:
 # --------------------------------------------------------------------------- parameters
 
 
+def progress_bar(desc: str, *, quiet: bool, total: int | None = None, leave: bool = True, delay: float = 0.0):
+    """A tqdm bar on stderr, off when ``quiet`` or when the process has no stderr (closed at start:
+    tqdm would fail inside its lock and hang the run)."""
+    from tqdm.auto import tqdm
+
+    kw = dict(total=total, desc=desc, disable=bool(quiet) or sys.stderr is None, leave=leave, file=sys.stderr)
+    if delay:
+        try:
+            return tqdm(**kw, delay=delay)
+        except TypeError:  # tqdm < 4.62 has no delay
+            pass
+    return tqdm(**kw)
+
+
 def _fmt(v) -> str:
     if dataclasses.is_dataclass(v) and not isinstance(v, type):
         return _fmt(tuple(getattr(v, f.name) for f in dataclasses.fields(v)))
@@ -109,10 +123,14 @@ class Param:
     """Help line from the docstring."""
     group: str | None = None
     """The dataclass parameter this field belongs to (None: a plain parameter)."""
+    own_unit: str | None = None
+    """Unit the preset's function names for this parameter (its ``units`` attribute), else None."""
 
     @property
     def unit(self) -> str:
         """Unit shown in the help (empty when dimensionless or not a quantity)."""
+        if self.own_unit is not None:
+            return self.own_unit
         if self.name in UNITS:
             return UNITS[self.name]
         return "count" if self.kind in ("int", "ints", "int?") else ""
@@ -362,6 +380,9 @@ def make_preset(name: str, func) -> Preset:
             p.fixed.append(prm.name)
             continue
         p.params[prm.name] = Param(prm.name, prm.default, kind, choices, docs.get(prm.name) or DOCS.get(prm.name, ""))
+    for pname, unit in getattr(func, "units", {}).items():
+        if pname in p.params:
+            p.params[pname].own_unit = unit
     p.size_param = next((n for n in SIZE_NAMES if n in p.params), None)
     shape = p.params.get("shape")
     p.meshes = bool(shape and isinstance(shape.default, tuple) and len(shape.default) == 3)

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._spec import UsageError, all_presets, nearest, read_toml, resolve
+from ._spec import UsageError, all_presets, nearest, progress_bar, read_toml, resolve
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "probe_windows", "run_file", "run_task", "run_tiled",
            "tile_windows",
@@ -597,8 +597,6 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     Raises:
         UsageError: a bad job file, an unwritable folder, an unreachable scheduler (before any task runs).
     """
-    from tqdm.auto import tqdm
-
     from .cli import check_device_name, pick_device
 
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
@@ -637,7 +635,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
                 shutil.rmtree(settings["out"], ignore_errors=True)
             raise
     failed = []
-    bar = tqdm(total=len(todo), desc="batch", disable=quiet, file=sys.stderr)
+    bar = progress_bar("batch", quiet=quiet, total=len(todo))
     try:
         plain = [t for t in todo if t.tile is None]
         if client is None:
@@ -652,7 +650,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
                 _attempt(fut.result, futures[fut], failed)
                 bar.update(1)
         for t in (t for t in todo if t.tile is not None):
-            with tqdm(desc=f"{t.name} tiles", disable=quiet, file=sys.stderr, leave=False) as tiles:
+            with progress_bar(f"{t.name} tiles", quiet=quiet, leave=False) as tiles:
                 def tick(done, total, tiles=tiles):
                     tiles.total = total
                     tiles.n = done

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs and notebooks use them
-from ._spec import UsageError, all_presets, nearest, parse_config, resolve
+from ._spec import UsageError, all_presets, nearest, parse_config, progress_bar, resolve
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
@@ -206,12 +206,8 @@ class _Ticker:
     """A tqdm bar whose clock keeps moving while one long call runs."""
 
     def __init__(self, total: int, desc: str, quiet: bool):
-        from tqdm.auto import tqdm
-
-        try:  # shown only for work that takes more than a moment
-            self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr, delay=0.5)
-        except TypeError:  # tqdm < 4.62 has no delay
-            self.bar = tqdm(total=total, desc=desc, disable=quiet, leave=False, file=sys.stderr)
+        # shown only for work that takes more than a moment
+        self.bar = progress_bar(desc, quiet=quiet, total=total, leave=False, delay=0.5)
         self._stop = None
 
     def __enter__(self):
@@ -299,8 +295,8 @@ def _add_common(p, preset) -> None:
     if preset.size_param:
         sp = preset.params[preset.size_param]
         g.add_argument("--size", type=int, default=argparse.SUPPRESS, metavar="N",
-                       help=f"largest side in nodes/pixels; sets '{preset.size_param}' "
-                            f"(default: {preset.default_size}) [nodes]" if sp else "")
+                       help=f"largest side; sets '{preset.size_param}' "
+                            f"(default: {preset.default_size}) [{sp.unit}]" if sp else "")
     if "seed" in preset.params:
         g.add_argument("--seed", type=int, default=argparse.SUPPRESS, metavar="INT",
                        help=f"random seed (default: {preset.params['seed'].default})")
@@ -470,8 +466,6 @@ def main(argv=None) -> int:
 
 def _tiled(preset, values: dict, outs: list, args) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
-    from tqdm.auto import tqdm
-
     from .batch import Task, need_zarr, run_tiled
 
     if isinstance(args.tile, bool) or args.tile < 8:
@@ -481,8 +475,7 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
     need_zarr(paths)
     _, full = resolve(preset, values)
     task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)
-    with tqdm(desc=f"{preset.name} tiles", disable=getattr(args, "quiet", False), file=sys.stderr,
-              leave=False) as bar:
+    with progress_bar(f"{preset.name} tiles", quiet=getattr(args, "quiet", False), leave=False) as bar:
         def tick(done, total):
             bar.total, bar.n = total, done
             bar.refresh()

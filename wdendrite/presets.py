@@ -322,6 +322,12 @@ class LightningParams:
 
     def __post_init__(self):
         _checks.positive("alpha", self.alpha)
+        try:  # the weights' own check, in this preset's words (it has no 'max')
+            _w.Power(alpha=self.alpha)
+        except ValueError:
+            raise ValueError(f"'alpha' of the lightning's power weights must keep 11**alpha below "
+                             f"{_w._MAX_WEIGHT:g} (alpha < {math.log(_w._MAX_WEIGHT) / math.log(11.0):.4g}), "
+                             f"but got {self.alpha!r}") from None
         _checks.integer("forks", self.forks, low=0)
         _checks.integer("minor_forks", self.minor_forks, low=0)
         for name in ("main_width", "fork_width", "minor_width"):
