@@ -82,6 +82,17 @@ def test_no_depressions_on_a_plane_or_a_dome():
     assert hydrology.depressions(-((rows - 10) ** 2) - (cols - 15) ** 2.0).count == 0
 
 
+def _areas(rec, shape):
+    """Drainage areas of receivers ``rec`` ({cell: next cell or None}), walking each cell's path."""
+    area = np.zeros(shape)
+    for start in rec:
+        cell = start
+        while cell is not None:
+            area[cell] += 1
+            cell = rec[cell]
+    return area
+
+
 def _d8_reference(z):
     h, w = z.shape
     rec = {}
@@ -96,13 +107,7 @@ def _d8_reference(z):
                         if s > best:
                             best, to = s, (rr, cc)
             rec[(r, c)] = to
-    area = np.zeros(z.shape)
-    for start in rec:
-        cell = start
-        while cell is not None:
-            area[cell] += 1
-            cell = rec[cell]
-    return area, rec
+    return _areas(rec, z.shape), rec
 
 
 def test_d8_accumulation_equals_brute_force_and_conserves_area():
@@ -187,7 +192,8 @@ def test_accumulation_on_degenerate_grids(method):
     pit = np.full((3, 3), 2.0)
     pit[1, 1] = 1.0
     np.testing.assert_array_equal(acc(pit), [[1, 1, 1], [1, 9, 1], [1, 1, 1]])
-    np.testing.assert_array_equal(acc(pit, filled=True), np.ones((3, 3)))  # the fill makes it a flat
+    # the fill makes the centre a flat, drained to its nearest border cell (a side, the first one)
+    np.testing.assert_array_equal(acc(pit, filled=True), [[1, 2, 1], [1, 1, 1], [1, 1, 1]])
     # a long chain (a snake down a 1 x N ramp): the walk reaches every cell once
     n = 100_000
     np.testing.assert_array_equal(acc(-np.arange(n, dtype=float)[None]), np.arange(1, n + 1)[None])
@@ -205,23 +211,60 @@ def test_accumulation_refuses_too_many_cells_before_copying(launches):
     assert launches == []
 
 
-def test_d8_on_the_filled_surface_equals_brute_force_routing_after_a_priority_flood():
-    rng = np.random.default_rng(4)
-    z = rng.random((14, 17))
+def _drained_flats_reference(surface, rec):
+    """Receivers for the interior cells of ``rec`` (a D8 reference's) that have none: a plain
+    heap Dijkstra over same-height neighbours (steps 2, diagonals 3) from the cells that drain
+    or lie on the border, then the first neighbour in row-major order one step nearer."""
+    h, w = surface.shape
+    lost = {k for k, to in rec.items() if to is None and 0 < k[0] < h - 1 and 0 < k[1] < w - 1}
+    steps = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    near = lambda k: [((k[0] + dr, k[1] + dc), 3 if dr and dc else 2) for dr, dc in steps  # noqa: E731
+                      if 0 <= k[0] + dr < h and 0 <= k[1] + dc < w and surface[k[0] + dr, k[1] + dc] == surface[k]]
+    dist = {}
+    heap = [(0, k) for k in rec if k not in lost and any(n in lost for n, _ in near(k))]
+    while heap:
+        d, k = heapq.heappop(heap)
+        if k in dist:
+            continue
+        dist[k] = d
+        heap += [(d + s, n) for n, s in near(k) if n in lost and n not in dist]
+        heapq.heapify(heap)
+    out = dict(rec)
+    for k in lost & dist.keys():
+        out[k] = next(n for n, s in near(k) if n in dist and dist[n] + s == dist[k])
+    return out
+
+
+@pytest.mark.parametrize("make", [lambda rng: rng.random((14, 17)),
+                                  lambda rng: rng.integers(0, 4, (15, 13)).astype(float),  # natural flats too
+                                  lambda rng: hydrology.fbm_terrain((24, 30), seed=2).astype(float)])
+def test_filled_d8_equals_brute_force_priority_flood_and_flat_draining(make):
+    z = make(np.random.default_rng(4))
     area = hydrology.flow_accumulation(z, filled=True)
     surface = _priority_flood(z)
-    want, rec = _d8_reference(surface)
-    np.testing.assert_array_equal(area, want)
-    # filling changes the routing (pits become flats at their spill level), so the test sees the fill
+    _, rec = _d8_reference(surface)
+    rec = _drained_flats_reference(surface, rec)
+    np.testing.assert_array_equal(area, _areas(rec, z.shape))
+    # filling changes the routing, so the test sees the fill
     assert not np.array_equal(area, hydrology.flow_accumulation(z))
-    # the area still ends somewhere, now only on the border or on the flats the fill made
+    # every cell's area now ends on the border (the fill's promise), nowhere inside
+    h, w = z.shape
     ends = [(r, c) for (r, c), to in rec.items() if to is None]
+    assert all(r in (0, h - 1) or c in (0, w - 1) for r, c in ends)
     assert sum(area[e] for e in ends) == z.size
-    for r, c in ends:
-        border = r in (0, 13) or c in (0, 16)
-        flat = any(surface[r + dr, c + dc] == surface[r, c] for dr in (-1, 0, 1) for dc in (-1, 0, 1)
-                   if (dr or dc) and 0 <= r + dr < 14 and 0 <= c + dc < 17)
-        assert border or flat, (r, c)
+    # D-infinity drains the same flats the same way: its area ends in the same cells
+    dinf = hydrology.flow_accumulation(z, method="dinf", filled=True)
+    assert np.isclose(sum(dinf[e] for e in ends), z.size)
+
+
+def test_a_filled_basin_drains_through_its_outlet():
+    # the review's case: a pit whose fill makes a flat of eight cells, spilling east at (2, 3)
+    z = np.array([[5, 5, 5, 5, 5], [5, 2, 2, 2, 5], [5, 2, 1, 2, 0], [5, 2, 2, 2, 5], [5, 5, 5, 5, 5]], float)
+    for method in ("d8", "dinf"):
+        area = hydrology.flow_accumulation(z, method=method, filled=True)
+        assert area[2, 4] == z.size, method  # everything, the border's 5s included, leaves there
+        # the flat's cells pass their areas towards the outlet, not among themselves in a loop
+        np.testing.assert_array_equal(area[1:4, 1:4], [[4, 6, 9], [2, 3, 4], [4, 6, 9]])
 
 
 def test_dinf_splits_flow_by_angle_and_conserves_area():

@@ -94,6 +94,13 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     Cells without a downslope direction (pits, flats, cells against the border's lowest
     side) keep their area; the areas of those end cells sum to the number of cells.
 
+    With ``filled=True`` the depressions are filled first and the flats (those the fill makes
+    and any others) are then drained: every interior cell of a flat passes its area to a
+    neighbour of the same height one step nearer to where the flat drains (a neighbour of it
+    that has a way down, or the border), distances in steps of 2 (sides) and 3 (diagonals),
+    the first in row-major order among equals; one receiver each, for D-infinity too. All the
+    area then ends on the border.
+
     Runs on Warp's CPU device whatever the default device: the receivers are found one
     thread per cell, then one thread walks the flow graph, visiting each cell once after all
     its donors (about 0.1 s per million cells for D8; no sort).
@@ -101,7 +108,7 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     Args:
         elevation: (H, W) real array.
         method: ``"d8"`` or ``"dinf"``.
-        filled: fill the depressions first (flow then reaches the border except on flats).
+        filled: fill the depressions first and drain the flats (flow then reaches the border).
 
     Returns:
         (H, W) float64 array of areas in cells.
@@ -124,7 +131,8 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     two = method == "dinf"
     # bytes per cell: the float64 elevations (read in place), receivers (and shares),
     # donors, stack, areas and the returned array
-    _checks.fits_in_memory(cells * (8 + 4 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0)), "cpu",
+    # (and with ``filled``, the fill's copies and the flats' distances)
+    _checks.fits_in_memory(cells * (8 + 4 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0) + (24 if filled else 0)), "cpu",
                            f"flow_accumulation of {cells} cells")
     z = _elevation("elevation", elevation)
     if filled:
@@ -138,10 +146,68 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
             wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
         else:
             wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors])
+        if filled:  # arrays on the CPU device: their NumPy views write through
+            _drain_flats(z, rec.numpy(), frac.numpy() if two else None, donors.numpy())
         area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64)
         wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int)],
                   outputs=[area])
         return area.numpy().reshape(z.shape)
+
+
+_STEPS = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]  # row-major, as the kernels
+
+
+def _drain_flats(z: np.ndarray, rec: np.ndarray, frac: np.ndarray | None, donors: np.ndarray) -> None:
+    """Give every interior cell without a receiver, on a flat that drains, the neighbour of its
+    height one step nearer the flat's way out (see :func:`flow_accumulation`); in place.
+
+    ``rec``: (k, N) receivers (-1: none), ``frac``: (k, N) shares or None, ``donors``: (N,) counts.
+    The distances are integers (steps 2 and 3), so a bucket queue (Dial's algorithm) finds them
+    in one pass over the flats' cells, a bucket at a time.
+    """
+    h, w = z.shape
+    n = z.size
+    zf = z.ravel()
+    lost = rec[0] < 0
+    lost.reshape(h, w)[[0, -1], :] = False  # the border is where water leaves
+    lost.reshape(h, w)[:, [0, -1]] = False
+    cells = np.flatnonzero(lost)
+    if cells.size == 0:
+        return
+    # interior cells: all 8 neighbours exist, at these flat offsets
+    steps = [(dr * w + dc, 3 if dr and dc else 2) for dr, dc in _STEPS]
+    far = np.iinfo(np.int64).max
+    dist = np.full(n, far, dtype=np.int64)
+    starts = np.unique(np.concatenate([
+        (cells + off)[~lost[cells + off] & (zf[cells + off] == zf[cells])] for off, _ in steps]))
+    dist[starts] = 0
+    buckets = {0: [starts]}
+    d = 0
+    while buckets:
+        now = buckets.pop(d, None)
+        if now is not None:
+            now = np.concatenate(now)
+            now = now[dist[now] == d]  # entries a nearer bucket has since improved are stale
+            for off, step in steps:
+                nb = now + off
+                ok = (nb >= 0) & (nb < n)  # border cells' offsets may leave the grid or wrap to
+                nb, src = nb[ok], now[ok]  # the other side's border, which is never lost
+                nb = nb[lost[nb] & (zf[nb] == zf[src]) & (dist[nb] > d + step)]
+                if nb.size:
+                    dist[nb] = d + step
+                    buckets.setdefault(d + step, []).append(nb)
+        d += 1
+    cells = cells[dist[cells] < far]
+    to = np.full(cells.size, -1, dtype=rec.dtype)
+    for off, step in steps:  # the first neighbour in row-major order one step nearer
+        nb = cells + off
+        pick = (to < 0) & (zf[nb] == zf[cells]) & (dist[nb] == dist[cells] - step)
+        to[pick] = nb[pick]
+    rec[:, cells] = to
+    if frac is not None:
+        frac[0, cells] = 1.0
+        frac[1, cells] = 0.0
+    np.add.at(donors, to, 1)
 
 
 def drainage_image(area) -> np.ndarray:
