@@ -53,7 +53,7 @@ def splat_distance_kernel(
     # larger radius reaches every cell, and the loops stay within the image (and int32)
     reach = wp.min(radius, float(shape[0] + shape[1] + shape[2]))
     r = int(wp.floor(reach))
-    r2 = reach * reach
+    r2 = wp.float64(reach) * wp.float64(reach)  # exact, as are the integer squares taken from it
     z0 = wp.max(c[0] - r, 0)
     z1 = wp.min(c[0] + r, shape[0] - 1)
     # (while loops and nonneg indices: see kernels/indexing.py; 0.4x the time of range() loops)
@@ -65,10 +65,11 @@ def splat_distance_kernel(
         while dy_i <= dy_last:
             y = c[1] + dy_i
             dy = float(dy_i)
-            rest = r2 - dz * dz - dy * dy
-            if rest >= 0.0:
-                # only the columns inside the disc of this row
-                half = int(wp.floor(wp.sqrt(rest)))
+            rest = r2 - wp.float64(dz) * wp.float64(dz) - wp.float64(dy) * wp.float64(dy)
+            if rest >= wp.float64(-1.0):
+                # only the columns inside the disc of this row, and one more each side: the test
+                # below compares float32 distances, which may round onto the radius from outside
+                half = int(wp.floor(wp.sqrt(wp.max(rest, wp.float64(0.0))))) + 1
                 x0 = wp.max(c[2] - half, 0)
                 x1 = wp.min(c[2] + half, shape[2] - 1)
                 base = (z * shape[1] + y) * shape[2]

@@ -331,7 +331,9 @@ def test_dendry_terrain_drains_better_than_fbm(device):
     assert ours.percent < theirs.percent and ours.count < theirs.count
 
 
-@pytest.mark.parametrize("bad", [np.zeros((0, 3)), np.zeros(5), np.array([[1.0, np.nan]]), np.array([["x"]])])
+@pytest.mark.parametrize("bad", [np.zeros((0, 3)), np.zeros(5), np.array([[1.0, np.nan]]), np.array([["x"]]),
+                                 # integers float64 cannot tell apart: a pit of 1 in 2**62 had counted 0
+                                 np.full((3, 3), 2**62 + 1, np.int64) - np.eye(3, dtype=np.int64)])
 def test_bad_elevation_raises(bad):
     with pytest.raises((ValueError, TypeError), match="elevation"):
         hydrology.depressions(bad)

@@ -80,6 +80,21 @@ def test_a_limit_beyond_the_image_reaches_every_cell(metric, device):
     np.testing.assert_allclose(v, np.exp(-((want / 1.0e9) ** 2)), rtol=1e-6)
 
 
+@pytest.mark.parametrize("metric", ["euclidean", "path"])
+def test_cells_exactly_at_the_limit_are_in_reach(metric, device):
+    # limits that are float32 roundings of cells' own distances: those cells lie "up to the
+    # limit" as the field reports them, and the splat had scanned one column short of them
+    ndim = 3 if metric == "euclidean" else 2  # (the path metric's closed form is 2D)
+    one = wd.Dendrite.from_arrays((15,) * ndim, [[7] * ndim], [-1])
+    d_all, _ = distance_field(one, limit=50.0, metric=metric, device=device)
+    for limit in np.unique(d_all)[1:40]:
+        d, label = distance_field(one, limit=float(limit), metric=metric, device=device)
+        inside = d_all <= limit
+        np.testing.assert_array_equal(np.isfinite(d), inside, err_msg=f"limit {limit!r}")
+        np.testing.assert_array_equal(d[inside], d_all[inside])
+        assert (label[inside] == 0).all() and (label[~inside] == -1).all()
+
+
 def test_width_of_the_nearest_node_is_used(device):
     widths = np.linspace(1.0, 4.0, len(DEN)).astype(np.float32)
     dist, label = distance_field(DEN, limit=12.0, metric="euclidean", device=device)
@@ -236,6 +251,8 @@ def test_rows_render_a_subset():
         (lambda: brightness(DEN, 2.0, reach=0), "reach"),
         (lambda: brightness(DEN, np.ones(3)), "width"),
         (lambda: brightness(DEN, 2.0, rows=np.zeros(0, int)), "rows"),
+        (lambda: brightness(DEN, 2.0, rows=[]), "'rows' is empty"),  # (a float array to NumPy)
+        (lambda: brightness(DEN, 2.0, rows=np.zeros(len(DEN), bool)), "'rows' selects no node"),
         (lambda: colorize(np.zeros((2, 2)), colormap="jet"), "colormap"),
         (lambda: composite([]), "layers"),
         (lambda: composite([np.zeros((2, 2)), np.zeros((3, 2))]), "layers"),
@@ -247,6 +264,11 @@ def test_rows_render_a_subset():
 def test_bad_input_names_the_parameter(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_gains_that_are_not_a_sequence_are_named():
+    with pytest.raises(TypeError, match="'gains' as a sequence"):
+        composite([np.zeros((2, 2))], gains=2.0)
 
 
 def test_brightness_refuses_3d_dendrites():
@@ -298,8 +320,13 @@ def test_a_width_that_must_be_positive_says_so_for_every_bad_value(value):
         brightness(DEN, value)
 
 
-def test_taper_widths_beyond_float32_are_refused():
-    with pytest.raises(ValueError, match=r"'start' <= 1e30 for Taper"):
+def test_widths_beyond_float32_are_refused():
+    with pytest.raises(ValueError, match=r"'start' for Taper in \(0, 1e\+30\] .* got 1e\+308"):
         Taper(1e308, 1.0)
-    with pytest.raises(ValueError, match=r"'end' <= 1e30 for Taper"):
+    with pytest.raises(ValueError, match=r"'end' for Taper in \(0, 1e\+30\]"):
         Taper(1.0, 1e31)
+    # a width float32 makes 0 had drawn NaN (0 / 0), in a number or a Taper alike
+    for call in (lambda: brightness(DEN, 1e-50), lambda: node_widths(DEN, 1e-50), lambda: Taper(1e-50, 1.0),
+                 lambda: brightness(DEN, 1e39)):
+        with pytest.raises(ValueError, match=r"in \(0, 1e\+30\] as a float32 width"):
+            call()

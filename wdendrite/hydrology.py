@@ -32,8 +32,12 @@ __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill"
 
 
 def _elevation(name: str, value) -> np.ndarray:
-    """``value`` as a finite, non-empty (H, W) float64 array."""
-    return _checks.finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2, dtype=np.float64)
+    """``value`` as a finite, non-empty (H, W) float64 array (integers only where float64 holds them)."""
+    raw = np.asarray(value)
+    if raw.dtype.kind in "iu" and raw.size and max(abs(int(raw.min())), abs(int(raw.max()))) > 2**53:
+        raise ValueError(f"'{name}' holds integers beyond 2**53 (up to {max(abs(int(raw.min())), int(raw.max()))}), "
+                         f"which float64 cannot tell apart; scale them down or pass floats")
+    return _checks.finite_array(name, raw, "2D (H, W)", lambda s: len(s) == 2, dtype=np.float64)
 
 
 def fill(elevation) -> np.ndarray:

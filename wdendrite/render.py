@@ -90,15 +90,11 @@ class Taper:
     ours (side branches as bold as their start, for pictures with a separate ``side`` taper)."""
 
     def __post_init__(self):
-        for name in ("start", "end", "beta"):
-            value = getattr(self, name)
-            if isinstance(value, bool):
-                raise TypeError(f"Expected a number for '{name}', but got {value!r}")
-            x = _checks.nonnegative(name, value, allow_none=False)
-            if x == 0:
-                raise ValueError(f"Expected a positive '{name}' for Taper, but got {value!r}")
-            if name != "beta" and x > 1e30:  # widths are float32
-                raise ValueError(f"Expected '{name}' <= 1e30 for Taper (float32 widths), but got {value!r}")
+        for name in ("start", "end"):
+            _width_number(name, getattr(self, name), " for Taper")
+        if isinstance(self.beta, bool):
+            raise TypeError(f"Expected a number for 'beta', but got {self.beta!r}")
+        _checks.positive("beta", self.beta)
         _choice("along", self.along, _ALONG)
 
     def widths(self, d: np.ndarray, d_max: np.ndarray) -> np.ndarray:
@@ -111,6 +107,21 @@ class Taper:
 
 
 Width = float | Taper | np.ndarray
+
+_WIDEST = 1e30
+"""Largest width: widths are float32 and their squares must stay finite in float64."""
+
+
+def _width_number(name: str, value, what: str = "") -> float:
+    """``value`` as a width: a number > 0 that stays above 0 in float32, at most 1e30."""
+    if isinstance(value, bool):
+        raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+    x = _checks.positive(name, value)
+    if x > _WIDEST or np.float32(x) == 0:
+        raise ValueError(f"Expected '{name}'{what} in (0, {_WIDEST:g}] as a float32 width, but got "
+                         f"{value!r}{_checks.float32_note(x)}")
+    return x
+
 
 
 def thesis_width(factor: float, a: float = 1e-4) -> float:
@@ -212,7 +223,7 @@ def _width_values(name: str, width, den: Dendrite, br: Branches) -> np.ndarray:
     if isinstance(width, Taper):
         return _taper_widths(den, br, width)
     if np.ndim(width) == 0:
-        return np.full(len(den), _checks.positive(name, width))
+        return np.full(len(den), _width_number(name, width))
     return _checks.float_array(name, width, (len(den),), positive=True).astype(np.float64)
 
 
@@ -304,6 +315,8 @@ def _check_rows(rows, n: int):
     if rows is None:
         return None
     r = np.asarray(rows)
+    if r.size == 0:  # (an empty list is a float array)
+        raise ValueError("'rows' is empty: at least one node must be rendered")
     if r.dtype == np.bool_:
         if r.shape != (n,):
             raise ValueError(f"Expected a bool 'rows' mask of shape ({n},), but got shape {r.shape}")
@@ -311,7 +324,7 @@ def _check_rows(rows, n: int):
     if r.dtype.kind not in "iu" or r.ndim != 1:
         raise TypeError(f"Expected 'rows' as a 1D integer array or bool mask, but got {r.dtype} {r.shape}")
     if len(r) == 0:
-        raise ValueError("'rows' is empty: at least one node must be rendered")
+        raise ValueError("'rows' selects no node: at least one node must be rendered")
     if r.min() < 0 or r.max() >= n:
         raise ValueError(f"'rows' must index the dendrite's {n} nodes, but has values in [{r.min()}, {r.max()}]")
     return r.astype(np.int64)
@@ -458,6 +471,8 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
     for i, v in enumerate(imgs[1:], 1):
         if v.shape != imgs[0].shape:
             raise ValueError(f"'layers[{i}]' has shape {v.shape}, but 'layers[0]' has shape {imgs[0].shape}")
+    if gains is not None and (isinstance(gains, (str, bytes)) or np.ndim(gains) != 1):
+        raise TypeError(f"Expected 'gains' as a sequence of numbers, one per layer, but got {gains!r}")
     g = [1.0] * len(imgs) if gains is None else [_checks.nonnegative(f"gains[{i}]", x, allow_none=False)
                                                   for i, x in enumerate(gains)]
     if len(g) != len(imgs):
