@@ -99,6 +99,10 @@ class WeightParams:
     """REFINED: coarse index of the first coarse node held in ``maps``."""
     grid_span: wp.vec3i
     """REFINED: shape of the block of coarse nodes held in ``maps``."""
+    links: wp.array(dtype=int)
+    """REFINED: per coarse node of the block (C order), bit ``9 (dz + 1) + 3 (dy + 1) + dx + 1``
+    set where fine edges may cross into the block of the neighbour at ``(dz, dy, dx)``; other
+    crossings weigh inf (never taken). At least one entry."""
 
 
 @wp.func
@@ -143,19 +147,34 @@ def cell_of(c: int, half: float, inv_n: float, g: int) -> wp.vec3:
 
 
 @wp.func
-def refined_base(params: WeightParams, node: int, coords: wp.vec3i, k: int) -> float:
+def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3i) -> float:
     """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4) of the edge
-    from ``node`` at ``coords``.
+    from the node at ``coords`` along ``offset``; inf where the edge crosses between blocks
+    ``links`` does not join.
 
     ``W_int`` interpolates the coarse weights per unit length linearly at the
     fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``), and
-    ``W_ran`` is uniform between 1 and ``W_int``.
+    ``W_ran`` is uniform between 1 and ``W_int``, hashed from the node's index in the whole
+    fine lattice (so a node's weights do not depend on the window).
     """
     n = params.b
     inv_n = 1.0 / n
-    half = float(int(n) / 2)
+    ni = int(n)
+    half = float(ni / 2)
     c = coords + params.grid_start
     g = params.grid
+    lo = params.grid_lo
+    s = params.grid_span
+    # blocks of the fine node and of its neighbour (fine indices are >= 0 inside the lattice;
+    # an edge leaving it is never read)
+    ca = wp.vec3i(c[0] / ni, c[1] / ni, c[2] / ni)
+    d = wp.vec3i((c[0] + offset[0]) / ni, (c[1] + offset[1]) / ni, (c[2] + offset[2]) / ni) - ca
+    if d[0] != 0 or d[1] != 0 or d[2] != 0:
+        at = ((ca[0] - lo[0]) * s[1] + ca[1] - lo[1]) * s[2] + ca[2] - lo[2]
+        bit = 9 * (d[0] + 1) + 3 * (d[1] + 1) + d[2] + 1
+        if at >= 0 and at < params.links.shape[0]:
+            if ((params.links[at] >> bit) & 1) == 0:
+                return wp.inf
     cz = cell_of(c[0], half, inv_n, g[0])
     cy = cell_of(c[1], half, inv_n, g[1])
     cx = cell_of(c[2], half, inv_n, g[2])
@@ -163,8 +182,6 @@ def refined_base(params: WeightParams, node: int, coords: wp.vec3i, k: int) -> f
     # coarse node sit side by side
     nk = params.grid_k
     base = k
-    lo = params.grid_lo
-    s = params.grid_span
     z0 = ((int(cz[0]) - lo[0]) * s[1]) * s[2] * nk
     z1 = ((int(cz[1]) - lo[0]) * s[1]) * s[2] * nk
     y0 = (int(cy[0]) - lo[1]) * s[2] * nk
@@ -182,7 +199,10 @@ def refined_base(params: WeightParams, node: int, coords: wp.vec3i, k: int) -> f
         (1.0 - tx) * m[base + z1 + y1 + x0] + tx * m[base + z1 + y1 + x1]
     )
     w_int = (1.0 - tz) * w0 + tz * w1
-    u = hash_unit(params.seed, wp.uint32(node), wp.uint32(k))
+    # the node's index in the whole fine lattice (coarse shape times n), modulo 2**32
+    un = wp.uint32(ni)
+    key = wp.uint32(c[2]) + wp.uint32(g[2]) * un * (wp.uint32(c[1]) + wp.uint32(g[1]) * un * wp.uint32(c[0]))
+    u = hash_unit(params.seed, key, wp.uint32(k))
     w_ran = 1.0 + (wp.max(w_int, 1.0) - 1.0) * u
     return (params.a * w_int + (1.0 - params.a) * w_ran) * inv_n
 
@@ -246,7 +266,7 @@ def edge_weight_of(
         i += 1
     base = float(0.0)
     if params.kind == REFINED:
-        base = refined_base(params, node, coords, k)
+        base = refined_base(params, coords, k, offset)
     else:
         base = base_weight(params, node, k)
     return length * (base + add) * scale

@@ -74,7 +74,9 @@ def test_refined_weights_follow_the_thesis_formula():
     fine_shape = (20, 25)
     got = dist.sample(fine_shape, lat.lengths, offsets=lat.offsets)
     grid = np.stack(np.meshgrid(*[(np.arange(f) + s - n // 2) / n for f, s in zip(fine_shape, start)], indexing="ij"))
-    u = _reference_u(fine_shape, len(lat.lengths), 17)
+    # the random part hashes a node's index in the whole fine lattice (the coarse shape times n)
+    whole = _reference_u((9 * n, 11 * n), len(lat.lengths), 17)
+    u = whole[:, start[0]:start[0] + fine_shape[0], start[1]:start[1] + fine_shape[1]]
     for k in range(len(lat.lengths)):
         w_int = map_coordinates(per_length[k].astype(np.float64), grid, order=1, mode="nearest")
         w_ran = 1 + (np.maximum(w_int, 1) - 1) * u[k]
@@ -196,7 +198,10 @@ def test_the_refined_lattice_weighs_edges_as_the_whole_coarse_array_would(shape,
         src, dst = edge_slices(off, fine_lat.shape)
         used = fine_lat.mask[src] & fine_lat.mask[dst]
         assert used.sum() > 100
-        np.testing.assert_array_equal(fine_lat.weights[k][src][used], whole[k][src][used])
+        got = fine_lat.weights[k][src][used]
+        joined = np.isfinite(got)  # (crossings between blocks of unrelated nodes weigh inf)
+        assert joined.mean() > 0.8
+        np.testing.assert_array_equal(got[joined], whole[k][src][used][joined])
 
 
 def test_refined_weights_refuse_a_window_beyond_their_block():
@@ -212,3 +217,146 @@ def test_refined_weights_refuse_a_window_beyond_their_block():
     whole = Refined(per_length, 3, 0.8, (15, 15))
     np.testing.assert_array_equal(inside.sample((6, 6), lat.lengths, offsets=lat.offsets),
                                   whole.sample((6, 6), lat.lengths, offsets=lat.offsets))
+
+
+def _stays_on_its_coarse_path(fine, den, n):
+    """Every fine path lies in the blocks its own coarse path passes: a coarse node of the path,
+    or a node inside the box of one of its steps (where a diagonal step's blocks meet)."""
+    # the coarse node whose block holds each fine node (coarse node c covers fine positions
+    # c - (n // 2) / n to c + (n // 2) / n)
+    coarse_of = np.floor(fine.positions + (n // 2) / n + 1e-9).astype(int)
+    index = {tuple(v): i for i, v in enumerate(den.nodes.tolist())}
+    strays = 0
+    for tip in fine.endpoints:
+        row = index[tuple(coarse_of[tip].tolist())]
+        steps = []
+        while row >= 0:
+            up = den.parent[row]
+            a = den.nodes[row]
+            b = den.nodes[up] if up >= 0 else a
+            steps.append((np.minimum(a, b), np.maximum(a, b)))
+            row = up
+        lo = np.array([s[0] for s in steps])
+        hi = np.array([s[1] for s in steps])
+        for i in fine.path(tip):
+            c = coarse_of[i]
+            strays += not ((lo <= c) & (c <= hi)).all(axis=1).any()
+    return strays
+
+
+@pytest.mark.parametrize("conn", [4, 8])
+def test_a_refined_path_keeps_to_its_own_coarse_path(conn):
+    # thesis Fig 4.15 stitches consecutive blocks of each path only: branches lying side by side
+    # must not trade paths (they had, on 6-35 % of paths), nor competing dendrites their endpoints
+    lat = wd.Lattice((30, 30), conn, weights=wd.weights.Uniform(r=10, seed=35))
+    den = wd.trace(wd.shortest_paths(lat, [[15, 15]]), [[0, 0], [0, 8], [29, 3], [4, 29], [28, 27]])
+    fine, _ = wd.refine(den, lat, n=3, seed=0)
+    assert _stays_on_its_coarse_path(fine, den, 3) == 0
+    gens = [[25, 10], [25, 40], [5, 25], [45, 25]]
+    lat = wd.Lattice((50, 50), conn, weights=wd.weights.Uniform(r=10, seed=0))
+    grown = wd.grow(lat, gens, wd.FractalParams(count=8, d=30.0, alpha=1.5, beta=3.0, epsilon=4.0), seed=0)
+    fine, _ = wd.refine(grown, lat, n=3)
+    assert _stays_on_its_coarse_path(fine, grown, 3) == 0
+    label_at = {tuple(grown.nodes[i] * 3 + 1): grown.label[i] for i in grown.endpoints}
+    assert [label_at[tuple(fine.nodes[i])] for i in fine.endpoints] == fine.label[fine.endpoints].tolist()
+
+
+def test_a_refined_path_keeps_to_its_own_coarse_path_in_3d():
+    lat, den = _coarse((14, 14, 14), 26, 12)
+    fine, _ = wd.refine(den, lat, n=3, seed=0)
+    assert _stays_on_its_coarse_path(fine, den, 3) == 0
+
+
+def test_blocks_join_only_along_the_dendrites_steps():
+    # 4-connected: no diagonal steps, so the blocks are the dendrite's nodes alone; a fine edge
+    # between two blocks is usable (finite) exactly when one block's node is the other's parent
+    from wdendrite.lattice import edge_slices
+
+    lat, den = _coarse((24, 24), 4, 6)
+    from wdendrite.refine import refined_lattice
+
+    fine_lat, *_ = refined_lattice(den, lat, n=3, e=0.7)
+    start = np.asarray(fine_lat.distribution.start)
+    index = {tuple(v): i for i, v in enumerate(den.nodes.tolist())}
+    pairs = {(i, p) for i, p in enumerate(den.parent) if p >= 0}
+    grid = np.stack(np.meshgrid(*map(np.arange, fine_lat.shape), indexing="ij"), -1)
+    seen = 0
+    for k, off in enumerate(fine_lat.offsets):
+        src, dst = edge_slices(off, fine_lat.shape)
+        used = fine_lat.mask[src] & fine_lat.mask[dst]
+        a = (grid[src][used] + start) // 3
+        b = (grid[dst][used] + start) // 3
+        w = fine_lat.weights[k][src][used]
+        for ca, cb, wk in zip(a.tolist(), b.tolist(), w):
+            if ca == cb:
+                assert np.isfinite(wk)
+                continue
+            ia, ib = index[tuple(ca)], index[tuple(cb)]
+            assert np.isfinite(wk) == ((ia, ib) in pairs or (ib, ia) in pairs), (ca, cb)
+            seen += 1
+    assert seen > 50
+
+
+def test_whatever_masked_coarse_edges_hold_does_not_reach_the_fine_weights():
+    # Lattice asks only usable edges for positive weights: edges touching masked nodes may hold
+    # anything, and refinement must not interpolate it into the fine edges it uses
+    mask = np.ones((20, 20), bool)
+    mask[:, 10:] = False
+    rng = np.random.default_rng(0)
+    w = (1 + 10 * rng.random((2, 20, 20))).astype(np.float32)
+    results = []
+    for junk in (-50.0, 0.0, 1e6):
+        wj = w.copy()
+        wj[:, ~mask] = junk
+        wj[0][:, 9] = junk  # x-edges from the last usable column into the wall
+        lat = wd.Lattice((20, 20), 4, weights=wj, mask=mask)
+        den = wd.trace(wd.shortest_paths(lat, [[0, 0]]), [[19, 9], [10, 9]])
+        fine, fl = wd.refine(den, lat, n=5, seed=2)
+        ok = np.isfinite(fl.weights) & (fl.weights > 0)
+        results.append((fine.nodes, fl.weights[ok]))
+        # usable fine edges all weigh more than 0 and no more than the usable coarse ones allow
+        from wdendrite.lattice import edge_slices
+
+        for k, off in enumerate(fl.offsets):
+            src, dst = edge_slices(off, fl.shape)
+            used = fl.mask[src] & fl.mask[dst]
+            vals = fl.weights[k][src][used]
+            vals = vals[np.isfinite(vals)]
+            assert vals.min() > 0.1 / 5 and vals.max() <= 11.0 / 5 + 1e-5
+    for nodes, weights in results[1:]:
+        np.testing.assert_array_equal(nodes, results[0][0])
+        np.testing.assert_array_equal(weights, results[0][1])
+
+
+def test_a_nodes_fine_weights_do_not_depend_on_the_rest_of_the_dendrite():
+    # the random part hashes the node's place in the whole fine lattice, not in the cropped box,
+    # so refining a region alone gives that region's edges the weights they have in the whole
+    lat = wd.Lattice((40, 40), 4, weights=wd.weights.Uniform(r=10, seed=1))
+    cf = wd.shortest_paths(lat, [[20, 20]])
+    _, la = wd.refine(wd.trace(cf, [[30, 30]]), lat, n=5, seed=3)
+    _, lb = wd.refine(wd.trace(cf, [[30, 30], [2, 20]]), lat, n=5, seed=3)
+    sa, sb = np.asarray(la.distribution.start), np.asarray(lb.distribution.start)
+    assert (sa != sb).any()
+    # the same world nodes: a's box inside b's
+    box = tuple(slice(int(o), int(o) + s) for o, s in zip(sa - sb, la.shape))
+    wa, wb = la.weights, lb.weights[(slice(None),) + box]
+    both = la.mask & lb.mask[box]
+    fin = np.isfinite(wa) & np.isfinite(wb) & both[None]
+    assert fin.sum() > 500
+    np.testing.assert_array_equal(wa[fin], wb[fin])
+
+
+def test_a_dendrite_on_masked_nodes_of_the_lattice_is_named_before_any_work():
+    lat, den = _coarse((16, 16), 8, 3)
+    mask = np.ones((16, 16), bool)
+    mask[tuple(den.nodes[len(den) // 2])] = False
+    with pytest.raises(ValueError, match=rf"'dendrite' row {len(den) // 2} = .* masked-out node of 'lattice'"):
+        wd.refine(den, wd.Lattice((16, 16), 8, weights=lat.weights, mask=mask))
+
+
+@pytest.mark.parametrize("n", [301, 2**31 + 1, np.int64(2**61 + 1), 46341])
+def test_a_fine_box_beyond_the_kernels_names_n_before_any_work(n):
+    lat = wd.Lattice((300, 300), 8, weights=wd.weights.Uniform(r=10, seed=1))
+    den = wd.trace(wd.shortest_paths(lat, [[0, 0]]), [[299, 299]])
+    with pytest.raises(ValueError, match=rf"'n' = {int(n)} makes a fine lattice of shape .* beyond the kernels"):
+        wd.refine(den, lat, n=n)

@@ -2,14 +2,14 @@
 
 Every node of a coarse dendrite becomes an ``n x n`` (``n^3`` in 3D) block of
 a finer lattice, with ``n`` odd so the coarse node sits at its block's
-centre. Blocks of neighbouring nodes touch, which stitches them into one
-graph; everything else is masked out, so the ordinary shortest-path and
-backtracking kernels run on it. The thesis stitches consecutive blocks of
-each path (Fig 4.15); here any two blocks that touch are joined, which also
-links blocks of different branches that lie side by side (about 1.5 % of the
-edges between blocks on 4-connected lattices, 15 % on 8-connected ones were
-measured as such): a refined path may cut across there, and the result is
-still one tree, traced in one search. Fine edge weights are
+centre; everything else is masked out, so the ordinary shortest-path and
+backtracking kernels run on it. As in the thesis (Fig 4.15), blocks are
+stitched along the dendrite's steps only: fine edges between the blocks of a
+node and its parent (and, for a diagonal step, the blocks it passes on the
+way) are usable, while edges into the block of any other node lying beside
+it weigh inf. Each refined path thus keeps to the blocks of its own coarse
+path, and competing dendrites keep their endpoints, while the result is still
+one tree, traced in one search. Fine edge weights are
 ``W_sub = e * W_int + (1 - e) * W_ran`` (see :class:`Refined`): ``W_int``
 interpolates the coarse weights linearly, ``W_ran`` is uniform between 1 and
 ``W_int``; ``0.5 < e < 1`` keeps the coarse path's shape while adding detail.
@@ -21,6 +21,7 @@ the fine lattice's records; the rest of the bounding box is never touched
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -73,6 +74,10 @@ class Refined(Distribution):
     The block must hold every coarse node the window's fine nodes interpolate between."""
     grid: tuple | None = None
     """Shape of the whole coarse lattice, where interpolation stops (default: ``lo`` plus the block's)."""
+    links: np.ndarray | None = None
+    """``block``-shaped int32: per coarse node, bit ``9 (dz + 1) + 3 (dy + 1) + dx + 1`` (dz = 0 in
+    2D) set where fine edges may cross from its block into the block of the coarse node at
+    offset ``(dz, dy, dx)``; crossings not set weigh inf. Default: every crossing allowed."""
 
     def __post_init__(self):
         _check_n_e(self.n, self.e)
@@ -92,6 +97,11 @@ class Refined(Distribution):
         if min(lo) < 0 or any(a + b > g for a, b, g in zip(lo, coarse.shape[1:], grid)):
             raise ValueError(f"The block of 'coarse' (shape {coarse.shape[1:]} at 'lo' {lo}) does not lie "
                              f"inside 'grid' {grid}")
+        if self.links is not None:
+            links = np.asarray(self.links)
+            if links.shape != coarse.shape[1:] or links.dtype.kind not in "iu":
+                raise ValueError(f"Expected integer 'links' of shape {coarse.shape[1:]} (the block of 'coarse'), "
+                                 f"but got {links.dtype} {links.shape}")
 
     def _needed(self, shape) -> tuple[tuple[int, ...], tuple[int, ...]]:
         """First and last coarse index a fine window of ``shape`` interpolates between, per axis,
@@ -114,7 +124,9 @@ class Refined(Distribution):
         return _kw.REFINED, self.e, float(self.n), self.seed
 
     def _bound(self) -> float:
-        return float(self.coarse.max(initial=1.0)) / self.n + 1.0
+        if "_top" not in self.__dict__:
+            self.__dict__["_top"] = float(np.max(self.coarse, initial=1.0))
+        return self.__dict__["_top"] / self.n + 1.0
 
     def kernel_params(self, shape, device=None):
         """As for :class:`~wdendrite.weights.Distribution`, for a fine window of ``shape``
@@ -133,15 +145,25 @@ class Refined(Distribution):
             )
         params = super().kernel_params(shape, device)
         pad = (1,) * (3 - ndim)
-        # node-major, so that one fine node's directions read neighbouring words
-        params.maps = wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(), dtype=float,
-                               device=wp.get_device(device))
+        params.maps, params.links = self._arrays(wp.get_device(device))
         params.grid = wp.vec3i(*(pad + self.grid))
         params.grid_k = int(self.coarse.shape[0])
         params.grid_start = wp.vec3i(*((0,) * (3 - ndim) + self.start))
         params.grid_lo = wp.vec3i(*((0,) * (3 - ndim) + self.lo))
         params.grid_span = wp.vec3i(*(pad + self.coarse.shape[1:]))
         return params
+
+    def _arrays(self, device) -> tuple[wp.array, wp.array]:
+        """The coarse weights (node-major, so that one fine node's directions read neighbouring
+        words) and the links on ``device``, made once per device: searches and traces ask again."""
+        cache = self.__dict__.setdefault("_on_device", {})
+        key = str(device)
+        if key not in cache:
+            links = np.full(1, -1, np.int32) if self.links is None else np.asarray(self.links).astype(np.int32).ravel()
+            cache[key] = (wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(),
+                                   dtype=float, device=device),
+                          wp.array(links, dtype=int, device=device))
+        return cache[key]
 
 
 def _check_pair(dendrite, lattice) -> None:
@@ -154,26 +176,78 @@ def _check_pair(dendrite, lattice) -> None:
         raise ValueError(f"'dendrite' has shape {dendrite.shape}, but 'lattice' has shape {lattice.shape}")
     if not len(dendrite):
         raise ValueError("'dendrite' is empty: there is nothing to refine")
+    if lattice.mask is not None:
+        off = np.flatnonzero(~lattice.mask[tuple(dendrite.nodes.T)])
+        if off.size:
+            raise ValueError(f"'dendrite' row {off[0]} = {tuple(dendrite.nodes[off[0]].tolist())} is a masked-out node "
+                             f"of 'lattice' ({off.size} such rows): refine needs the lattice it was traced on")
 
 
-def _coarse_block(lattice: Lattice, block: tuple) -> np.ndarray:
-    """``(K, *block)`` float32 weights per unit length of the coarse nodes in ``block`` (slices):
-    read from the records, or computed for those nodes only when the lattice holds none."""
+def _coarse_block(lattice: Lattice, block: tuple, need: np.ndarray) -> np.ndarray:
+    """``(K, *block)`` float32 weights per unit length of the coarse nodes in ``block`` (slices)
+    for the nodes ``need`` marks (bool, block-shaped: those a fine node interpolates between);
+    other entries are 1.
+
+    Read from the records, or computed for the needed nodes only when the lattice holds none.
+    An entry no usable edge stands behind (an end masked out or outside the lattice, or a
+    crossing a refined lattice forbids: weight inf) takes the mean of its direction's usable
+    entries around it, found in up to three rings, else of its node's other directions, else
+    of the whole block's: the fine weights next to walls and borders look like their
+    surroundings, whatever the lattice holds there."""
+    offsets = lattice.offsets
+    shape = np.asarray(lattice.shape)
+    corner = np.array([b.start for b in block])
+    coords = np.argwhere(need)
+    at = coords + corner
+    per = np.ones((len(offsets),) + need.shape, np.float32)
+    vals = np.empty((len(offsets), len(at)), np.float32)
     if lattice._weights is not None:
-        w = lattice.weights[(slice(None),) + block]
+        full = lattice.weights
+        for k in range(len(offsets)):
+            vals[k] = full[(k,) + tuple(at.T)]
     else:
-        # only the block's edges: an edge leaving the lattice takes the nearest inside edge's
-        # weight, as fill_outside gives the whole array
-        idx = np.stack(np.meshgrid(*[np.arange(b.start, b.stop) for b in block], indexing="ij"), -1).reshape(-1, lattice.ndim)
-        shape = np.asarray(lattice.shape)
-        w = np.empty((len(lattice.offsets),) + tuple(b.stop - b.start for b in block), np.float32)
-        for k, off in enumerate(lattice.offsets):
-            src = np.where(off > 0, np.minimum(idx, np.maximum(shape - 2, 0)), np.where(off < 0, np.maximum(idx, 1), idx))
-            src = np.where(shape >= 2, src, idx)
-            flat = np.ravel_multi_index(tuple(src.T), lattice.shape)
-            w[k] = lattice.distribution.evaluate(lattice.shape, lattice.lengths, flat, np.full(len(flat), k),
-                                                 offsets=lattice.offsets).reshape(w.shape[1:])
-    return (w / lattice.lengths.reshape((-1,) + (1,) * lattice.ndim)).astype(np.float32)
+        flat = np.ravel_multi_index(tuple(at.T), lattice.shape)
+        for k in range(len(offsets)):
+            vals[k] = lattice.distribution.evaluate(lattice.shape, lattice.lengths, flat, np.full(len(flat), k),
+                                                    offsets=offsets)
+    vals /= lattice.lengths[:, None].astype(np.float32)
+    usable = (lambda c: np.ones(len(c), bool)) if lattice.mask is None else (lambda c: lattice.mask[tuple(c.T)])
+    ok = np.empty(vals.shape, bool)
+    for k, off in enumerate(offsets):
+        other = at + off
+        inside = ((other >= 0) & (other < shape)).all(axis=1)
+        ok[k] = inside & usable(at) & np.isfinite(vals[k]) & (vals[k] > 0)
+        ok[k, inside] &= usable(other[inside])
+    if not ok.all():
+        # neighbours' entries by their position in the list of needed nodes
+        pos = np.full(need.shape, -1, np.int64)
+        pos[need] = np.arange(len(coords))
+        rings = [d for d in np.ndindex(*(3,) * need.ndim) if any(v != 1 for v in d)]
+        for _ in range(3):
+            bad_k, bad_i = np.nonzero(~ok)
+            if not len(bad_k):
+                break
+            total = np.zeros(len(bad_k))
+            count = np.zeros(len(bad_k))
+            for d in rings:
+                c = coords[bad_i] + np.array(d) - 1
+                inb = ((c >= 0) & (c < need.shape)).all(axis=1)
+                j = np.full(len(c), -1, np.int64)
+                j[inb] = pos[tuple(c[inb].T)]
+                hit = j >= 0
+                hit[hit] = ok[bad_k[hit], j[hit]]
+                total[hit] += vals[bad_k[hit], j[hit]]
+                count[hit] += 1
+            fixed = count > 0
+            vals[bad_k[fixed], bad_i[fixed]] = total[fixed] / count[fixed]
+            ok[bad_k[fixed], bad_i[fixed]] = True  # (read by the next ring only)
+        if not ok.all():
+            fallback = float(vals[ok].mean()) if ok.any() else 1.0
+            node_n = ok.sum(axis=0)
+            node_mean = np.where(node_n > 0, np.where(ok, vals, 0).sum(axis=0) / np.maximum(node_n, 1), fallback)
+            vals = np.where(ok, vals, node_mean[None, :])
+    per[(slice(None),) + tuple(coords.T)] = vals
+    return per
 
 
 def _block_rows(den: Dendrite, lattice: Lattice) -> np.ndarray:
@@ -195,6 +269,28 @@ def _block_rows(den: Dendrite, lattice: Lattice) -> np.ndarray:
     if lattice.mask is not None:
         rows[~lattice.mask] = -1
     return rows
+
+
+def _block_links(rows: np.ndarray, parent: np.ndarray) -> np.ndarray:
+    """:attr:`Refined.links` for coarse nodes standing for dendrite ``rows`` (-1: none): blocks
+    join where they stand for one row or for a parent and its child, so a refined path keeps
+    to the blocks of its own coarse path (thesis Fig 4.15 stitches consecutive blocks only)."""
+    nd = rows.ndim
+    r3 = rows.reshape((1,) * (3 - nd) + rows.shape)
+    links = np.zeros(r3.shape, np.int32)
+    at = np.argwhere(r3 >= 0)  # only blocks' nodes: the rest of the box stays 0
+    mine = r3[tuple(at.T)]
+    up = parent[mine]
+    for dz in ((-1, 0, 1) if nd == 3 else (0,)):
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                nb = at + (dz, dy, dx)
+                inside = ((nb >= 0) & (nb < r3.shape)).all(axis=1)
+                there = np.full(len(at), -1, rows.dtype)
+                there[inside] = r3[tuple(nb[inside].T)]
+                joined = (there >= 0) & ((there == mine) | (up == there) | (parent[np.maximum(there, 0)] == mine))
+                links[tuple(at[joined].T)] |= np.int32(1 << (9 * (dz + 1) + 3 * (dy + 1) + dx + 1))
+    return links.reshape(rows.shape)
 
 
 def refined_lattice(dendrite: Dendrite, lattice: Lattice, *, n: int, e: float, seed=0):
@@ -227,6 +323,12 @@ def _refined(dendrite: Dendrite, lattice: Lattice, n, e, seed):
     hi = np.argwhere(keep).max(axis=0) + 1
     window = tuple(slice(a, b) for a, b in zip(lo, hi))
     fine_shape = tuple(int(b - a) * n for a, b in zip(lo, hi))
+    # before any fine array: the box must fit the kernels' int32 indices, and its masks memory
+    nodes = math.prod(fine_shape)
+    if nodes >= 2**31 or record_words(fine_shape, 0) >= 2**31:
+        raise ValueError(f"'n' = {n} makes a fine lattice of shape {fine_shape} around the dendrite ({nodes} nodes in "
+                         f"its box), beyond the kernels' int32 indices (2**31); lower 'n' or refine a part of the dendrite")
+    _checks.fits_in_memory(3 * nodes, "cpu", f"the fine mask of refine with 'n' = {n} (box {fine_shape})")
     fine_mask = keep[window]
     for axis in range(lattice.ndim):
         fine_mask = np.repeat(fine_mask, n, axis=axis)
@@ -234,12 +336,24 @@ def _refined(dendrite: Dendrite, lattice: Lattice, n, e, seed):
     # the window's fine nodes interpolate between coarse nodes at most one beyond the window
     near_lo = np.maximum(lo - 1, 0)
     near_hi = np.minimum(hi + 1, lattice.shape)
-    per_length = _coarse_block(lattice, tuple(slice(int(a), int(b)) for a, b in zip(near_lo, near_hi)))
+    near = tuple(slice(int(a), int(b)) for a, b in zip(near_lo, near_hi))
+    # the coarse nodes a fine node interpolates between: within one of a block's node
+    need = keep[near].copy()
+    for axis in range(lattice.ndim):
+        grown = need.copy()
+        lo_s = [slice(None)] * lattice.ndim
+        hi_s = [slice(None)] * lattice.ndim
+        lo_s[axis], hi_s[axis] = slice(1, None), slice(None, -1)
+        grown[tuple(lo_s)] |= need[tuple(hi_s)]
+        grown[tuple(hi_s)] |= need[tuple(lo_s)]
+        need = grown
+    per_length = _coarse_block(lattice, near, need)
     # a kernel writes the usable nodes' fine weights into the records: no (K, *fine_shape) array.
     # Boxes whose stored records would pass the kernels' int32 indices recompute the weights
     # in the kernels instead (smaller records, each weight computed when relaxed)
     dist = Refined(per_length, n, float(e), tuple(int(v) for v in start), int(rng.integers(0, 2**32)),
-                   lo=tuple(int(v) for v in near_lo), grid=tuple(lattice.shape))
+                   lo=tuple(int(v) for v in near_lo), grid=tuple(lattice.shape),
+                   links=_block_links(rows[near], dendrite.parent))
     store = record_words(fine_shape, len(lattice.offsets)) < 2**31
     fine_lat = Lattice(fine_shape, lattice.connectivity, weights=dist, mask=fine_mask, store_weights=store)
 
@@ -281,8 +395,10 @@ def refine(
 
     Raises:
         ValueError: ``n`` even or < 3, ``e`` outside (0.5, 1), an empty dendrite,
-            a dendrite from another lattice shape, a negative ``seed``, or an unknown
-            or absent ``device``.
+            a dendrite from another lattice shape or on its masked-out nodes, an ``n``
+            whose fine box passes the kernels' int32 indices, a negative ``seed``, or an
+            unknown or absent ``device``.
+        MemoryError: the fine box's masks would not fit in free memory.
         TypeError: ``dendrite`` or ``lattice`` of the wrong type, a ``seed`` that is
             neither an int nor a ``np.random.Generator``.
     """

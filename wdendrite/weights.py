@@ -154,6 +154,7 @@ class Distribution:
         params.terms = wp.array(terms or [_kw.BiasTerm()], dtype=_kw.BiasTerm, device=device)
         flat = np.concatenate(maps) if maps else np.zeros(1, np.float32)
         params.maps = wp.array(flat.astype(np.float32), dtype=float, device=device)
+        params.links = wp.zeros(1, dtype=int, device=device)
         return params
 
     def _launch_args(self, shape, lengths, offsets, device):
