@@ -138,10 +138,12 @@ def base_weight(params: WeightParams, node: int, k: int) -> float:
 
 
 @wp.func
-def cell_of(c: int, half: float, inv_n: float, g: int) -> wp.vec3:
-    """Interpolation cell along one axis of the fine index ``c``: lower coarse index,
-    upper coarse index (clamped to the grid) and the fraction between them, as floats."""
-    x = wp.clamp((float(c) - half) * inv_n, 0.0, float(g - 1))
+def cell_of(c: int, o: int, half: float, inv_n: float, g: int) -> wp.vec3:
+    """Interpolation cell along one axis of the fine edge from index ``c`` along offset ``o``:
+    lower coarse index, upper coarse index (clamped to the grid) and the fraction between
+    them, as floats. An edge's weight belongs at its midpoint: the fine edge's midpoint
+    ``(c + o / 2 - half) / n`` is placed among the coarse edges' midpoints ``i + o / 2``."""
+    x = wp.clamp((float(c) + 0.5 * float(o) - half) * inv_n - 0.5 * float(o), 0.0, float(g - 1))
     i = wp.min(int(wp.floor(x)), wp.max(g - 2, 0))
     return wp.vec3(float(i), float(wp.min(i + 1, g - 1)), wp.min(x - float(i), 1.0))
 
@@ -152,8 +154,9 @@ def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3
     from the node at ``coords`` along ``offset``; inf where the edge crosses between blocks
     ``links`` does not join.
 
-    ``W_int`` interpolates the coarse weights per unit length linearly at the
-    fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``), and
+    ``W_int`` interpolates the coarse weights per unit length of direction ``k`` linearly at
+    the fine edge's midpoint, among the coarse edges' midpoints (coarse node ``c`` sits at
+    fine index ``c * n + n // 2``), and
     ``W_ran`` is uniform between 1 and ``W_int``, hashed from the node's index in the whole
     fine lattice (so a node's weights do not depend on the window).
     """
@@ -175,9 +178,9 @@ def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3
         if at >= 0 and at < params.links.shape[0]:
             if ((params.links[at] >> bit) & 1) == 0:
                 return wp.inf
-    cz = cell_of(c[0], half, inv_n, g[0])
-    cy = cell_of(c[1], half, inv_n, g[1])
-    cx = cell_of(c[2], half, inv_n, g[2])
+    cz = cell_of(c[0], offset[0], half, inv_n, g[0])
+    cy = cell_of(c[1], offset[1], half, inv_n, g[1])
+    cx = cell_of(c[2], offset[2], half, inv_n, g[2])
     # node-major coarse weights of a block of the coarse lattice: the K directions of a
     # coarse node sit side by side
     nk = params.grid_k

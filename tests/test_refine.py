@@ -73,11 +73,14 @@ def test_refined_weights_follow_the_thesis_formula():
     dist = Refined(per_length, n, e, start, seed=17)
     fine_shape = (20, 25)
     got = dist.sample(fine_shape, lat.lengths, offsets=lat.offsets)
-    grid = np.stack(np.meshgrid(*[(np.arange(f) + s - n // 2) / n for f, s in zip(fine_shape, start)], indexing="ij"))
     # the random part hashes a node's index in the whole fine lattice (the coarse shape times n)
     whole = _reference_u((9 * n, 11 * n), len(lat.lengths), 17)
     u = whole[:, start[0]:start[0] + fine_shape[0], start[1]:start[1] + fine_shape[1]]
-    for k in range(len(lat.lengths)):
+    for k, off in enumerate(lat.offsets):
+        # a weight sits at its edge's midpoint: the fine edge's, (i + o/2 - n//2) / n in coarse units,
+        # is placed among the coarse edges' midpoints, j + o/2
+        grid = np.stack(np.meshgrid(*[(np.arange(f) + s + o / 2 - n // 2) / n - o / 2
+                                      for f, s, o in zip(fine_shape, start, off)], indexing="ij"))
         w_int = map_coordinates(per_length[k].astype(np.float64), grid, order=1, mode="nearest")
         w_ran = 1 + (np.maximum(w_int, 1) - 1) * u[k]
         want = (e * w_int + (1 - e) * w_ran) * lat.lengths[k] / n

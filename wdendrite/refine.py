@@ -52,8 +52,9 @@ def _check_n_e(n, e, *, n_name: str = "n") -> tuple[int, float]:
 class Refined(Distribution):
     """Sublattice weights ``W_sub = (e * W_int + (1 - e) * W_ran) * length / n`` (thesis 4.4).
 
-    ``W_int`` interpolates the coarse weights per unit length linearly at each
-    fine node (coarse node ``c`` sits at fine index ``c * n + n // 2``);
+    ``W_int`` interpolates the coarse weights per unit length of the same direction linearly
+    at each fine edge's midpoint, where the coarse edges' weights sit at theirs (coarse node
+    ``c`` sits at fine index ``c * n + n // 2``);
     ``W_ran`` is uniform between 1 and ``W_int``, from the hash of ``seed``.
     Computed in the kernels, so a refined lattice holds no ``(K, *shape)`` weight array.
     """
@@ -111,13 +112,15 @@ class Refined(Distribution):
         half = np.float32(self.n // 2)
         first, last = [], []
         for c0, size, g in zip(self.start, shape, self.grid):
-            lo_hi = []
+            cells = []
             for c in (c0, c0 + size - 1):
-                x = np.clip((np.float32(c) - half) * inv_n, np.float32(0.0), np.float32(g - 1))
-                i = min(int(np.floor(x)), max(g - 2, 0))
-                lo_hi.append((i, min(i + 1, g - 1)))
-            first.append(lo_hi[0][0])
-            last.append(lo_hi[1][1])
+                for o in (-1, 0, 1):  # an edge's offset along the axis (see kernels.weights.cell_of)
+                    x = (np.float32(c) + np.float32(0.5) * np.float32(o) - half) * inv_n - np.float32(0.5) * np.float32(o)
+                    x = np.clip(x, np.float32(0.0), np.float32(g - 1))
+                    i = min(int(np.floor(x)), max(g - 2, 0))
+                    cells += [i, min(i + 1, g - 1)]
+            first.append(min(cells))
+            last.append(max(cells))
         return tuple(first), tuple(last)
 
     def _base(self):
