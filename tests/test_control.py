@@ -156,6 +156,24 @@ def test_ridged_equals_a_numpy_ridged_multifractal(device):
     assert dense.min() - c.minimum < 5e-3 and c.maximum - dense.max() < 5e-3
 
 
+@pytest.mark.parametrize("seed, frequency, octaves", [(844, 5.437226844597018, 5), (412, 6.1, 4), (7, 3.3, 6)])
+def test_ridged_maximum_holds_a_dense_grid_of_its_creases(seed, frequency, octaves):
+    # the maxima lie on creases a 257^2 grid straddles: the declared maximum had been 0.981
+    # where a 2049^2 grid reaches 0.989 (the first case)
+    c = control.ridged(seed=seed, frequency=frequency, octaves=octaves, domain=((-1, -0.5), (1.3, 0.9)))
+    dense = c.grid((2049, 2049), device="cpu")
+    assert dense.max() <= c.maximum + 1e-6 and c.minimum <= dense.min() + 1e-6
+
+
+def test_an_image_control_keeps_its_own_copy():
+    a = np.zeros((4, 4), np.float32)
+    a[1, 1] = 1.0
+    c = control.image(a)
+    a[:] = 5.0  # the caller's array changes; the frozen control must not
+    assert c.maximum == 1.0 and c.values.max() == 1.0 and not c.values.flags.writeable
+    assert c.evaluate([[0.375, 0.375]], device="cpu")[0] == pytest.approx(1.0)
+
+
 def test_noise_extremes_are_refined_beyond_the_sampling_grid(device):
     c = control.perlin(seed=2, octaves=2, domain=((0.0, 0.0), (3.0, 2.0)))
     dense = c.grid((1500, 1000), device=device)
