@@ -521,7 +521,7 @@ def test_the_papers_search_is_what_search_paper_runs_and_it_misses_links(device)
         (dict(levels=2, eps=0.2, smoothing=False), (2, 2, 2)),  # free enough jitter
         (dict(levels=2, delta=0.1), (2, 2, 2)),  # curved
         (dict(levels=2, delta=0.6), (3, 3, 3)),  # displaced far
-        (dict(levels=4, smoothing=False, delta=0.0), (2, 2, 2)),  # straight but beyond 3 levels
+        (dict(levels=4, smoothing=False, delta=0.0), (3, 3, 2)),  # straight but beyond 3 levels; 7 x 7 queries
         (dict(levels=3, delta=0.1, rule="lichtenberg"), (2, 2, 2)),
         (dict(levels=4, delta=0.1, rule="lichtenberg"), (3, 3, 3)),  # 5 x 5 missed 1 link in 60 000 there
         (dict(levels=3, delta=0.2, rule="lichtenberg"), (3, 3, 3)),
@@ -535,8 +535,12 @@ def test_the_papers_search_is_what_search_paper_runs_and_it_misses_links(device)
         (dict(levels=3, delta=0.11, rule="lichtenberg"), (3, 3, 3)),
         (dict(levels=3, delta=0.0, eps=0.25, smoothing=False), (2, 2, 1)),
         (dict(levels=3, delta=0.0, eps=0.2499, smoothing=False), (2, 2, 2)),
-        (dict(levels=5, delta=(0.05, 0.0, 0.0, 0.0, 0.9)), (2, 2, 2)),  # levels 4+ have one piece each
-        (dict(levels=4, subdivision=False, delta=0.6), (2, 2, 2)),  # no split, no displacement
+        (dict(levels=5, delta=(0.05, 0.0, 0.0, 0.0, 0.9)), (3, 3, 2)),  # levels 4+ have one piece each
+        (dict(levels=4, subdivision=False, delta=0.6), (3, 3, 2)),  # no split, no displacement
+        # 6 levels: 7 x 7 links unless packed with displacements up to 0.1 (the paper's regime)
+        (dict(levels=6, eps=0.25, delta=0.1), (3, 3, 2)),
+        (dict(levels=6, eps=0.25, delta=0.2), (3, 3, 3)),
+        (dict(levels=6, eps=0.0, delta=0.5), (3, 3, 3)),
     ],
 )
 def test_radii_follow_the_measured_regimes(kw, want):
@@ -567,6 +571,8 @@ def test_displacements_that_radii_ignore_change_nothing(device, kw, idle):
         (6, dict(eps=0.1, delta=0.5, levels=2, rule="lichtenberg"), (48, 48, 40, 40)),
         # 5 x 5 queries got 4 of these pixels wrong (by up to 0.009): level-3 segments reaching 3 cells
         (200, dict(eps=0.0, delta=1.0, levels=3), (48, 48, 40, 40)),
+        # from 4 levels finest segments reach farther: 5 x 5 queries got one of these pixels wrong
+        (1, dict(eps=0.0, delta=0.5, levels=4), (48, 48, 40, 40)),
     ],
 )
 def test_pixels_measure_the_nearest_piece_of_the_whole_tree(device, seed, kw, window):
@@ -698,14 +704,39 @@ def test_far_coordinates_are_refused_not_crashed_on():
 
 def test_a_primitive_block_planned_too_small_raises_instead_of_returning_nan(device, monkeypatch):
     wdd = importlib.import_module("wdendrite.dendry")  # the package's name `dendry` is the function
-    plan = wdd._cached_slots
+    plan = wdd._host_plan
 
-    def first_pixel_only(params, output, u_first, u_last, device):
-        return plan(params, output, u_first, u_first, device)
+    def first_pixel_only(params, output, u_first, u_last):
+        return plan(params, output, u_first, u_first)
 
-    monkeypatch.setattr(wdd, "_cached_slots", first_pixel_only)
+    monkeypatch.setattr(wdd, "_host_plan", first_pixel_only)
     with pytest.raises(RuntimeError, match="primitive block"):
-        dendry((16, 16), domain=DOMAIN, params=DendryParams(levels=2), control=CTL, output="elevation", device=device)
+        dendry((16, 16), domain=DOMAIN, params=DendryParams(levels=2), control=CTL, output="elevation",
+               mode="cached", device=device)
+
+
+@pytest.mark.parametrize("output", ["distance", "elevation"])
+def test_a_few_pixels_over_a_wide_domain_are_evaluated_pixel_by_pixel(output, device, monkeypatch):
+    # the cached mode builds every cell between the window's first and last pixel: 8 x 8 pixels
+    # over a domain 1e5 cells wide had raised a bare OverflowError (or asked for 151 GiB)
+    wdd = importlib.import_module("wdendrite.dendry")
+    p = DendryParams(levels=3)
+    ctl = control.plane((0.0, 1.0), domain=((0, 0), (1, 1)))
+    far = ((0, 0), (1e5, 1e5))
+    with pytest.raises(ValueError, match=r"mode='cached' would build \d+ cells for 64 pixels .* use mode='auto' or 'pixel'"):
+        dendry((8, 8), domain=far, params=p, control=ctl, output=output, mode="cached", device=device)
+    built = []
+    run = wdd._run_cached
+    monkeypatch.setattr(wdd, "_run_cached", lambda *a, **k: built.append(1) or run(*a, **k))
+    auto = dendry((8, 8), domain=far, params=p, control=ctl, output=output, device=device)  # "auto", the default
+    assert not built  # no cached plan for these
+    np.testing.assert_array_equal(auto, dendry((8, 8), domain=far, params=p, control=ctl, output=output,
+                                               mode="pixel", device=device))
+    # an ordinary image is still cached, with the same values as the per-pixel mode
+    near = dendry((24, 24), domain=DOMAIN, params=p, control=CTL, output=output, device=device)
+    assert built
+    np.testing.assert_array_equal(near, dendry((24, 24), domain=DOMAIN, params=p, control=CTL, output=output,
+                                               mode="pixel", device=device))
 
 
 @pytest.mark.parametrize("mode", ["auto", "cached", "pixel"])

@@ -49,10 +49,10 @@ from .kernels import dendry as _kd
 __all__ = ["DendryParams", "default_control", "dendry", "dendry_points"]
 
 Output = Literal["distance", "elevation", "level"]
-Mode = Literal["cached", "pixel"]
+Mode = Literal["auto", "cached", "pixel"]
 PointMode = Literal["auto", "cached", "pixel"]
 _OUTPUTS = {"distance": 0, "elevation": 1, "level": 2}
-_MODES = ("cached", "pixel")
+_MODES = ("auto", "cached", "pixel")
 _POINT_MODES = ("auto", "cached", "pixel")
 _RULES = ("terrain", "lichtenberg")
 _SEARCHES = ("exact", "paper")
@@ -101,9 +101,20 @@ class DendryParams:
     narrower one missed. Queries search the ``(2 rq + 1)^2`` cells around the point at every
     level: 5 x 5 (7 x 7 at level 1 when it is the only level), and 7 x 7 where links search
     7 x 7, because segments reach as far there (5 x 5 queries got up to 2 pixels in 10 000
-    wrong, by up to 0.03 cell). Wider searches cost the cached mode little; the per-pixel mode
-    builds more cells per pixel: 5 x 5 links take about 1.5x the time of 3 x 3 at 2 levels and
-    2.3-3.8x at 4-6, 7 x 7 about 3x that of 5 x 5. ``search="paper"`` keeps the authors' 3 x 3
+    wrong, by up to 0.03 cell). From 4 levels on queries search 7 x 7 cells: the finest
+    segments join pieces several finest cells from their owners, and 5 x 5 queries missed the
+    nearest piece for 1-2 pixels in 10 000 at 4-6 levels in the paper's regime (0.5 % at
+    ``eps = 0, delta = 0.5``, 6 levels). At 6 levels links search 7 x 7 cells unless the key
+    points are packed with displacements up to 0.1 (5 x 5 missed about 1 link in 1 000 at
+    ``eps`` 0-0.25 with ``delta = 0.5``, none in 85 000 at ``eps`` 0.25-0.3, ``delta`` 0-0.1).
+    7 x 7 is the widest search the kernels hold, so misses remain at free jitter with large
+    displacements, found by brute force over every piece: links 7 in 22 000 at 6 levels
+    (``eps = 0, delta = 0.5``) and 0.55 % at ``delta = 1``; queries at ``eps = 0, delta = 1``
+    0.05 % of pixels at 4 levels, 0.65 % at 5 and 1.6 % at 6; the Lichtenberg rule at 6
+    levels 1 pixel in 10 000. Wider searches cost the cached mode up to about half its rate
+    at 4-6 levels; the per-pixel mode builds more cells per pixel: 5 x 5 links take about 1.5x
+    the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6, 7 x 7 about 3x that of 5 x 5, and 7 x 7
+    queries 1.3-1.4x those of 5 x 5 at 4-5 levels. ``search="paper"`` keeps the authors' 3 x 3
     links (and 5 x 5 queries, 7 x 7 at one level) everywhere: faster per pixel, at the miss
     rates above.
     """
@@ -145,7 +156,9 @@ class DendryParams:
     cells unless key points are packed, displacements small and levels at most 3; see ``search``)."""
     search: Literal["exact", "paper"] = "exact"
     """Cells searched around a new key point for the piece it joins: ``"exact"`` as many as were
-    measured to miss no link in each regime (3 x 3, 5 x 5 or 7 x 7 cells); ``"paper"`` the 3 x 3 of
+    measured to miss no link in each regime (3 x 3, 5 x 5 or 7 x 7 cells; 7 x 7, the widest the
+    kernels hold, still misses some at free jitter with large displacements beyond 4 levels, see
+    the class docstring), with queries as wide; ``"paper"`` the 3 x 3 of
     the authors' implementation everywhere, faster per pixel but missing about 1 link in 10 000 at
     the paper's parameters and more at larger jitter or displacement (DendryParams' docstring has
     the measured rates)."""
@@ -208,8 +221,11 @@ class DendryParams:
             rl = 2  # Lichtenberg branches join downstream of their projections: they reach a ring farther
         else:
             rl = 3
-        # where segments reach 3 cells, a pixel's nearest piece may too
-        rq = max(rl, 2)
+        if self.levels >= 6 and (not packed or widest > _PACKED_DELTA):
+            rl = 3  # 5 x 5 links missed about 1 in 1 000 at 6 levels (eps 0-0.25, delta 0.5)
+        # where segments reach 3 cells, a pixel's nearest piece may too; and from 4 levels the
+        # finest segments join pieces far enough from their owners that 5 x 5 queries missed some
+        rq = 3 if self.levels >= 4 else max(rl, 2)
         return (3 if self.levels == 1 else rq), rq, rl
 
     @staticmethod
@@ -486,6 +502,10 @@ def _query_cells(params: DendryParams, output: str, u_first, u_last) -> tuple[tu
     return qlo, qhi, plo, phi
 
 
+class _TooManyCells(ValueError):
+    """A cached plan whose cells pass the kernels' int32 indices (``args[0]``: the cell count)."""
+
+
 def _host_plan(params: DendryParams, output: str, u_first, u_last) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """The blocks of the cached mode's slot 0 for all queries between grid points ``u_first``
     and ``u_last``, planned on the host (no launch, no read-back).
@@ -499,6 +519,13 @@ def _host_plan(params: DendryParams, output: str, u_first, u_last) -> tuple[np.n
     rx, ry = (_plan_ranges(params, a, b) for a, b in zip(qlo, qhi))
     blocks = np.zeros((8, 4), np.int32)
     bases = np.zeros(8, np.int32)
+    # cell counts in Python integers first: a window spanning a large domain needs a block
+    # per level spanning all of it, whatever its pixel count
+    counts = {l: (rx[l][1] - rx[l][0] + 1) * (ry[l][1] - ry[l][0] + 1) for l in range(1, n + 1)}
+    counts[0] = (rx[1][1] - rx[1][0] + 5) * (ry[1][1] - ry[1][0] + 5)
+    counts[_kd.PRIM] = (phi[0] - plo[0] + 1) * (phi[1] - plo[1] + 1)
+    if sum(counts[l] for l in range(1, n + 1)) >= 2**31 or max(counts.values()) >= 2**31:
+        raise _TooManyCells(sum(counts[l] for l in range(1, n + 1)))
     total = 0
     for l in range(n, 0, -1):  # the tree's levels share one storage, finest first
         blocks[l] = (rx[l][0], ry[l][0], rx[l][1] - rx[l][0] + 1, ry[l][1] - ry[l][0] + 1)
@@ -550,10 +577,12 @@ def _fill_cached(s, ctl, params, output, slots, sizes, device):
                   outputs=[slots.prims], device=device)
 
 
-def _run_cached(s, ctl, params, output, u_first, u_last, device, launch) -> None:
-    """Cached mode: build the cells that queries between grid points ``u_first`` and ``u_last``
-    need, once, then ``launch(slots)`` the kernel that evaluates them."""
-    slots, sizes = _cached_slots(params, output, u_first, u_last, device)
+def _run_cached(s, ctl, params, output, plan, device, launch) -> None:
+    """Cached mode: build the cells of ``plan`` (from :func:`_host_plan`) once, then
+    ``launch(slots)`` the kernel that evaluates them."""
+    slots = _cached_storage([plan], params, device)
+    _load_plan(slots, plan)
+    sizes = plan[2]
     _fill_cached(s, ctl, params, output, slots, sizes, device)
     launch(slots)
     slots.check()
@@ -609,7 +638,7 @@ def dendry(
     control: Control | None = None,
     output: Output = "distance",
     window=None,
-    mode: Mode = "cached",
+    mode: Mode = "auto",
     control_domain=None,
     device=None,
 ) -> np.ndarray:
@@ -624,8 +653,11 @@ def dendry(
         output: ``"distance"`` (domain units, inf where no branch exists), ``"elevation"``
             (control units) or ``"level"`` (1..n of the nearest branch, 0 where none).
         window: (row0, col0, h, w) to compute only that region; None for the whole image.
-        mode: ``"cached"`` builds every cell of the window once; ``"pixel"`` rebuilds the
-            cells around each pixel independently. Both give the same values.
+        mode: ``"cached"`` builds every cell the window's pixels need once (cells spanning the
+            whole window, however far apart its pixels lie); ``"pixel"`` rebuilds the cells
+            around each pixel independently; ``"auto"`` is ``"cached"`` unless its cells would
+            cost more than the pixels building their own (a small image over a domain many
+            cells wide). All give the same values.
         control_domain: rectangle of the control's coordinates the domain maps onto
             (default ``control.domain``).
         device: Warp device (default: Warp's default device).
@@ -674,10 +706,24 @@ def dendry(
                   inputs=[s, ctl, code, cached, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
                   outputs=[out, slots.overflow], device=device)
 
-    if mode == "cached":
+    plan = None
+    if mode != "pixel":
         u_first = (x0[0] + (c0 + 0.5) * step[0], x0[1] + (r0 + 0.5) * step[1])
         u_last = (x0[0] + (c0 + w - 0.5) * step[0], x0[1] + (r0 + h - 0.5) * step[1])
-        _run_cached(s, ctl, params, output, u_first, u_last, device, lambda slots: launch(slots, 1, 1, 0, h * w))
+        try:
+            plan = _host_plan(params, output, u_first, u_last)
+        except _TooManyCells as exc:
+            if mode == "cached":
+                raise ValueError(
+                    f"mode='cached' would build {exc.args[0]} cells for {h * w} pixels over {what}, beyond the "
+                    "kernels' int32 indices: use mode='auto' or 'pixel' (the same values)") from None
+        # "auto": the per-pixel mode where the window's cells would outnumber what its pixels
+        # build on their own (a few pixels spread over a large domain)
+        if mode == "auto" and (plan is None or _cached_work(params, output, plan) * _CACHED_CELL_COST
+                               > h * w * sum(_slot_capacity(params, output))):
+            plan = None
+    if plan is not None:
+        _run_cached(s, ctl, params, output, plan, device, lambda slots: launch(slots, 1, 1, 0, h * w))
     else:
         _run_pixels(params, output, h * w, device,
                     lambda slots, nslots, first, size: launch(slots, 0, nslots, first, size))
