@@ -1,5 +1,6 @@
 """Endpoint placement: constraints hold for every point, counts, reproducibility, bias, bad input."""
 
+import math
 import warnings
 
 import numpy as np
@@ -337,3 +338,38 @@ def test_a_band_below_cost_zero_is_refused_before_any_kernel(launches):
     with pytest.raises(ValueError, match="below cost 0"):
         ep.in_band(cf, 5, -10, 1)
     assert launches == []
+
+
+def test_a_spacing_equal_to_a_pairs_distance_lets_the_pair_be():
+    # "at least min_spacing apart": sqrt(2)**2 rounds above 2, which had refused the diagonal pair
+    for seed in range(20):  # (whichever node comes first, its diagonal is the one left)
+        got = ep.random((2, 2), 2, seed=seed, min_spacing=math.sqrt(2))
+        assert np.abs(got[0] - got[1]).tolist() == [1, 1]
+
+
+@pytest.mark.parametrize("shape, count, spacing", [((40, 50), 30, 4.5), ((12, 14, 16), 20, 3.0), ((64, 64), 5, 30.0)])
+def test_wide_spacings_compared_directly_keep_what_the_footprint_keeps(shape, count, spacing, monkeypatch):
+    # spacings whose footprint would be large compare candidates with the kept points instead;
+    # both ways keep the same endpoints
+    want = ep.random(shape, count, seed=3, min_spacing=spacing)
+    monkeypatch.setattr(ep, "_FOOTPRINT_MAX", 0)
+    got = ep.random(shape, count, seed=3, min_spacing=spacing)
+    np.testing.assert_array_equal(got, want)
+    d = np.linalg.norm(got[:, None] - got[None], axis=-1)
+    assert (d[~np.eye(len(got), dtype=bool)] >= spacing).all()
+
+
+def test_a_spacing_wider_than_the_region_fails_before_any_table(monkeypatch):
+    # 200^3 with spacing 400 had built a 5 GB offset table before failing
+    monkeypatch.setattr(ep, "_footprint", lambda *a: pytest.fail("built a footprint"))
+    monkeypatch.setattr(ep, "_spaced_far", lambda *a: pytest.fail("scanned the candidates"))
+    with pytest.raises(ep.TooManyEndpoints, match="'min_spacing' = 400"):
+        ep.random((200, 200, 200), 2, min_spacing=400)
+
+
+def test_a_steep_bias_still_reaches_every_node():
+    # ((i + 1) / n) ** 200 underflows to 0 near the start: those nodes had been left out
+    got = ep.biased((1000, 3), 3000, power=200)
+    assert len(np.unique(got, axis=0)) == 3000
+    first = ep.biased((1000, 3), 30, power=200, seed=1)
+    assert (first[:, 0] > 900).all()  # and the draw still follows the profile

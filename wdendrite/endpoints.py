@@ -241,7 +241,20 @@ def _footprint(shape, spacing: float) -> np.ndarray:
     r = math.ceil(reach)
     axes = np.meshgrid(*[np.arange(-min(r, n - 1), min(r, n - 1) + 1) for n in shape], indexing="ij")
     off = np.stack([a.ravel() for a in axes], axis=1)
-    return off[(off.astype(np.float64) ** 2).sum(axis=1) < reach**2]
+    # distances compared, not their squares: sqrt(2)**2 rounds above 2, which had refused a pair
+    # exactly 'spacing' = sqrt(2) apart
+    return off[np.sqrt((off.astype(np.float64) ** 2).sum(axis=1)) < reach]
+
+
+_FOOTPRINT_MAX = 1 << 20
+"""Largest footprint (offsets) :func:`_spaced` marks per kept point; wider spacings keep few
+points, which are compared with the candidates directly."""
+
+
+def _footprint_size(shape, spacing: float) -> int:
+    """Offsets in the box :func:`_footprint` would scan (an upper bound of its size)."""
+    r = math.ceil(min(float(spacing), float(sum(shape))))
+    return math.prod(2 * min(r, n - 1) + 1 for n in shape)
 
 
 def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
@@ -260,6 +273,52 @@ def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
 
 def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
     """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
+    if count >= 2 and len(cand):
+        # no two candidates that far apart: say so at once (a wide search would scan them all)
+        span = np.array([int(p.max()) - int(p.min()) for p in np.unravel_index(cand, shape)], np.float64)
+        if math.sqrt(float((span**2).sum())) < spacing:
+            _spaced_error([int(cand[0])], count, spacing, len(cand))
+    if _footprint_size(shape, spacing) > _FOOTPRINT_MAX:
+        kept = _spaced_far(cand, keys, shape, count, spacing)
+    else:
+        kept = _spaced_near(cand, keys, shape, count, spacing)
+    if len(kept) < count:
+        _spaced_error(kept, count, spacing, len(cand))
+    return np.asarray(kept, dtype=np.int64)
+
+
+def _spaced_error(kept, count: int, spacing: float, candidates: int):
+    raise TooManyEndpoints(
+        f"Could place only {len(kept)} of {count} endpoints at least 'min_spacing' = {spacing:g} apart "
+        f"among {candidates} candidate nodes (each tried once, in random order); "
+        "lower 'count' or 'min_spacing', or widen the region"
+    )
+
+
+def _spaced_far(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> list[int]:
+    """:func:`_spaced` for spacings whose footprint is large: few points fit, so each block of
+    candidates is compared with the kept points directly (no per-node table)."""
+    kept: list[int] = []
+    at = np.empty((0, len(shape)))
+    for order in _in_key_order(cand, keys, 4 * count + 1024):
+        for start in range(0, len(order), 4096):
+            seg = order[start:start + 4096]
+            pos = np.stack(np.unravel_index(seg, shape), axis=1).astype(np.float64)
+            free = np.ones(len(seg), bool)
+            if len(at):
+                free = (np.sqrt(((pos[:, None, :] - at[None]) ** 2).sum(-1)) >= spacing).all(axis=1)
+            while len(kept) < count and free.any():
+                j = int(np.argmax(free))
+                kept.append(int(seg[j]))
+                at = np.vstack([at, pos[j]])
+                free &= np.sqrt(((pos - pos[j]) ** 2).sum(-1)) >= spacing
+            if len(kept) == count:
+                return kept
+    return kept
+
+
+def _spaced_near(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> list[int]:
+    """:func:`_spaced` marking each kept point's footprint in a per-node table."""
     foot = _footprint(shape, spacing)
     dims = np.asarray(shape)
     blocked = np.zeros(math.prod(shape), bool)
@@ -284,13 +343,7 @@ def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: floa
             blocked[np.ravel_multi_index(tuple(near.T), shape)] = True
         if len(kept) == count:
             break
-    if len(kept) < count:
-        raise TooManyEndpoints(
-            f"Could place only {len(kept)} of {count} endpoints at least 'min_spacing' = {spacing:g} apart "
-            f"among {len(cand)} candidate nodes (each tried once, in random order); "
-            "lower 'count' or 'min_spacing', or widen the region"
-        )
-    return np.asarray(kept, dtype=np.int64)
+    return kept
 
 
 def _density(density, shape) -> np.ndarray:
@@ -309,32 +362,39 @@ def _density(density, shape) -> np.ndarray:
     return arr
 
 
-def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why: list) -> np.ndarray:
+def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why: list,
+            log_density=None) -> np.ndarray:
     """Draw ``count`` distinct nodes among the candidates ``cand`` (ascending flat indices).
 
     ``why`` holds zero-argument callables describing the filters, called only
     to word an error (counting candidates for a message is a pass over the lattice).
+    ``log_density`` (see :func:`_random`) replaces ``density`` when given.
     """
+    log_dens = None
     if density is not None:
         dens = _density(density, shape)
         cand = cand[dens[cand] > 0]
         why.append(lambda n=len(cand): f"{n} with positive 'density'")
+        with np.errstate(divide="ignore"):
+            log_dens = np.log(dens[cand])
+    elif log_density is not None:
+        log_dens = np.asarray(log_density, np.float64).reshape(-1)[cand]
     if len(cand) == 0:
         raise TooManyEndpoints("No candidate nodes for endpoints: " + _describe(why))
     if count > len(cand):
         raise TooManyEndpoints(f"Asked for 'count' = {count} endpoints, but there are only {len(cand)} candidate nodes: "
                          + _describe(why))
-    if density is None and min_spacing is None:
+    if log_dens is None and min_spacing is None:
         # a uniform draw without replacement, in random order: no key per candidate needed
         flat = cand[rng.choice(len(cand), size=count, replace=False)]
     else:
-        if density is None:
+        if log_dens is None:
             keys = rng.random(len(cand))
         else:
             # exponential keys scaled by 1/density: sorting them is weighted sampling without
             # replacement. Compared as logarithms, so that no density is too small (subnormal) or
             # too large for the quotient to hold
-            keys = np.log(rng.exponential(size=len(cand))) - np.log(dens[cand])
+            keys = np.log(rng.exponential(size=len(cand))) - log_dens
         if min_spacing is None:
             flat = next(_in_key_order(cand, keys, count))
         else:
@@ -429,10 +489,16 @@ def random(
             spacing that leaves fewer than ``count``; bad argument values.
         TypeError: bad argument types.
     """
+    return _random(lattice, count, seed, within, density, None, min_spacing)
+
+
+def _random(lattice, count, seed, within, density, log_density, min_spacing) -> np.ndarray:
+    """:func:`random`, with the density optionally given by its logarithm (``log_density``:
+    float64 of the lattice shape, -inf where it is 0), which no steep profile underflows."""
     shape, mask = _space(lattice)
     count, rng, spacing = _count(count), _rng(seed), _spacing(min_spacing)
     usable, why = _candidates(shape, mask, within)
-    return _sample(shape, np.flatnonzero(usable), count, rng, density, spacing, why)
+    return _sample(shape, np.flatnonzero(usable), count, rng, density, spacing, why, log_density)
 
 
 def biased(
@@ -473,11 +539,13 @@ def biased(
         raise ValueError(f"Expected 'toward' in ('start', 'end'), but got {toward!r}")
     n = shape[axis]
     i = np.arange(n, dtype=np.float64)
-    profile = ((i + 1) / n) ** power if toward == "end" else ((n - i) / n) ** power
+    # the profile's logarithm: ((i + 1) / n) ** power underflows to 0 for steep powers, which
+    # would have made such nodes undrawable (0 * log 0 is 0 at power 0: uniform)
+    log_profile = power * np.log(((i + 1) / n) if toward == "end" else ((n - i) / n))
     view = [1] * len(shape)
     view[axis] = n
-    density = np.broadcast_to(profile.reshape(view), shape)
-    return random(lattice, count, seed=seed, within=within, density=density, min_spacing=min_spacing)
+    log_density = np.broadcast_to(log_profile.reshape(view), shape)
+    return _random(lattice, count, seed, within, None, log_density, min_spacing)
 
 
 def in_band(
