@@ -233,6 +233,28 @@ def test_map_from_file_and_pil_image_equal_array(tmp_path):
     np.testing.assert_array_equal(got, ref)
 
 
+def test_maps_read_16_bit_float_and_transparent_images_as_their_brightness(tmp_path):
+    ramp = np.tile(np.linspace(0.0, 1.0, 8), (4, 1))
+    from wdendrite.io import save_png
+
+    path = save_png(tmp_path / "ramp16.png", ramp, bits=16)
+    want = np.round(ramp * 65535) / 65535
+    # Pillow < 10.3 opens 16-bit PNGs as mode "I"; "I" had been clipped to 255 (all white)
+    for img in (Image.open(path), Image.open(path).convert("I")):
+        np.testing.assert_allclose(weights.Map(img).brightness, want, atol=1e-6)
+    # float images are brightness already ("F" had been truncated to 0, all black)
+    f = Image.fromarray(ramp.astype(np.float32))
+    assert f.mode == "F"
+    np.testing.assert_allclose(weights.Map(f).brightness, ramp, atol=1e-6)
+    # a sketch on a transparent background: the background reads as white paper, the strokes dark
+    rgba = np.zeros((4, 8, 4), np.uint8)
+    rgba[:, 3, 3] = 255  # one opaque black column
+    want = np.where(np.arange(8) == 3, 0.0, 1.0)[None].repeat(4, 0)
+    np.testing.assert_array_equal(weights.Map(Image.fromarray(rgba)).brightness, want)
+    with pytest.raises(ValueError, match="16-bit grayscale image for 'image'"):
+        weights.Map(Image.fromarray(np.full((2, 2), 70000, np.int32)))
+
+
 # ---------------------------------------------------------------------------
 # in-kernel evaluation equals the stored array
 

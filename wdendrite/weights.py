@@ -471,7 +471,9 @@ def _grayscale(name: str, image) -> np.ndarray:
 
     uint8 arrays are divided by 255, uint16 by 65535, bool arrays map to 0/1
     and float arrays must already lie in [0, 1]. Files and PIL images are
-    converted to 8-bit grayscale (16-bit grayscale PNGs keep their depth).
+    converted to 8-bit grayscale, except 16-bit grayscale (modes ``I;16`` and ``I``, as
+    Pillow opens 16-bit PNGs; divided by 65535) and float images (mode ``F``, in [0, 1]);
+    transparent parts of an image read as white paper.
     """
     if isinstance(image, (str, os.PathLike)):
         from PIL import Image, UnidentifiedImageError
@@ -482,8 +484,19 @@ def _grayscale(name: str, image) -> np.ndarray:
         except (OSError, UnidentifiedImageError) as err:
             raise ValueError(f"Could not read '{name}' from {os.fspath(image)!r}: {err}") from None
     if hasattr(image, "mode") and hasattr(image, "convert"):  # a PIL image
-        if image.mode.startswith("I;16"):
-            return (np.asarray(image, dtype=np.float64) / 65535.0).astype(np.float32)
+        if image.mode.startswith("I;16") or image.mode == "I":
+            arr = np.asarray(image, dtype=np.float64)
+            if arr.size and (arr.min() < 0 or arr.max() > 65535):
+                raise ValueError(f"Expected a 16-bit grayscale image for '{name}' (values 0-65535), but its "
+                                 f"values span [{arr.min():g}, {arr.max():g}]")
+            return (arr / 65535.0).astype(np.float32)
+        if image.mode == "F":
+            return _grayscale(name, np.asarray(image, dtype=np.float32))
+        if image.mode in ("LA", "RGBA", "PA", "La", "RGBa") or "transparency" in image.info:
+            from PIL import Image
+
+            paper = Image.new("RGBA", image.size, (255, 255, 255, 255))
+            image = Image.alpha_composite(paper, image.convert("RGBA"))
         return (np.asarray(image.convert("L"), dtype=np.float64) / 255.0).astype(np.float32)
     arr = np.asarray(image)
     if arr.dtype == np.bool_:
