@@ -357,3 +357,47 @@ def test_temporary_prefixes_fit_and_stay_apart(tmp_path):
     odd = os.fsdecode(b"\xff-odd.png")
     save_png(tmp_path / odd, np.zeros((2, 2)))
     assert (tmp_path / odd).exists() and not _leftovers(tmp_path)
+
+
+def test_every_single_bit_flip_of_an_npz_loads_or_is_named(tmp_path):
+    # damaged zip headers had escaped as RuntimeError ("encrypted"), NotImplementedError or OSError,
+    # and a damaged first byte as numpy's advice to load pickles
+    good = save_dendrite(tmp_path / "good.npz", DEN2).read_bytes()
+    bad = tmp_path / "bad.npz"
+    rng = np.random.default_rng(0)
+    spots = sorted(set(range(64)) | set(rng.integers(0, len(good), 300).tolist()) | set(range(len(good) - 64, len(good))))
+    for i in spots:
+        for bit in (0, 3, 7):
+            flipped = bytearray(good)
+            flipped[i] ^= 1 << bit
+            bad.write_bytes(bytes(flipped))
+            try:
+                den, _ = load_dendrite(bad)
+            except ValueError as err:
+                assert "is not a dendrite file" in str(err) or "holds" in str(err), (i, bit, err)
+            else:  # a flip in bytes nothing reads (a timestamp, a comment)
+                np.testing.assert_array_equal(den.nodes, DEN2.nodes)
+
+
+def test_a_file_that_appears_while_writing_is_not_replaced(tmp_path):
+    target = tmp_path / "mine.txt"
+
+    def write(tmp):
+        target.write_text("someone else's file")  # after atomic_write's own check
+        with open(tmp, "w") as f:
+            f.write("mine")
+
+    with pytest.raises(FileExistsError, match="appeared while it was written"):
+        atomic_write(target, write)
+    assert target.read_text() == "someone else's file" and _leftovers(tmp_path) == []
+    atomic_write(tmp_path / "fresh.txt", lambda tmp: open(tmp, "w").write("ok"))
+    assert (tmp_path / "fresh.txt").read_text() == "ok" and _leftovers(tmp_path) == []
+
+
+def test_a_dendrite_saved_under_another_suffix_loads_with_its_format(tmp_path):
+    for fmt in DENDRITE_FORMATS:
+        path = save_dendrite(tmp_path / f"d-{fmt}.dat", DEN2, format=fmt)
+        den, _ = load_dendrite(path, format=fmt)
+        np.testing.assert_array_equal(den.nodes, DEN2.nodes)
+    with pytest.raises(ValueError, match="Unknown dendrite format from the suffix"):
+        load_dendrite(tmp_path / "d-npz.dat")

@@ -97,7 +97,20 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     tmp = str(temporary_beside(path))
     try:
         write(tmp)
-        os.replace(tmp, path)
+        if overwrite:
+            os.replace(tmp, path)
+        else:
+            # a hard link fails if ``path`` appeared meanwhile (the check above is not atomic);
+            # file systems without hard links fall back to the rename
+            try:
+                os.link(tmp, path)
+            except FileExistsError:
+                raise FileExistsError(f"{str(path)!r} appeared while it was written; nothing was replaced "
+                                      "(pass overwrite=True to replace it)") from None
+            except OSError:
+                os.replace(tmp, path)
+            else:
+                os.unlink(tmp)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -290,26 +303,37 @@ def _read_arrays(path: Path, fmt: str) -> dict:
     def refuse(why: str) -> ValueError:
         return ValueError(f"'path' {str(path)!r} is not a dendrite file: {why}")
 
-    # np.load reads anything that is not a zip archive as a pickle, and refuses it with advice on pickles
-    if fmt == "npz" and not zipfile.is_zipfile(path):
-        raise refuse("it is not an .npz (zip) archive")
+    # np.load reads anything that does not start like a zip archive as a pickle, and refuses it
+    # with advice on pickles: check both ends (is_zipfile reads the end)
+    if fmt == "npz":
+        with open(path, "rb") as f:
+            head = f.read(4)
+        if head != b"PK\x03\x04" or not zipfile.is_zipfile(path):
+            raise refuse("it is not an .npz (zip) archive")
     try:
         if fmt == "npz":
-            with np.load(path) as z:
+            with np.load(path, allow_pickle=False) as z:
                 return {k: z[k] for k in z.files}
         with open(path, encoding="utf-8") as f:
             data = json.load(f)
         if isinstance(data, dict):
             return {k: np.asarray(v) for k, v in data.items()}
-    except (ValueError, EOFError, zipfile.BadZipFile, zlib.error) as err:  # ValueError: JSON, text, ragged lists
-        raise refuse(f"{type(err).__name__}: {err}") from None
-    except RecursionError:  # JSON nested deeper than the parser goes
+    except RecursionError:  # JSON nested deeper than the parser goes (before RuntimeError, its base)
         raise refuse("its JSON is nested too deeply") from None
+    # ValueError: JSON, text, ragged lists; RuntimeError, NotImplementedError, OSError: damaged
+    # zip headers (a member flagged encrypted, an unknown compression method, a bad offset)
+    except (ValueError, EOFError, zipfile.BadZipFile, zlib.error, RuntimeError, NotImplementedError, OSError) as err:
+        raise refuse(f"{type(err).__name__}: {err}") from None
     raise refuse(f"expected a JSON object, but it holds a {type(data).__name__}")
 
 
-def load_dendrite(path):
+def load_dendrite(path, *, format: str | None = None):
     """Read a file written by :func:`save_dendrite`.
+
+    Args:
+        path: the file.
+        format: ``"npz"`` or ``"json"``; None takes it from the suffix (give it for a file
+            saved under another suffix with ``save_dendrite(..., format=...)``).
 
     Returns:
         ``(dendrite, width)``: the :class:`~wdendrite.Dendrite` and its ``(N,)`` float32 widths.
@@ -322,7 +346,7 @@ def load_dendrite(path):
     from .dendrite import Dendrite
 
     path = Path(path)
-    fmt = _format(path, None, DENDRITE_FORMATS, "dendrite")
+    fmt = _format(path, format, DENDRITE_FORMATS, "dendrite")
     if not path.exists():
         raise FileNotFoundError(f"'path' {str(path)!r} does not exist")
     if path.is_dir():
