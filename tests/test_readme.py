@@ -20,3 +20,5 @@ def test_readme_api_block_runs():
     assert scope["mesh"].is_watertight
     assert scope["terrain"].shape == (64, 64)
     assert scope["heights"].shape == (2,)
+    # the filled terrain drains to its border: the largest area is at least a row's worth
+    assert scope["area"].shape == (64, 64) and scope["area"].max() >= 64
