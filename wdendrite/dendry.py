@@ -758,7 +758,11 @@ def dendry_points(
         params, control, output, control_domain, device: as in :func:`dendry`.
 
     Returns:
-        (N,) float32 array.
+        (N,) float32 array. A point equals an image's pixel bit for bit when it is the pixel
+        centre as the image kernel computes it: in float32 grid units, ``x0 * resolution``
+        plus ``(col + 0.5)`` times the float32 step ``(x1 - x0) / W * resolution`` (likewise
+        for rows); the same centre computed in float64 may differ in its last float32 bit,
+        and so may the value (by about 1e-6).
 
     Raises:
         ValueError, TypeError: for bad points (not (N, 2), not finite, or beyond the coordinate
