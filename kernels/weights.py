@@ -168,12 +168,17 @@ def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3
     g = params.grid
     lo = params.grid_lo
     s = params.grid_span
-    # blocks of the fine node and of its neighbour (fine indices are >= 0 inside the lattice;
-    # an edge leaving it is never read)
-    ca = wp.vec3i(c[0] / ni, c[1] / ni, c[2] / ni)
-    d = wp.vec3i((c[0] + offset[0]) / ni, (c[1] + offset[1]) / ni, (c[2] + offset[2]) / ni) - ca
+    # does the edge leave the fine node's block (coarse node c / n)? Along an axis it moves on,
+    # only from the block's last index forward or its first backward (fine indices are >= 0
+    # inside the lattice; an edge leaving it is never read). Divisions only where it moves.
+    d = wp.vec3i(0, 0, 0)
+    for axis in range(3):
+        if offset[axis] != 0:
+            r = c[axis] - (c[axis] / ni) * ni
+            if (offset[axis] > 0 and r == ni - 1) or (offset[axis] < 0 and r == 0):
+                d[axis] = offset[axis]
     if d[0] != 0 or d[1] != 0 or d[2] != 0:
-        at = ((ca[0] - lo[0]) * s[1] + ca[1] - lo[1]) * s[2] + ca[2] - lo[2]
+        at = (((c[0] / ni) - lo[0]) * s[1] + (c[1] / ni) - lo[1]) * s[2] + (c[2] / ni) - lo[2]
         bit = 9 * (d[0] + 1) + 3 * (d[1] + 1) + d[2] + 1
         if at >= 0 and at < params.links.shape[0]:
             if ((params.links[at] >> bit) & 1) == 0:

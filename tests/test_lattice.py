@@ -77,7 +77,7 @@ def test_edges_match_brute_force(shape, conn):
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), "a")), TypeError, "weights"),
         (dict(shape=(4, 4), weights=-np.ones((2, 4, 4))), ValueError, "-1.0"),
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.nan)), ValueError, "NaN"),
-        (dict(shape=(4, 4), weights=np.full((2, 4, 4), np.inf)), ValueError, "finite"),
+        (dict(shape=(4, 4), weights=np.full((2, 4, 4), -np.inf)), ValueError, "NaN, -inf or too large"),
         # values float32 cannot hold are quoted as given, with the reason
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), 1e39)), ValueError, "1e+39 (too large for float32)"),
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), 1e-50)), ValueError, "1e-50 (too small for float32"),
@@ -169,7 +169,35 @@ def test_lattices_pickle(kind):
     assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()
 
 
-@pytest.mark.parametrize("bad", [np.nan, np.inf, 0.0, -1.0])
+def test_infinite_weights_are_edges_never_taken():
+    # +inf marks an edge no path takes (refined lattices hold them between unrelated blocks)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    from wdendrite.lattice import edge_slices
+
+    rng = np.random.default_rng(0)
+    x = [k for k, off in enumerate(wd.Lattice((12, 12), 4).offsets.tolist()) if off == [0, 1]][0]
+    w = (1 + rng.random((2, 12, 12))).astype(np.float32)
+    w[x][:, 5] = np.inf  # the x-edges from column 5 to 6: a wall with one gap
+    w[x][7, 5] = 1.0
+    lat = wd.Lattice((12, 12), 4, weights=w)
+    cf = wd.shortest_paths(lat, [[0, 0]])
+    idx = np.arange(144).reshape(12, 12)
+    ends = [edge_slices(off, (12, 12)) for off in lat.offsets]
+    a = np.concatenate([idx[src].ravel() for src, _ in ends])
+    b = np.concatenate([idx[dst].ravel() for _, dst in ends])
+    c = np.concatenate([w[k][src].ravel() for k, (src, _) in enumerate(ends)]).astype(np.float64)
+    keep = np.isfinite(c)
+    ref = dijkstra(coo_matrix((c[keep], (a[keep], b[keep])), shape=(144, 144)).tocsr(), directed=False, indices=0)
+    np.testing.assert_allclose(cf.dist.ravel(), ref, rtol=1e-6)
+    den = wd.trace(cf, [[0, 11]])
+    crossing = [tuple(den.nodes[i]) for i in range(len(den)) if den.parent[i] >= 0
+                and {den.nodes[i][1], den.nodes[den.parent[i]][1]} == {5, 6}]
+    assert crossing and all(r == 7 for r, _ in crossing)
+
+
+@pytest.mark.parametrize("bad", [np.nan, -np.inf, 0.0, -1.0])
 def test_weights_along_an_axis_of_size_one_are_checked(bad):
     # such entries have no edge inside to stand in for them, and refinement interpolates them
     w = np.ones((4, 1, 8), np.float32)

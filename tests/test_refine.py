@@ -363,3 +363,60 @@ def test_a_fine_box_beyond_the_kernels_names_n_before_any_work(n):
     den = wd.trace(wd.shortest_paths(lat, [[0, 0]]), [[299, 299]])
     with pytest.raises(ValueError, match=rf"'n' = {int(n)} makes a fine lattice of shape .* beyond the kernels"):
         wd.refine(den, lat, n=n)
+
+
+def test_a_refined_lattice_pickles_grows_and_takes_new_weights_after_a_search():
+    import copy
+    import pickle
+
+    lat, den = _coarse((20, 20), 8, 4)
+    fine, fl = wd.refine(den, lat, n=3, seed=1)
+    cf = wd.shortest_paths(fl, fine.nodes[fine.roots])  # (its distribution then caches device arrays)
+    for twin in (pickle.loads(pickle.dumps(fl)), copy.deepcopy(fl)):
+        again = wd.shortest_paths(twin, fine.nodes[fine.roots])
+        assert again.dist.tobytes() == cf.dist.tobytes()
+    # its inf crossings are edges never taken, which its users accept as such
+    assert np.isposinf(fl.weights).any()
+    same = fl.with_weights(fl.weights)
+    assert wd.shortest_paths(same, fine.nodes[fine.roots]).dist.tobytes() == cf.dist.tobytes()
+    grown = wd.grow(fl, fine.nodes[fine.roots], wd.FractalParams(count=4, d=1.5, alpha=2.0, beta=2.0, epsilon=0.5,
+                                                                 cheap=0.5), start=fine, seed=0)
+    assert len(grown) > len(fine) and fl.mask[tuple(grown.nodes.T)].all()
+
+
+def test_entries_along_an_axis_of_size_one_are_interpolated():
+    # the lattice keeps them (no edge inside stands in for them): refinement must use them
+    w = np.ones((4, 20, 1), np.float32)
+    lat0 = wd.Lattice((20, 1), 8)
+    x = [k for k, off in enumerate(lat0.offsets.tolist()) if off == [0, 1]][0]
+    w[x] = 50.0
+    lat = wd.Lattice((20, 1), 8, weights=w * lat0.lengths[:, None, None])
+    den = wd.trace(wd.shortest_paths(lat, [[0, 0]]), [[19, 0]])
+    _, fl = wd.refine(den, lat, n=3, seed=0)
+    xs = fl.weights[x][fl.mask]
+    xs = xs[np.isfinite(xs)]
+    # e W_int + (1 - e) W_ran with W_int = 50 per unit length and W_ran in [1, 50], over n = 3
+    assert xs.min() > (0.75 * 50 + 0.25) / 3 - 1e-4
+
+
+def test_fine_weights_by_the_border_do_not_depend_on_the_rest_of_the_dendrite():
+    # entries beside the lattice's border take their surroundings' values: those must not
+    # depend on which other nodes the dendrite has (edges of a's box usable in both are compared)
+    lat = wd.Lattice((40, 40), 8, weights=wd.weights.Uniform(r=10, seed=3))
+    cf = wd.shortest_paths(lat, [[20, 0]])
+    _, la = wd.refine(wd.trace(cf, [[2, 0]]), lat, n=3, seed=5)
+    _, lb = wd.refine(wd.trace(cf, [[2, 0], [39, 0]]), lat, n=3, seed=5)
+    sa, sb = np.asarray(la.distribution.start), np.asarray(lb.distribution.start)
+    from wdendrite.lattice import edge_slices
+
+    box = tuple(slice(int(o), int(o) + s) for o, s in zip(sa - sb, la.shape))
+    wb_box, mb = lb.weights[(slice(None),) + box], lb.mask[box]
+    compared = 0
+    for k, off in enumerate(la.offsets):  # the edges of a's box, usable in both lattices
+        src, dst = edge_slices(off, la.shape)
+        use = la.mask[src] & la.mask[dst] & mb[src] & mb[dst]
+        a, b = la.weights[k][src][use], wb_box[k][src][use]
+        fin = np.isfinite(a) & np.isfinite(b)
+        np.testing.assert_array_equal(a[fin], b[fin])
+        compared += fin.sum()
+    assert compared > 100

@@ -83,8 +83,9 @@ def edge_slices(offset, shape: tuple) -> tuple[tuple, tuple]:
 
 
 def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask, raw=None) -> None:
-    """Require finite weights, positive on every usable edge (``raw``: the caller's array before
-    its conversion to float32, quoted in the messages).
+    """Require weights that are not NaN or -inf, positive on every usable edge (``raw``: the
+    caller's array before its conversion to float32, quoted in the messages). ``+inf`` marks an
+    edge no path takes (refined lattices hold such edges between unrelated blocks).
 
     Entries whose neighbour lies outside the lattice are ignored (the records
     take the nearest edge inside instead), except along an axis of size 1,
@@ -101,16 +102,21 @@ def _check_weight_values(weights: np.ndarray, offsets: np.ndarray, mask, raw=Non
     slices = [checked(off) for off in offsets]
     inside = [weights[k][src] for k, (src, _) in enumerate(slices)]
     # the common case: two reductions per direction over views
-    if all(v.size == 0 or (0 < float(v.min()) and np.isfinite(float(v.max()))) for v in inside):
+    # (a NaN makes the minimum NaN; an inf is checked against the caller's value below)
+    if all(v.size == 0 or (0 < float(v.min()) and float(v.max()) < np.inf) for v in inside):
         return
     for k, (v, (src, _)) in enumerate(zip(inside, slices)):
-        bad = ~np.isfinite(v)
+        bad = np.isnan(v) | np.isneginf(v)
+        if raw is not None and np.isposinf(v).any():  # a finite value float32 cannot hold is no +inf
+            with np.errstate(invalid="ignore"):
+                bad |= np.isposinf(v) & np.isfinite(np.asarray(raw[k][src], np.float64))
         if bad.any():
             where = (k, *(int(i) + (s.start or 0) for i, s in zip(np.argwhere(bad)[0], src)))
             given = weights[where] if raw is None else raw[where]
             raise ValueError(
-                f"'weights' must be finite, but has {int(bad.sum())} NaN/inf entries in direction {k} (first at "
-                f"{where}: {given.item()!r}{_checks.float32_note(given)})"
+                f"'weights' must be float32 numbers (+inf for an edge never taken), but has {int(bad.sum())} NaN, "
+                f"-inf or too large entries in direction {k} (first at {where}: {given.item()!r}"
+                f"{_checks.float32_note(given)})"
             )
     for k, (v, (src, dst)) in enumerate(zip(inside, slices)):
         low = v <= 0
@@ -274,8 +280,8 @@ class Lattice:
     Args:
         shape: ``(H, W)`` or ``(D, H, W)``, positive ints.
         connectivity: 4 or 8 in 2D, 6 or 26 in 3D (default: 4 in 2D, 6 in 3D).
-        weights: a ``(K, *shape)`` array of finite edge costs, positive on every
-            usable edge (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``;
+        weights: a ``(K, *shape)`` array of edge costs, positive on every usable edge,
+            ``+inf`` for an edge never taken (``weights[k][idx]`` is the edge ``idx <-> idx + offsets[k]``;
             entries whose neighbour lies outside are ignored, except along an axis
             of size 1, where they are kept for refinement and checked), or a
             distribution from :mod:`wdendrite.weights` such as

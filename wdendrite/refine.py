@@ -156,6 +156,10 @@ class Refined(Distribution):
         params.grid_span = wp.vec3i(*(pad + self.coarse.shape[1:]))
         return params
 
+    def __getstate__(self):
+        # the per-device caches hold Warp arrays, which neither pickle nor deep-copy
+        return {k: v for k, v in self.__dict__.items() if k not in ("_on_device", "_top")}
+
     def _arrays(self, device) -> tuple[wp.array, wp.array]:
         """The coarse weights (node-major, so that one fine node's directions read neighbouring
         words) and the links on ``device``, made once per device: searches and traces ask again."""
@@ -191,65 +195,80 @@ def _coarse_block(lattice: Lattice, block: tuple, need: np.ndarray) -> np.ndarra
     for the nodes ``need`` marks (bool, block-shaped: those a fine node interpolates between);
     other entries are 1.
 
-    Read from the records, or computed for the needed nodes only when the lattice holds none.
-    An entry no usable edge stands behind (an end masked out or outside the lattice, or a
-    crossing a refined lattice forbids: weight inf) takes the mean of its direction's usable
-    entries around it, found in up to three rings, else of its node's other directions, else
-    of the whole block's: the fine weights next to walls and borders look like their
-    surroundings, whatever the lattice holds there."""
+    Read from the records, or computed for the needed nodes and their neighbours only when the
+    lattice holds none. An entry no usable edge stands behind (an end masked out or beyond the
+    lattice, except along an axis of size 1, whose entries the lattice keeps; or a weight of
+    inf, an edge never taken) takes the mean of the usable entries of its direction at the
+    node's neighbours, else of the node's other directions, else of its neighbours' other
+    directions, else 1: the fine weights next to walls and borders look like their
+    surroundings whatever the lattice holds there, and depend on the lattice alone."""
     offsets = lattice.offsets
+    nd, nk = lattice.ndim, len(offsets)
     shape = np.asarray(lattice.shape)
+    # an axis of size 1 has no edge inside: its entries are the lattice's own, kept
+    reach = np.where(shape >= 2, offsets, 0)
+    lengths = lattice.lengths.astype(np.float64)
+    full = lattice.weights if lattice._weights is not None else None
+
+    def entries(k: np.ndarray, c: np.ndarray, inside: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Values per unit length of entries (direction ``k``, node ``c``: global coordinates
+        inside the lattice), and whether a usable edge stands behind each (``inside``: whether
+        each edge's far end lies in the lattice, when the caller knows)."""
+        if full is not None:
+            v = full[(k,) + tuple(c.T)].astype(np.float64)
+        else:
+            v = lattice.distribution.evaluate(lattice.shape, lattice.lengths, np.ravel_multi_index(tuple(c.T), lattice.shape),
+                                              k, offsets=offsets).astype(np.float64)
+        v /= lengths[k]
+        if inside is None:
+            other = c + reach[k]
+            inside = ((other >= 0) & (other < shape)).all(axis=1)
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(v) & (v > 0) & inside
+        if lattice.mask is not None:
+            ok &= lattice.mask[tuple(c.T)]
+            ok[ok] &= lattice.mask[tuple((c[ok] + reach[k[ok]]).T)]
+        return v, ok
+
     corner = np.array([b.start for b in block])
-    coords = np.argwhere(need)
-    at = coords + corner
-    per = np.ones((len(offsets),) + need.shape, np.float32)
-    vals = np.empty((len(offsets), len(at)), np.float32)
-    if lattice._weights is not None:
-        full = lattice.weights
-        for k in range(len(offsets)):
-            vals[k] = full[(k,) + tuple(at.T)]
-    else:
-        flat = np.ravel_multi_index(tuple(at.T), lattice.shape)
-        for k in range(len(offsets)):
-            vals[k] = lattice.distribution.evaluate(lattice.shape, lattice.lengths, flat, np.full(len(flat), k),
-                                                    offsets=offsets)
-    vals /= lattice.lengths[:, None].astype(np.float32)
-    usable = (lambda c: np.ones(len(c), bool)) if lattice.mask is None else (lambda c: lattice.mask[tuple(c.T)])
-    ok = np.empty(vals.shape, bool)
-    for k, off in enumerate(offsets):
-        other = at + off
-        inside = ((other >= 0) & (other < shape)).all(axis=1)
-        ok[k] = inside & usable(at) & np.isfinite(vals[k]) & (vals[k] > 0)
-        ok[k, inside] &= usable(other[inside])
-    if not ok.all():
-        # neighbours' entries by their position in the list of needed nodes
-        pos = np.full(need.shape, -1, np.int64)
-        pos[need] = np.arange(len(coords))
-        rings = [d for d in np.ndindex(*(3,) * need.ndim) if any(v != 1 for v in d)]
-        for _ in range(3):
-            bad_k, bad_i = np.nonzero(~ok)
-            if not len(bad_k):
+    mine = np.argwhere(need) + corner
+    # an edge leaves the lattice where its node lies on a side it moves across (offsets are -1, 0, 1)
+    leaves = ((mine == shape - 1).astype(np.int64) @ (reach == 1).T.astype(np.int64)
+              + (mine == 0).astype(np.int64) @ (reach == -1).T.astype(np.int64))
+    vals, ok = np.empty((nk, len(mine))), np.empty((nk, len(mine)), bool)
+    for k in range(nk):
+        vals[k], ok[k] = entries(np.full(len(mine), k), mine, inside=leaves[:, k] == 0)
+    vals, ok = vals.ravel(), ok.ravel()
+    bad = np.flatnonzero(~ok)
+    if len(bad):
+        bk, bc = bad // len(mine), mine[bad % len(mine)]
+        rings = [np.array(d) - 1 for d in np.ndindex(*(3,) * nd) if any(v != 1 for v in d)]
+        total, count = np.zeros(len(bad)), np.zeros(len(bad))
+        for d in rings:  # the same direction at the neighbours
+            nc = bc + d
+            inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
+            v, good = entries(bk[inb], nc[inb])
+            total[inb[good]] += v[good]
+            count[inb[good]] += 1
+        fill = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+        left = np.flatnonzero(count == 0)
+        for where in ([np.zeros(nd, int)], rings):  # the node's other directions, then its neighbours'
+            if not len(left):
                 break
-            total = np.zeros(len(bad_k))
-            count = np.zeros(len(bad_k))
-            for d in rings:
-                c = coords[bad_i] + np.array(d) - 1
-                inb = ((c >= 0) & (c < need.shape)).all(axis=1)
-                j = np.full(len(c), -1, np.int64)
-                j[inb] = pos[tuple(c[inb].T)]
-                hit = j >= 0
-                hit[hit] = ok[bad_k[hit], j[hit]]
-                total[hit] += vals[bad_k[hit], j[hit]]
-                count[hit] += 1
-            fixed = count > 0
-            vals[bad_k[fixed], bad_i[fixed]] = total[fixed] / count[fixed]
-            ok[bad_k[fixed], bad_i[fixed]] = True  # (read by the next ring only)
-        if not ok.all():
-            fallback = float(vals[ok].mean()) if ok.any() else 1.0
-            node_n = ok.sum(axis=0)
-            node_mean = np.where(node_n > 0, np.where(ok, vals, 0).sum(axis=0) / np.maximum(node_n, 1), fallback)
-            vals = np.where(ok, vals, node_mean[None, :])
-    per[(slice(None),) + tuple(coords.T)] = vals
+            total, count = np.zeros(len(left)), np.zeros(len(left))
+            for d in where:
+                nc = bc[left] + d
+                inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
+                for k in range(nk):
+                    v, good = entries(np.full(len(inb), k), nc[inb])
+                    total[inb[good]] += v[good]
+                    count[inb[good]] += 1
+            fill[left[count > 0]] = total[count > 0] / count[count > 0]
+            left = left[count == 0]
+        fill[left] = 1.0
+        vals[bad] = fill
+    per = np.ones((nk,) + need.shape, np.float32)
+    per[:, need] = vals.reshape(nk, len(mine)).astype(np.float32)
     return per
 
 

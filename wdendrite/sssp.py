@@ -251,7 +251,7 @@ def _default_delta(lattice: Lattice) -> float:
         nodes = np.linspace(0, lattice.num_nodes - 1, min(lattice.num_nodes, 2048)).astype(np.int64)
         sample = lattice.distribution.evaluate(lattice.shape, lattice.lengths, np.repeat(nodes, k),
                                                np.tile(np.arange(k), len(nodes)), offsets=lattice.offsets)
-    sample = sample[sample > 0]
+    sample = sample[(sample > 0) & np.isfinite(sample)]  # (+inf: edges never taken)
     if not sample.size:
         return 1.0
     return max(float(np.percentile(sample, 10)), 1e-6) * 16.0
