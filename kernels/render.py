@@ -66,10 +66,14 @@ def splat_distance_kernel(
             y = c[1] + dy_i
             dy = float(dy_i)
             rest = r2 - wp.float64(dz) * wp.float64(dz) - wp.float64(dy) * wp.float64(dy)
-            if rest >= wp.float64(-1.0):
-                # only the columns inside the disc of this row, and one more each side: the test
-                # below compares float32 distances, which may round onto the radius from outside
-                half = int(wp.floor(wp.sqrt(wp.max(rest, wp.float64(0.0))))) + 1
+            # the test below compares float32 distances, which may round onto the radius from
+            # just outside it: cells within a millionth of r^2 beyond the disc are scanned too
+            tol = r2 * wp.float64(1.0e-6)
+            if rest >= -tol:
+                # only the columns inside the disc of this row (and such a cell beyond it)
+                half = int(wp.floor(wp.sqrt(wp.max(rest, wp.float64(0.0)))))
+                if wp.float64(half + 1) * wp.float64(half + 1) - rest <= tol:
+                    half += 1
                 x0 = wp.max(c[2] - half, 0)
                 x1 = wp.min(c[2] + half, shape[2] - 1)
                 base = (z * shape[1] + y) * shape[2]

@@ -297,6 +297,19 @@ def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
     return (widest[1] + 4) ** 2, sum(w * w for w in widest[1:]), 1
 
 
+def _point_work(p: DendryParams, output: str) -> int:
+    """About what one point (or pixel) costs in the per-pixel mode, in the units of
+    :func:`_cached_work`: the cells it builds on its own, and its 25 primitives' queries."""
+    cap = _slot_capacity(p, output)
+    return cap[0] + cap[1] + (25 * _PRIMITIVE_WORK if output == "elevation" else 0)
+
+
+def _cached_pays(p: DendryParams, output: str, plan, points: int, fixed: int = 0) -> bool:
+    """Whether building ``plan``'s cells once (plus ``fixed`` work) costs no more than ``points``
+    points rebuilding theirs: the rule of the "auto" modes of :func:`dendry` and :func:`dendry_points`."""
+    return _CACHED_CELL_COST * _cached_work(p, output, plan) + fixed <= points * _point_work(p, output)
+
+
 def _cached_work(p: DendryParams, output: str, plan) -> int:
     """About how much the cached mode's ``plan`` (from :func:`_host_plan`) costs to build, in cells."""
     sizes = plan[2]
@@ -524,7 +537,8 @@ def _host_plan(params: DendryParams, output: str, u_first, u_last) -> tuple[np.n
     counts = {l: (rx[l][1] - rx[l][0] + 1) * (ry[l][1] - ry[l][0] + 1) for l in range(1, n + 1)}
     counts[0] = (rx[1][1] - rx[1][0] + 5) * (ry[1][1] - ry[1][0] + 5)
     counts[_kd.PRIM] = (phi[0] - plo[0] + 1) * (phi[1] - plo[1] + 1)
-    if sum(counts[l] for l in range(1, n + 1)) >= 2**31 or max(counts.values()) >= 2**31:
+    # (the kernels index cells' vertices, NV words apiece, and nearby pieces, 4 apiece, in int32)
+    if sum(counts[l] for l in range(1, n + 1)) * max(_STRIDE, 4) >= 2**31 or max(counts.values()) * 4 >= 2**31:
         raise _TooManyCells(sum(counts[l] for l in range(1, n + 1)))
     total = 0
     for l in range(n, 0, -1):  # the tree's levels share one storage, finest first
@@ -719,8 +733,7 @@ def dendry(
                     "kernels' int32 indices: use mode='auto' or 'pixel' (the same values)") from None
         # "auto": the per-pixel mode where the window's cells would outnumber what its pixels
         # build on their own (a few pixels spread over a large domain)
-        if mode == "auto" and (plan is None or _cached_work(params, output, plan) * _CACHED_CELL_COST
-                               > h * w * sum(_slot_capacity(params, output))):
+        if mode == "auto" and plan is not None and not _cached_pays(params, output, plan, h * w):
             plan = None
     if plan is not None:
         _run_cached(s, ctl, params, output, plan, device, lambda slots: launch(slots, 1, 1, 0, h * w))
@@ -819,15 +832,11 @@ def dendry_points(
     counts = np.diff(starts)
     keep = counts >= (1 if mode == "cached" else _CACHED_POINTS)
     plans = {}
-    if mode == "auto":
-        cap = _slot_capacity(params, output)
-        # cells a point rebuilds on its own (and its 25 primitives' queries), in the units of _cached_work
-        per_point = cap[0] + cap[1] + (25 * _PRIMITIVE_WORK if output == "elevation" else 0)
     for t in np.flatnonzero(keep):
         u = u_host[order[starts[t]:starts[t + 1]]]
         plans[t] = _host_plan(params, output, u.min(axis=0).tolist(), u.max(axis=0).tolist())
         if mode == "auto":
-            keep[t] = _CACHED_CELL_COST * _cached_work(params, output, plans[t]) + _CACHED_TILE_WORK <= counts[t] * per_point
+            keep[t] = _cached_pays(params, output, plans[t], int(counts[t]), _CACHED_TILE_WORK)
     tiles = np.flatnonzero(keep)
     if len(tiles):
         # the tiles take turns in one storage, as large as the largest needs; the points in tile

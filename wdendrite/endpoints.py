@@ -246,9 +246,9 @@ def _footprint(shape, spacing: float) -> np.ndarray:
     return off[np.sqrt((off.astype(np.float64) ** 2).sum(axis=1)) < reach]
 
 
-_FOOTPRINT_MAX = 1 << 20
-"""Largest footprint (offsets) :func:`_spaced` marks per kept point; wider spacings keep few
-points, which are compared with the candidates directly."""
+_FOOTPRINT_MAX = 1 << 22
+"""Largest footprint (offsets, about 100 MB of them in 3D) :func:`_spaced` marks per kept point;
+wider spacings keep few points, which are compared with the candidates directly."""
 
 
 def _footprint_size(shape, spacing: float) -> int:
@@ -273,12 +273,15 @@ def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
 
 def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
     """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
-    if count >= 2 and len(cand):
-        # no two candidates that far apart: say so at once (a wide search would scan them all)
-        span = np.array([int(p.max()) - int(p.min()) for p in np.unravel_index(cand, shape)], np.float64)
-        if math.sqrt(float((span**2).sum())) < spacing:
-            _spaced_error([int(cand[0])], count, spacing, len(cand))
     if _footprint_size(shape, spacing) > _FOOTPRINT_MAX:
+        if count >= 2 and len(cand):
+            # no two candidates that far apart: say so at once (the search would scan them all)
+            span = np.array([int(p.max()) - int(p.min()) for p in np.unravel_index(cand, shape)], np.float64)
+            if math.sqrt(float((span**2).sum())) < spacing:
+                raise TooManyEndpoints(
+                    f"No two of the {len(cand)} candidate nodes are 'min_spacing' = {spacing:g} apart (they span "
+                    f"{tuple(int(v) for v in span)} nodes), but 'count' = {count} endpoints were asked for; lower "
+                    "'min_spacing' or widen the region")
         kept = _spaced_far(cand, keys, shape, count, spacing)
     else:
         kept = _spaced_near(cand, keys, shape, count, spacing)
@@ -299,19 +302,26 @@ def _spaced_far(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: 
     """:func:`_spaced` for spacings whose footprint is large: few points fit, so each block of
     candidates is compared with the kept points directly (no per-node table)."""
     kept: list[int] = []
-    at = np.empty((0, len(shape)))
+    at = np.empty((0, len(shape)), np.int64)
+    # squared distances are integers: "at least spacing" is d2 >= the least integer whose root
+    # reaches spacing (found exactly, so a pair exactly 'spacing' apart counts as far enough)
+    need = math.ceil(spacing * spacing)
+    while need > 0 and math.sqrt(need - 1) >= spacing:
+        need -= 1
+    while math.sqrt(need) < spacing:
+        need += 1
     for order in _in_key_order(cand, keys, 4 * count + 1024):
-        for start in range(0, len(order), 4096):
-            seg = order[start:start + 4096]
-            pos = np.stack(np.unravel_index(seg, shape), axis=1).astype(np.float64)
+        for start in range(0, len(order), 1 << 16):
+            seg = order[start:start + (1 << 16)]
+            pos = np.stack(np.unravel_index(seg, shape), axis=1).astype(np.int64)
             free = np.ones(len(seg), bool)
-            if len(at):
-                free = (np.sqrt(((pos[:, None, :] - at[None]) ** 2).sum(-1)) >= spacing).all(axis=1)
+            for p in at:  # few: each keeps a wide region free of others
+                free &= ((pos - p) ** 2).sum(-1) >= need
             while len(kept) < count and free.any():
                 j = int(np.argmax(free))
                 kept.append(int(seg[j]))
                 at = np.vstack([at, pos[j]])
-                free &= np.sqrt(((pos - pos[j]) ** 2).sum(-1)) >= spacing
+                free &= ((pos - pos[j]) ** 2).sum(-1) >= need
             if len(kept) == count:
                 return kept
     return kept

@@ -318,6 +318,8 @@ def _read_arrays(path: Path, fmt: str) -> dict:
             data = json.load(f)
         if isinstance(data, dict):
             return {k: np.asarray(v) for k, v in data.items()}
+    except (PermissionError, IsADirectoryError, FileNotFoundError):
+        raise  # the file system's answer, not the file's content
     except RecursionError:  # JSON nested deeper than the parser goes (before RuntimeError, its base)
         raise refuse("its JSON is nested too deeply") from None
     # ValueError: JSON, text, ragged lists; RuntimeError, NotImplementedError, OSError: damaged

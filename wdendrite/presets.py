@@ -322,12 +322,12 @@ class LightningParams:
 
     def __post_init__(self):
         _checks.positive("alpha", self.alpha)
-        try:  # the weights' own check, in this preset's words (it has no 'max')
-            _w.Power(alpha=self.alpha)
-        except ValueError:
-            raise ValueError(f"'alpha' of the lightning's power weights must keep 11**alpha below "
-                             f"{_w._MAX_WEIGHT:g} (alpha < {math.log(_w._MAX_WEIGHT) / math.log(11.0):.4g}), "
-                             f"but got {self.alpha!r}") from None
+        # the weights' own bound, in this preset's words: Power's default range (1, max), times the
+        # longest edge a lattice may have (sqrt 3), below the supported largest weight
+        top, limit = _w.Power().max, math.log(_w._MAX_WEIGHT / math.sqrt(3.0))
+        if not float(self.alpha) * math.log(top) < limit:
+            raise ValueError(f"'alpha' of the lightning's power weights must keep sqrt(3) * {top:g}**alpha below "
+                             f"{_w._MAX_WEIGHT:g} (alpha < {limit / math.log(top):.4g}), but got {self.alpha!r}")
         _checks.integer("forks", self.forks, low=0)
         _checks.integer("minor_forks", self.minor_forks, low=0)
         for name in ("main_width", "fork_width", "minor_width"):
