@@ -15,6 +15,12 @@ is the same scikit-image reconstruction on every side, timed once on its own):
   a Python loop over the cells from highest to lowest (wdendrite's own code until
   2026-12-02).
 
+With ``--filled`` the rows ``d8+fill`` and ``dinf+fill`` add each side's conditioning inside
+its time: ours fills (scikit-image) and drains the flats toward their outlets
+(``filled=True``); pysheds runs ``fill_depressions`` and ``resolve_flats`` (Barnes et al.
+2014: towards lower terrain and away from higher, so flat cells route differently and
+"same" is lower there).
+
 Every measurement runs in a fresh process (``_measure.run_isolated``): wall time of the
 call (compilation and JIT warmed up on a small terrain first) and the growth of the peak
 resident set. The medians of ``--repeat`` runs are printed, with each peer's time as a
@@ -53,22 +59,32 @@ def wdendrite_case(path: str, method: str):
     _quiet_warp()
     from wdendrite import hydrology
 
+    routing, _, filled = method.partition("+")
+
+    def area(z):
+        return hydrology.flow_accumulation(z, method=routing, filled=bool(filled))
+
     def prepare():
-        hydrology.flow_accumulation(np.random.default_rng(0).random((32, 32)), method=method)  # load the kernels
+        area(np.random.default_rng(0).random((32, 32)))  # load the kernels
         return np.load(path)
 
-    return prepare, lambda z: {"_save": (path + ".wdendrite.npy", hydrology.flow_accumulation(z, method=method))}
+    return prepare, lambda z: {"_save": (path + ".wdendrite.npy", area(z))}
 
 
 def pysheds_case(path: str, method: str):
     from pysheds.grid import Grid
     from pysheds.sview import Raster, ViewFinder
 
+    routing, _, filled = method.partition("+")
+
     def area(z):
         vf = ViewFinder(shape=z.shape)
         grid = Grid(viewfinder=vf)
-        fdir = grid.flowdir(Raster(z, viewfinder=vf), routing=method)
-        return np.asarray(grid.accumulation(fdir, routing=method))
+        dem = Raster(z, viewfinder=vf)
+        if filled:  # pysheds' own conditioning: priority-flood fill, then flats made to drain
+            dem = grid.resolve_flats(grid.fill_depressions(dem))
+        fdir = grid.flowdir(dem, routing=routing)
+        return np.asarray(grid.accumulation(fdir, routing=routing))
 
     def prepare():
         area(np.random.default_rng(0).random((32, 32)))  # numba compiles here
@@ -183,6 +199,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="fresh-process runs per side; medians are printed")
     ap.add_argument("--pysheds-python", default=None, help="interpreter of an environment with pysheds")
     ap.add_argument("--quick", action="store_true", help="256^2 only, one run (a smoke test)")
+    ap.add_argument("--filled", action="store_true",
+                    help="also filled terrains ('+fill'): our fill and flat draining against pysheds' "
+                         "fill_depressions + resolve_flats, each side's fill inside its time")
     args = ap.parse_args()
     if args.quick:
         args.sizes, args.repeat = [256], 1
@@ -193,11 +212,12 @@ def main() -> None:
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     with tempfile.TemporaryDirectory() as folder:
         for name, path in _terrains(args.sizes, folder):
-            for method in ("d8", "dinf"):
+            for method in ("d8", "dinf") + (("d8+fill", "dinf+fill") if args.filled else ()):
                 sides = [("wdendrite", "wdendrite_case", None)]
                 if peer:
                     sides.append(("pysheds", "pysheds_case", peer))
-                sides.append(("numpy", "numpy_case", None))
+                if "+" not in method:  # (the NumPy way has no fill of its own)
+                    sides.append(("numpy", "numpy_case", None))
                 runs = {s: [] for s, _, _ in sides}
                 for _ in range(args.repeat):
                     for side, fn, python in sides:
