@@ -48,7 +48,7 @@ import warp as wp
 from . import OPTIONS
 from .indexing import nonneg
 from .lattice import in_bounds, node_coords, node_index, padded_index
-from .weights import WeightParams, is_plain, weight_of_edge
+from .weights import REFINED, WeightParams, cell_of, is_plain, refined_blocked, refined_key, refined_value, weight_of_edge
 
 wp.set_module_options({**OPTIONS, "optimization_level": 3})
 
@@ -557,14 +557,60 @@ def fill_records_kernel(
     padded = shape + pad + pad
     c = node_coords(p, padded) - pad
     plain = is_plain(params)
+    refined = params.kind == REFINED and params.num_terms == 0
+    # a refined node's interpolation cells along each axis, for offsets -1, 0 and 1 (shared by its
+    # directions), and its hash key: the values refined_base computes per edge
+    g = params.grid
+    ni = int(params.b)
+    inv_n = 1.0 / params.b
+    half = float(ni / 2)
+    cg = c + params.grid_start
+    zero = wp.vec3(0.0, 0.0, 0.0)
+    zm, z0, zp, ym, y0, yp, xm, x0, xp = zero, zero, zero, zero, zero, zero, zero, zero, zero
+    key = wp.uint32(0)
+    if refined:
+        zm = cell_of(cg[0], -1, half, inv_n, g[0])
+        z0 = cell_of(cg[0], 0, half, inv_n, g[0])
+        zp = cell_of(cg[0], 1, half, inv_n, g[0])
+        ym = cell_of(cg[1], -1, half, inv_n, g[1])
+        y0 = cell_of(cg[1], 0, half, inv_n, g[1])
+        yp = cell_of(cg[1], 1, half, inv_n, g[1])
+        xm = cell_of(cg[2], -1, half, inv_n, g[2])
+        x0 = cell_of(cg[2], 0, half, inv_n, g[2])
+        xp = cell_of(cg[2], 1, half, inv_n, g[2])
+        key = refined_key(params, cg)
     k = int(0)
     while k < offsets.shape[0]:
         o = offsets[k]
         # an edge into a masked node is never relaxed: its weight is not needed (edges
         # leaving the lattice are kept, for the ``weights`` view of complete records)
-        if not in_bounds(c + o, shape) or mask[p + (o[0] * padded[1] + o[1]) * padded[2] + o[2]] != wp.uint8(0):
-            src = nearest_edge_source(c, o, shape)
-            w = weight_of_edge(params, plain, shape, node_index(src, shape), src, k, o, lengths[k])
+        inside = in_bounds(c + o, shape)
+        if not inside or mask[p + (o[0] * padded[1] + o[1]) * padded[2] + o[2]] != wp.uint8(0):
+            w = float(0.0)
+            if refined and inside:
+                # edge_weight_of's value for no bias terms: length * (base + 0) * 1 rounds as length * base
+                if refined_blocked(params, cg, o):
+                    w = wp.inf
+                else:
+                    cz = z0
+                    if o[0] > 0:
+                        cz = zp
+                    elif o[0] < 0:
+                        cz = zm
+                    cy = y0
+                    if o[1] > 0:
+                        cy = yp
+                    elif o[1] < 0:
+                        cy = ym
+                    cx = x0
+                    if o[2] > 0:
+                        cx = xp
+                    elif o[2] < 0:
+                        cx = xm
+                    w = lengths[k] * refined_value(params, k, cz, cy, cx, key)
+            else:
+                src = nearest_edge_source(c, o, shape)
+                w = weight_of_edge(params, plain, shape, node_index(src, shape), src, k, o, lengths[k])
             aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
         k += 1
 

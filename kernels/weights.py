@@ -149,43 +149,48 @@ def cell_of(c: int, o: int, half: float, inv_n: float, g: int) -> wp.vec3:
 
 
 @wp.func
-def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3i) -> float:
-    """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4) of the edge
-    from the node at ``coords`` along ``offset``; inf where the edge crosses between blocks
-    ``links`` does not join.
+def refined_blocked(params: WeightParams, c: wp.vec3i, offset: wp.vec3i) -> bool:
+    """Whether the REFINED edge from fine node ``c`` (index in the whole fine lattice) along
+    ``offset`` crosses into a block ``links`` does not join to the node's (coarse node c / n).
 
-    ``W_int`` interpolates the coarse weights per unit length of direction ``k`` linearly at
-    the fine edge's midpoint, among the coarse edges' midpoints (coarse node ``c`` sits at
-    fine index ``c * n + n // 2``), and
-    ``W_ran`` is uniform between 1 and ``W_int``, hashed from the node's index in the whole
-    fine lattice (so a node's weights do not depend on the window).
+    Along an axis it moves on, an edge leaves its block only from the block's last index
+    forward or its first backward (fine indices are >= 0 inside the lattice; an edge leaving
+    the lattice is never read). Divisions only where it moves.
     """
-    n = params.b
-    inv_n = 1.0 / n
-    ni = int(n)
-    half = float(ni / 2)
-    c = coords + params.grid_start
-    g = params.grid
-    lo = params.grid_lo
-    s = params.grid_span
-    # does the edge leave the fine node's block (coarse node c / n)? Along an axis it moves on,
-    # only from the block's last index forward or its first backward (fine indices are >= 0
-    # inside the lattice; an edge leaving it is never read). Divisions only where it moves.
+    ni = int(params.b)
     d = wp.vec3i(0, 0, 0)
     for axis in range(3):
         if offset[axis] != 0:
             r = c[axis] - (c[axis] / ni) * ni
             if (offset[axis] > 0 and r == ni - 1) or (offset[axis] < 0 and r == 0):
                 d[axis] = offset[axis]
+    out = False
     if d[0] != 0 or d[1] != 0 or d[2] != 0:
+        lo = params.grid_lo
+        s = params.grid_span
         at = (((c[0] / ni) - lo[0]) * s[1] + (c[1] / ni) - lo[1]) * s[2] + (c[2] / ni) - lo[2]
         bit = 9 * (d[0] + 1) + 3 * (d[1] + 1) + d[2] + 1
         if at >= 0 and at < params.links.shape[0]:
             if ((params.links[at] >> bit) & 1) == 0:
-                return wp.inf
-    cz = cell_of(c[0], offset[0], half, inv_n, g[0])
-    cy = cell_of(c[1], offset[1], half, inv_n, g[1])
-    cx = cell_of(c[2], offset[2], half, inv_n, g[2])
+                out = True
+    return out
+
+
+@wp.func
+def refined_key(params: WeightParams, c: wp.vec3i) -> wp.uint32:
+    """Fine node ``c``'s index in the whole fine lattice (coarse shape times n), modulo 2**32."""
+    un = wp.uint32(int(params.b))
+    g = params.grid
+    return wp.uint32(c[2]) + wp.uint32(g[2]) * un * (wp.uint32(c[1]) + wp.uint32(g[1]) * un * wp.uint32(c[0]))
+
+
+@wp.func
+def refined_value(params: WeightParams, k: int, cz: wp.vec3, cy: wp.vec3, cx: wp.vec3, key: wp.uint32) -> float:
+    """``(e W_int + (1 - e) W_ran) / n`` of direction ``k`` from the edge's interpolation cells
+    along each axis (:func:`cell_of`) and its node's :func:`refined_key`."""
+    inv_n = 1.0 / params.b
+    lo = params.grid_lo
+    s = params.grid_span
     # node-major coarse weights of a block of the coarse lattice: the K directions of a
     # coarse node sit side by side
     nk = params.grid_k
@@ -207,12 +212,34 @@ def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3
         (1.0 - tx) * m[base + z1 + y1 + x0] + tx * m[base + z1 + y1 + x1]
     )
     w_int = (1.0 - tz) * w0 + tz * w1
-    # the node's index in the whole fine lattice (coarse shape times n), modulo 2**32
-    un = wp.uint32(ni)
-    key = wp.uint32(c[2]) + wp.uint32(g[2]) * un * (wp.uint32(c[1]) + wp.uint32(g[1]) * un * wp.uint32(c[0]))
     u = hash_unit(params.seed, key, wp.uint32(k))
     w_ran = 1.0 + (wp.max(w_int, 1.0) - 1.0) * u
     return (params.a * w_int + (1.0 - params.a) * w_ran) * inv_n
+
+
+@wp.func
+def refined_base(params: WeightParams, coords: wp.vec3i, k: int, offset: wp.vec3i) -> float:
+    """REFINED base weight: ``(e W_int + (1 - e) W_ran) / n`` (Xu thesis 4.4) of the edge
+    from the node at ``coords`` along ``offset``; inf where the edge crosses between blocks
+    ``links`` does not join (:func:`refined_blocked`).
+
+    ``W_int`` interpolates the coarse weights per unit length of direction ``k`` linearly at
+    the fine edge's midpoint, among the coarse edges' midpoints (coarse node ``c`` sits at
+    fine index ``c * n + n // 2``), and
+    ``W_ran`` is uniform between 1 and ``W_int``, hashed from the node's index in the whole
+    fine lattice (so a node's weights do not depend on the window).
+    """
+    c = coords + params.grid_start
+    if refined_blocked(params, c, offset):
+        return wp.inf
+    n = params.b
+    inv_n = 1.0 / n
+    half = float(int(n) / 2)
+    g = params.grid
+    cz = cell_of(c[0], offset[0], half, inv_n, g[0])
+    cy = cell_of(c[1], offset[1], half, inv_n, g[1])
+    cx = cell_of(c[2], offset[2], half, inv_n, g[2])
+    return refined_value(params, k, cz, cy, cx, refined_key(params, c))
 
 
 @wp.func

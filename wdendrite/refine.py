@@ -231,6 +231,37 @@ def _coarse_block(lattice: Lattice, block: tuple, need: np.ndarray) -> np.ndarra
         return v, ok
 
     corner = np.array([b.start for b in block])
+    if full is not None and lattice.mask is None:
+        # stored weights, every node usable: the block at once, then its few entries without an
+        # edge (leaving the lattice, or inf) found by position and value
+        per = full[(slice(None),) + block] / lengths.reshape((-1,) + (1,) * nd).astype(np.float32)
+        faces = []  # (direction, axis, index) of entries whose edge leaves the lattice
+        for k in range(nk):
+            for axis in range(nd):
+                if reach[k, axis] == 1 and block[axis].stop == shape[axis]:
+                    faces.append((k, axis, need.shape[axis] - 1))
+                elif reach[k, axis] == -1 and block[axis].start == 0:
+                    faces.append((k, axis, 0))
+        if float(per.min()) > 0 and float(per.max()) < np.inf:  # the usual case: only the faces
+            picks = []
+            for k, axis, i in faces:
+                on = np.argwhere(np.take(need, i, axis=axis))
+                picks.append(np.concatenate([np.full((len(on), 1), k), np.insert(on, axis, i, axis=1)], axis=1))
+            picked = np.unique(np.concatenate(picks), axis=0) if picks else np.zeros((0, nd + 1), np.int64)
+            bk, bc = picked[:, 0], picked[:, 1:]
+        else:
+            with np.errstate(invalid="ignore"):
+                bad = ~((per > 0) & (per < np.inf))  # (NaN fails both)
+            for k, axis, i in faces:
+                face = [slice(None)] * nd
+                face[axis] = i
+                bad[(k,) + tuple(face)] = True
+            bk, *bc = np.unravel_index(np.flatnonzero(bad & need[None]), bad.shape)
+            bc = np.stack(bc, axis=1)
+            per[bad & ~need[None]] = 1.0  # (never read; keeps the weights' bound finite)
+        if len(bk):
+            per[(bk,) + tuple(bc.T)] = _fill(entries, bk, bc + corner, shape, nd, nk)
+        return per
     mine = np.argwhere(need) + corner
     # an edge leaves the lattice where its node lies on a side it moves across (offsets are -1, 0, 1)
     leaves = ((mine == shape - 1).astype(np.int64) @ (reach == 1).T.astype(np.int64)
@@ -241,35 +272,40 @@ def _coarse_block(lattice: Lattice, block: tuple, need: np.ndarray) -> np.ndarra
     vals, ok = vals.ravel(), ok.ravel()
     bad = np.flatnonzero(~ok)
     if len(bad):
-        bk, bc = bad // len(mine), mine[bad % len(mine)]
-        rings = [np.array(d) - 1 for d in np.ndindex(*(3,) * nd) if any(v != 1 for v in d)]
-        total, count = np.zeros(len(bad)), np.zeros(len(bad))
-        for d in rings:  # the same direction at the neighbours
-            nc = bc + d
-            inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
-            v, good = entries(bk[inb], nc[inb])
-            total[inb[good]] += v[good]
-            count[inb[good]] += 1
-        fill = np.where(count > 0, total / np.maximum(count, 1), np.nan)
-        left = np.flatnonzero(count == 0)
-        for where in ([np.zeros(nd, int)], rings):  # the node's other directions, then its neighbours'
-            if not len(left):
-                break
-            total, count = np.zeros(len(left)), np.zeros(len(left))
-            for d in where:
-                nc = bc[left] + d
-                inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
-                for k in range(nk):
-                    v, good = entries(np.full(len(inb), k), nc[inb])
-                    total[inb[good]] += v[good]
-                    count[inb[good]] += 1
-            fill[left[count > 0]] = total[count > 0] / count[count > 0]
-            left = left[count == 0]
-        fill[left] = 1.0
-        vals[bad] = fill
+        vals[bad] = _fill(entries, bad // len(mine), mine[bad % len(mine)], shape, nd, nk)
     per = np.ones((nk,) + need.shape, np.float32)
     per[:, need] = vals.reshape(nk, len(mine)).astype(np.float32)
     return per
+
+
+def _fill(entries, bk: np.ndarray, bc: np.ndarray, shape: np.ndarray, nd: int, nk: int) -> np.ndarray:
+    """Values for entries (directions ``bk``, global nodes ``bc``) no usable edge stands behind:
+    see :func:`_coarse_block` (``entries`` reads and judges entries)."""
+    rings = [np.array(d) - 1 for d in np.ndindex(*(3,) * nd) if any(v != 1 for v in d)]
+    total, count = np.zeros(len(bk)), np.zeros(len(bk))
+    for d in rings:  # the same direction at the neighbours
+        nc = bc + d
+        inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
+        v, good = entries(bk[inb], nc[inb])
+        total[inb[good]] += v[good]
+        count[inb[good]] += 1
+    fill = np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    left = np.flatnonzero(count == 0)
+    for where in ([np.zeros(nd, int)], rings):  # the node's other directions, then its neighbours'
+        if not len(left):
+            break
+        total, count = np.zeros(len(left)), np.zeros(len(left))
+        for d in where:
+            nc = bc[left] + d
+            inb = np.flatnonzero(((nc >= 0) & (nc < shape)).all(axis=1))
+            for k in range(nk):
+                v, good = entries(np.full(len(inb), k), nc[inb])
+                total[inb[good]] += v[good]
+                count[inb[good]] += 1
+        fill[left[count > 0]] = total[count > 0] / count[count > 0]
+        left = left[count == 0]
+    fill[left] = 1.0
+    return fill
 
 
 def _block_rows(den: Dendrite, lattice: Lattice) -> np.ndarray:
