@@ -567,15 +567,11 @@ def _load_plan(slots: _Slots, plan) -> None:
     slots.bases.assign(plan[1])
 
 
-def _cached_slots(params, output, u_first, u_last, device) -> tuple[_Slots, list[int]]:
-    """Plan slot 0 for all queries between grid points ``u_first`` and ``u_last``; allocate it.
-
-    Returns the slot storage and the cell count of each of its 8 blocks.
-    """
-    plan = _host_plan(params, output, u_first, u_last)
+def _cached_slots(plan, params, device) -> _Slots:
+    """Slot-0 storage for ``plan`` (from :func:`_host_plan`), allocated and given its blocks."""
     slots = _cached_storage([plan], params, device)
     _load_plan(slots, plan)
-    return slots, plan[2]
+    return slots
 
 
 def _fill_cached(s, ctl, params, output, slots, sizes, device):
@@ -594,10 +590,8 @@ def _fill_cached(s, ctl, params, output, slots, sizes, device):
 def _run_cached(s, ctl, params, output, plan, device, launch) -> None:
     """Cached mode: build the cells of ``plan`` (from :func:`_host_plan`) once, then
     ``launch(slots)`` the kernel that evaluates them."""
-    slots = _cached_storage([plan], params, device)
-    _load_plan(slots, plan)
-    sizes = plan[2]
-    _fill_cached(s, ctl, params, output, slots, sizes, device)
+    slots = _cached_slots(plan, params, device)
+    _fill_cached(s, ctl, params, output, slots, plan[2], device)
     launch(slots)
     slots.check()
 
@@ -630,8 +624,9 @@ def _cached_tree(shape, *, domain, params: DendryParams, control: Control | None
     step = ((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
     u_first = (domain[0][0] * res + 0.5 * step[0], domain[0][1] * res + 0.5 * step[1])
     u_last = (domain[0][0] * res + (shape[1] - 0.5) * step[0], domain[0][1] * res + (shape[0] - 0.5) * step[1])
-    slots, sizes = _cached_slots(params, "distance", u_first, u_last, device)
-    _fill_cached(s, control.struct(device), params, "distance", slots, sizes, device)
+    plan = _host_plan(params, "distance", u_first, u_last)
+    slots = _cached_slots(plan, params, device)
+    _fill_cached(s, control.struct(device), params, "distance", slots, plan[2], device)
     blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
     keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, _STRIDE, 3)
     out = []

@@ -34,9 +34,10 @@ __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill"
 def _elevation(name: str, value) -> np.ndarray:
     """``value`` as a finite, non-empty (H, W) float64 array (integers only where float64 holds them)."""
     raw = np.asarray(value)
-    if raw.dtype.kind in "iu" and raw.size and max(abs(int(raw.min())), abs(int(raw.max()))) > 2**53:
-        raise ValueError(f"'{name}' holds integers beyond 2**53 (up to {max(abs(int(raw.min())), int(raw.max()))}), "
-                         f"which float64 cannot tell apart; scale them down or pass floats")
+    top = max(abs(int(raw.min())), abs(int(raw.max()))) if raw.dtype.kind in "iu" and raw.size else 0
+    if top > 2**53:
+        raise ValueError(f"'{name}' holds integers beyond 2**53 (magnitudes up to {top}), which float64 cannot "
+                         f"tell apart; scale them down or pass floats")
     return _checks.finite_array(name, raw, "2D (H, W)", lambda s: len(s) == 2, dtype=np.float64)
 
 

@@ -123,7 +123,6 @@ def _width_number(name: str, value, what: str = "") -> float:
     return x
 
 
-
 def thesis_width(factor: float, a: float = 1e-4) -> float:
     """The ``T`` that makes ``exp(-(d/T)^2)`` equal the thesis' ``exp(-a (d * factor)^2)`` (Fig 4.8).
 
