@@ -46,9 +46,8 @@ import numpy as np
 
 from ._spec import UsageError, all_presets, nearest, progress_bar, read_toml, resolve
 
-__all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "probe_windows", "run_file", "run_task", "run_tiled",
-           "tile_windows",
-           "need_zarr", "tiled_array", "worker_device", "write_tiled"]
+__all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
+           "run_tiled", "tile_windows", "tiled_array", "worker_device", "write_tiled"]
 
 _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
@@ -457,7 +456,6 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
     the setup before it makes any file (a domain's largest coordinates lie at its corners)."""
     h, w = shape
     return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
-
 
 
 def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "") -> Path:
