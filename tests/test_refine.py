@@ -150,7 +150,9 @@ def test_refined_weights_check_their_parameters():
 
     w = np.ones((4, 5, 5), np.float32)
     for kwargs, words in [(dict(n=4, e=0.75), "odd"), (dict(n=3, e=3.0), "'e'"),
-                          (dict(n=3, e=0.75, lo=(4, 0), grid=(6, 6)), "does not lie inside")]:
+                          (dict(n=3, e=0.75, lo=(4, 0), grid=(6, 6)), "does not lie inside"),
+                          (dict(n=3, e=0.75, links=np.zeros((5, 4), np.int32)), r"'links' of shape \(5, 5\)"),
+                          (dict(n=3, e=0.75, links=np.zeros((5, 5))), r"integer 'links'")]:
         with pytest.raises(ValueError, match=words):
             Refined(w, start=(0, 0), **kwargs)
 
