@@ -175,3 +175,72 @@ def accumulate_kernel(rec_in: wp.array2d(dtype=int), frac_in: wp.array2d(dtype=w
                                 stack_scratch[nonneg(top)] = to
                                 top += 1
         start += 1
+
+
+@wp.func
+def push_flat(j: int, dist: wp.int64, dist_inout: wp.array(dtype=wp.int64), next_scratch: wp.array(dtype=int),
+              heads_scratch: wp.array(dtype=int)):
+    """Give cell ``j`` the distance ``dist`` and put it in that distance's bucket (of 4, by
+    ``dist % 4``): the head of a list linked through ``next_scratch``."""
+    b = int(dist & wp.int64(3))
+    dist_inout[nonneg(j)] = dist
+    next_scratch[nonneg(j)] = heads_scratch[b]
+    heads_scratch[b] = j
+
+
+@wp.kernel
+def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8), w: int,
+                         next_scratch: wp.array(dtype=int), heads_scratch: wp.array(dtype=int),
+                         dist_inout: wp.array(dtype=wp.int64)):
+    """One thread: the distance of every lost cell (``lost_in`` 1: an interior cell with no
+    receiver) to its flat's way out, in steps of 2 (sides) and 3 (diagonals) over neighbours
+    of its own height, in one pass over the cells (Dial's buckets, a ring of 4).
+
+    A way out is a cell that is not lost next to a lost cell of its height (distance 0).
+    ``z_in``: the N elevations, row-major, ``w`` per row; ``dist_inout``: N int64s (a path
+    over a flat of N cells may be 3N long), all a value
+    above any distance on entry (cells no way out reaches keep it); ``next_scratch``: N ints;
+    ``heads_scratch``: 4 ints. Each bucket is spread in two passes, sides first, so a cell
+    gets its final distance the first time it is reached and is listed once.
+    """
+    n = z_in.shape[0]
+    h = n / w
+    for b in range(4):
+        heads_scratch[b] = -1
+    pending = int(0)
+    i = int(0)
+    while i < n:
+        if lost_in[nonneg(i)] != wp.uint8(0):
+            for k in range(9):
+                j = i + (k / 3 - 1) * w + (k % 3 - 1)  # interior: all 8 neighbours exist
+                if k != 4 and lost_in[nonneg(j)] == wp.uint8(0) and dist_inout[nonneg(j)] != wp.int64(0):
+                    if z_in[nonneg(j)] == z_in[nonneg(i)]:
+                        push_flat(j, wp.int64(0), dist_inout, next_scratch, heads_scratch)
+                        pending += 1
+        i += 1
+    d = wp.int64(0)
+    while pending > 0:
+        b = int(d & wp.int64(3))
+        for diagonal in range(2):
+            to = d + wp.int64(2 + diagonal)
+            i = heads_scratch[b]
+            while i >= 0:
+                if diagonal == 0:
+                    pending -= 1
+                r = i / w
+                c = i - r * w
+                here = z_in[nonneg(i)]
+                for k in range(9):
+                    dr = k / 3 - 1
+                    dc = k % 3 - 1
+                    rr = r + dr
+                    cc = c + dc
+                    if (dr != 0 and dc != 0) == (diagonal == 1) and k != 4 and inside(rr, cc, h, w):
+                        j = rr * w + cc
+                        if lost_in[nonneg(j)] != wp.uint8(0) and dist_inout[nonneg(j)] > to:
+                            if z_in[nonneg(j)] == here:
+                                push_flat(j, to, dist_inout, next_scratch, heads_scratch)
+                                pending += 1
+                i = next_scratch[nonneg(i)]
+        heads_scratch[b] = -1
+        d += wp.int64(1)

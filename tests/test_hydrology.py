@@ -235,9 +235,21 @@ def _drained_flats_reference(surface, rec):
     return out
 
 
+def _serpentine(h: int, w: int) -> np.ndarray:
+    """A one-cell-wide flat winding row by row through walls, out at (1, 0): its far end is
+    about h * w / 2 cells away, so its distances wrap the drainer's ring of buckets many times."""
+    z = np.full((h, w), 10.0)
+    z[1:-1:2, 1:-1] = 5.0
+    for r in range(2, h - 2, 2):
+        z[r, w - 2 if r % 4 == 2 else 1] = 5.0
+    z[1, 0] = 5.0
+    return z
+
+
 @pytest.mark.parametrize("make", [lambda rng: rng.random((14, 17)),
                                   lambda rng: rng.integers(0, 4, (15, 13)).astype(float),  # natural flats too
-                                  lambda rng: hydrology.fbm_terrain((24, 30), seed=2).astype(float)])
+                                  lambda rng: hydrology.fbm_terrain((24, 30), seed=2).astype(float),
+                                  lambda rng: _serpentine(17, 12)])
 def test_filled_d8_equals_brute_force_priority_flood_and_flat_draining(make):
     z = make(np.random.default_rng(4))
     area = hydrology.flow_accumulation(z, filled=True)

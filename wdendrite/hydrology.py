@@ -167,46 +167,31 @@ def _drain_flats(z: np.ndarray, rec: np.ndarray, frac: np.ndarray | None, donors
     height one step nearer the flat's way out (see :func:`flow_accumulation`); in place.
 
     ``rec``: (k, N) receivers (-1: none), ``frac``: (k, N) shares or None, ``donors``: (N,) counts.
-    The distances are integers (steps 2 and 3), so a bucket queue (Dial's algorithm) finds them
-    in one pass over the flats' cells, a bucket at a time.
+    The distances are integers (steps 2 and 3), so one thread finds them all in one pass over
+    the flats' cells (:func:`wdendrite.kernels.hydrology.flat_distance_kernel`); runs on Warp's
+    CPU device, as the accumulation does.
     """
     h, w = z.shape
-    n = z.size
-    zf = z.ravel()
     lost = rec[0] < 0
     lost.reshape(h, w)[[0, -1], :] = False  # the border is where water leaves
     lost.reshape(h, w)[:, [0, -1]] = False
     cells = np.flatnonzero(lost)
     if cells.size == 0:
         return
-    # interior cells: all 8 neighbours exist, at these flat offsets
-    steps = [(dr * w + dc, 3 if dr and dc else 2) for dr, dc in _STEPS]
     far = np.iinfo(np.int64).max
-    dist = np.full(n, far, dtype=np.int64)
-    starts = np.unique(np.concatenate([
-        (cells + off)[~lost[cells + off] & (zf[cells + off] == zf[cells])] for off, _ in steps]))
-    dist[starts] = 0
-    buckets = {0: [starts]}
-    d = 0
-    while buckets:
-        now = buckets.pop(d, None)
-        if now is not None:
-            now = np.concatenate(now)
-            now = now[dist[now] == d]  # entries a nearer bucket has since improved are stale
-            for off, step in steps:
-                nb = now + off
-                ok = (nb >= 0) & (nb < n)  # border cells' offsets may leave the grid or wrap to
-                nb, src = nb[ok], now[ok]  # the other side's border, which is never lost
-                nb = nb[lost[nb] & (zf[nb] == zf[src]) & (dist[nb] > d + step)]
-                if nb.size:
-                    dist[nb] = d + step
-                    buckets.setdefault(d + step, []).append(nb)
-        d += 1
+    dist = wp.full(z.size, far, dtype=wp.int64, device="cpu")
+    wp.launch(_k.flat_distance_kernel, dim=1, device="cpu",
+              inputs=[wp.array(z.ravel(), dtype=wp.float64, copy=False, device="cpu"),
+                      wp.array(lost.view(np.uint8), dtype=wp.uint8, copy=False, device="cpu"), w,
+                      wp.empty(z.size, dtype=int, device="cpu"), wp.empty(4, dtype=int, device="cpu")],
+              outputs=[dist])
+    dist = dist.numpy()
+    zf = z.ravel()
     cells = cells[dist[cells] < far]
     to = np.full(cells.size, -1, dtype=rec.dtype)
-    for off, step in steps:  # the first neighbour in row-major order one step nearer
-        nb = cells + off
-        pick = (to < 0) & (zf[nb] == zf[cells]) & (dist[nb] == dist[cells] - step)
+    for dr, dc in _STEPS:  # the first neighbour in row-major order one step nearer
+        nb = cells + (dr * w + dc)
+        pick = (to < 0) & (zf[nb] == zf[cells]) & (dist[nb] == dist[cells] - (3 if dr and dc else 2))
         to[pick] = nb[pick]
     rec[:, cells] = to
     if frac is not None:
