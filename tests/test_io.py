@@ -233,6 +233,19 @@ def test_written_files_follow_the_umask(tmp_path):
     assert (out.stat().st_mode & 0o777) == 0o644
 
 
+def test_a_replaced_file_keeps_its_permissions(tmp_path):
+    import os
+
+    from wdendrite.io import atomic_write
+
+    out = tmp_path / "x.txt"
+    out.write_text("old")
+    os.chmod(out, 0o640)
+    atomic_write(out, lambda p: open(p, "w").write("new"), overwrite=True)
+    assert out.read_text() == "new"
+    assert (out.stat().st_mode & 0o777) == 0o640
+
+
 @pytest.mark.parametrize(
     "image, exc, match",
     [

@@ -7,6 +7,7 @@ import contextvars
 import json
 import os
 import re
+import stat
 import tempfile
 import zipfile
 import zlib
@@ -120,12 +121,17 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
 
 def temporary_beside(path) -> Path:
     """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
-    stage ``path`` in, with the mode a plain ``open()`` would give it (mkstemp's are private)."""
+    stage ``path`` in, with the mode of the file it will replace, or else the mode a plain
+    ``open()`` would give it (mkstemp's are private)."""
     path = Path(path)
+    try:
+        mode = stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:  # nothing there yet (or nothing readable): what a new file gets
+        mode = 0o666 & ~_umask()
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
-        os.chmod(tmp, 0o666 & ~_umask())
+        os.chmod(tmp, mode)
     except BaseException:
         os.unlink(tmp)
         raise
