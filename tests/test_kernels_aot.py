@@ -45,6 +45,10 @@ def test_compiles_for_cuda(name, tmp_path):
         text = "".join(p.read_text(errors="ignore") for p in paths)
         assert ".target sm_75" in text and text.count(".entry") >= sum(
             isinstance(v, wp.Kernel) for v in vars(MODULES[name]).values())
+        # the one resource limit PTX shows without assembling: a thread's local arrays (each
+        # entry's depot) must fit the 512 KiB of local memory a CUDA thread can address
+        depots = [int(v) for v in re.findall(r"__local_depot\d+\[(\d+)\]", text)]
+        assert all(v < 512 * 1024 for v in depots), depots
 
 
 @pytest.mark.parametrize("name", WITH_KERNELS)
