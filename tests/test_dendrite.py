@@ -427,7 +427,8 @@ def test_from_arrays_names_the_bad_row(nodes, parent, error, match):
         wd.Dendrite.from_arrays((4, 4), nodes, parent)
 
 
-@pytest.mark.parametrize("generation, error", [("a", TypeError), (1.7, TypeError), (-5, ValueError), (True, TypeError)])
+@pytest.mark.parametrize("generation, error", [("a", TypeError), (1.7, TypeError), (-5, ValueError), (True, TypeError),
+                                               (2**31, ValueError)])
 def test_trace_checks_generation_before_any_kernel(generation, error, launches):
     cf = wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]])
     launches.clear()

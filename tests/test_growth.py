@@ -278,6 +278,21 @@ def test_empty_bands_raise():
         wd.grow(LAT, [[48, 48]], wd.FractalParams(d=1e6, epsilon=5e5, alpha=2.0))
 
 
+def test_spaced_bands_take_as_many_endpoints_as_fit():
+    # one iteration whose band holds about 60 endpoints 6 nodes apart: asking for more must not
+    # give fewer (the band is filled greedily in random order, never redrawn with a smaller count)
+    lat = wd.Lattice((80, 80), 8, weights=wd.weights.Uniform(r=10, seed=2))
+    got = []
+    for count in (40, 64, 200):
+        p = wd.FractalParams(count=count, d=150.0, alpha=2.0, beta=1.0, epsilon=100.0, r=30.0, min_spacing=6.0)
+        den = wd.grow(lat, [[40, 40]], p, seed=0)
+        ends = den.nodes[den.endpoints]
+        gaps = np.sqrt(((ends[:, None] - ends[None]) ** 2).sum(-1))[np.triu_indices(len(ends), 1)]
+        assert gaps.min() >= 6.0
+        got.append(len(ends))
+    assert got[0] == 40 and got[0] < got[1] <= got[2] < 200, got
+
+
 def test_masks_confine_growth_to_a_surface():
     # a spherical shell one node thick: growth must stay on it (lichen on a rock)
     z, y, x = np.mgrid[:24, :24, :24]
@@ -320,13 +335,55 @@ def test_a_start_dendrite_makes_its_edges_cheap_from_the_first_iteration():
     # the first iteration searched with the lowered start edges: each new node's cost is the
     # start node its branch joins plus the rise of the lowered field from there
     lowered = wd.shortest_paths(lower_dendrite_weights(LAT, start, 0.3), [[48, 48]]).dist
-    first = len(start) + np.flatnonzero(den.generation[len(start):] == 0)
+    # the start's rows are generation 0, so the first iteration is generation 1
+    assert (den.generation[: len(start)] == 0).all() and den.generation[len(start):].min() == 1
+    first = len(start) + np.flatnonzero(den.generation[len(start):] == 1)
     assert len(first)
     join = den.parent[first].copy()
     while np.any(join >= len(start)):
         join = np.where(join >= len(start), den.parent[np.maximum(join, 0)], join)
     field = lambda rows: lowered[tuple(den.nodes[rows].T)]  # noqa: E731
     np.testing.assert_array_equal(den.cost[first], den.cost[join] + (field(first) - field(join)))
+
+
+@pytest.mark.parametrize("cheap", [0.0, 0.3])
+def test_a_hand_placed_start_gets_path_costs(cheap):
+    # the same paths given as plain arrays (costs 0 by default) grow exactly as the traced ones,
+    # whose costs are path costs: growth recomputes a start's costs over the lattice's weights
+    traced = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5], [90, 90]])
+    plain = wd.Dendrite.from_arrays(LAT.shape, traced.nodes, traced.parent, label=traced.label)
+    assert (plain.cost == 0).all() and traced.cost.max() > 0
+    p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=cheap)
+    a = wd.grow(LAT, [[48, 48]], p, seed=2, start=traced)
+    b = wd.grow(LAT, [[48, 48]], p, seed=2, start=plain)
+    np.testing.assert_array_equal(a.cost[: len(traced)], traced.cost)  # bit for bit
+    np.testing.assert_array_equal(b.cost, a.cost)
+    np.testing.assert_array_equal(b.nodes, a.nodes)
+
+
+def test_a_start_with_a_step_that_is_no_lattice_edge_is_refused(monkeypatch):
+    # a path traced on an 8-connected lattice has diagonal steps a 4-connected one lacks
+    four = wd.Lattice(LAT.shape, 4, weights=wd.weights.Uniform(seed=1))
+    start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5]])
+    calls = []
+    monkeypatch.setattr(growth, "shortest_paths", lambda *a, **k: calls.append(1))
+    for cheap in (0.0, 0.5):
+        with pytest.raises(ValueError, match=r"'start' row \d+ = .* steps to its parent by .* no edge of the 4-connected"):
+            wd.grow(four, [[48, 48]], dataclasses.replace(PARAMS, cheap=cheap), start=start)
+    with pytest.raises(ValueError, match=r"'dendrite' row \d+ .* no edge"):
+        lower_dendrite_weights(four, start, 0.5)
+    assert calls == []
+
+
+def test_growth_refuses_an_empty_region_and_factors_that_round_to_zero():
+    with pytest.raises(ValueError, match="'within' holds no usable node"):
+        wd.grow(LAT, [[48, 48]], PARAMS, within=np.zeros(LAT.shape, bool))
+    with pytest.raises(ValueError, match=r"'cheap' = 1e-46 is below float32's smallest normal"):
+        wd.FractalParams(cheap=1e-46)
+    start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5]])
+    with pytest.raises(ValueError, match=r"'factor' = 1e-40 is below"):
+        lower_dendrite_weights(LAT, start, 1e-40)
+    assert wd.FractalParams(cheap=1e-30).cheap == 1e-30
 
 
 def test_new_generators_on_or_off_the_dendrite_become_roots_only_when_off_it():

@@ -341,7 +341,7 @@ def trace(
     if generation is None:
         generation = 0 if extend is None or not len(extend) else int(extend.generation.max()) + 1
     else:
-        generation = _checks.integer("generation", generation, low=0)
+        generation = _checks.integer("generation", generation, low=0, high=np.iinfo(np.int32).max)
 
     device = costfield.device
     arrays = lattice.device_arrays(device)

@@ -271,13 +271,17 @@ def _in_key_order(cand: np.ndarray, keys: np.ndarray, first: int):
         size *= 4
 
 
-def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float) -> np.ndarray:
-    """Candidates in key order, each kept only if no kept one lies closer than ``spacing``."""
+def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: float,
+            partial: bool = False) -> np.ndarray:
+    """Candidates in key order, each kept only if no kept one lies closer than ``spacing``;
+    ``count`` of them, or with ``partial`` as many as fit, up to ``count``."""
     if _footprint_size(shape, spacing) > _FOOTPRINT_MAX:
         if count >= 2 and len(cand):
             # no two candidates that far apart: say so at once (the search would scan them all)
             span = np.array([int(p.max()) - int(p.min()) for p in np.unravel_index(cand, shape)], np.float64)
             if math.sqrt(float((span**2).sum())) < spacing:
+                if partial:  # one fits: the first in key order
+                    return np.asarray(next(_in_key_order(cand, keys, 1))[:1], dtype=np.int64)
                 raise TooManyEndpoints(
                     f"No two of the {len(cand)} candidate nodes are 'min_spacing' = {spacing:g} apart (they span "
                     f"{tuple(int(v) for v in span)} nodes), but 'count' = {count} endpoints were asked for; lower "
@@ -285,7 +289,7 @@ def _spaced(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing: floa
         kept = _spaced_far(cand, keys, shape, count, spacing)
     else:
         kept = _spaced_near(cand, keys, shape, count, spacing)
-    if len(kept) < count:
+    if len(kept) < count and not partial:
         _spaced_error(kept, count, spacing, len(cand))
     return np.asarray(kept, dtype=np.int64)
 
@@ -373,8 +377,9 @@ def _density(density, shape) -> np.ndarray:
 
 
 def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why: list,
-            log_density=None) -> np.ndarray:
-    """Draw ``count`` distinct nodes among the candidates ``cand`` (ascending flat indices).
+            log_density=None, partial: bool = False) -> np.ndarray:
+    """Draw ``count`` distinct nodes among the candidates ``cand`` (ascending flat indices);
+    with ``partial``, as many as ``min_spacing`` lets fit when that is fewer.
 
     ``why`` holds zero-argument callables describing the filters, called only
     to word an error (counting candidates for a message is a pass over the lattice).
@@ -408,7 +413,7 @@ def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why:
         if min_spacing is None:
             flat = next(_in_key_order(cand, keys, count))
         else:
-            flat = _spaced(cand, keys, shape, count, min_spacing)
+            flat = _spaced(cand, keys, shape, count, min_spacing, partial)
     return np.stack(np.unravel_index(flat, shape), axis=1).astype(np.int64)
 
 

@@ -51,7 +51,9 @@ class FractalParams:
     iteration made it (the thesis' "iteratively decreasing" could also be read as
     D^k for edges k iterations old)."""
     min_spacing: float | None = None
-    """Least distance between endpoints drawn in one iteration (nodes), or None."""
+    """Least distance between endpoints drawn in one iteration (nodes), or None. An
+    iteration whose band cannot hold ``count`` endpoints that far apart takes as many as
+    fit (candidates tried once each, in random order)."""
 
     MAX_ITERATIONS = 1000
     """Schedules longer than this are refused: they come from an ``alpha`` so close to 1
@@ -74,6 +76,7 @@ class FractalParams:
         cheap = _checks.nonnegative("cheap", self.cheap, allow_none=False)
         if cheap > 1:
             raise ValueError(f"Expected 'cheap' (D) in [0, 1], but got {self.cheap!r}")
+        _check_factor("cheap", cheap)
         if not float(self.d) > float(self.epsilon):
             raise ValueError(
                 f"'d' ({self.d!r}) must exceed 'epsilon' ({self.epsilon!r}): growth runs while d > epsilon, "
@@ -112,6 +115,14 @@ class FractalParams:
         return out
 
 
+def _check_factor(name: str, factor: float) -> None:
+    """Refuse a weight factor so small that float32 weights times it would round to 0."""
+    tiny = float(np.finfo(np.float32).tiny)
+    if 0 < factor < tiny:
+        raise ValueError(f"'{name}' = {factor!r} is below float32's smallest normal number ({tiny:.3g}): the "
+                         "lowered weights would round to 0; use 0 for new generators, or a larger factor")
+
+
 def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, rows=None) -> Lattice:
     """A lattice whose edges along ``dendrite`` (node to parent) cost ``factor`` times as much.
 
@@ -125,11 +136,13 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
         A new :class:`Lattice` with the same shape, connectivity and mask.
 
     Raises:
-        ValueError: ``factor`` outside (0, 1], or a dendrite of another lattice shape.
+        ValueError: ``factor`` outside (0, 1] or below float32's smallest normal number, a
+            dendrite of another lattice shape, or one with a step that is no lattice edge.
     """
     factor = _checks.positive("factor", factor)
     if factor > 1:
         raise ValueError(f"Expected 'factor' in (0, 1], but got {factor!r}: former paths only get cheaper")
+    _check_factor("factor", factor)
     if tuple(dendrite.shape) != lattice.shape:
         raise ValueError(f"'dendrite' has shape {tuple(dendrite.shape)}, but 'lattice' has shape {lattice.shape}")
     dirs, lower = _dendrite_edges(lattice, dendrite, rows)
@@ -139,24 +152,51 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     return lattice.with_weights(w)
 
 
-def _dendrite_edges(lattice: Lattice, dendrite: Dendrite, rows=None) -> tuple[np.ndarray, np.ndarray]:
-    """The edges from ``rows`` (default: all) to their parents as ``(dirs, lower)``: the
-    direction of each and the coordinates of its lower end, where its weight is stored."""
+def _dendrite_edges(lattice: Lattice, dendrite: Dendrite, rows=None, name: str = "dendrite"
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The edges from ``rows`` (default: all) to their parents, row by row (roots left out),
+    as ``(dirs, lower)``: the direction of each and the coordinates of its lower end, where
+    its weight is stored. A step that is no edge of the lattice is refused, naming ``name``."""
     rows = np.arange(len(dendrite)) if rows is None else np.asarray(rows, dtype=np.int64)
     rows = rows[dendrite.parent[rows] >= 0]
     a, b = dendrite.nodes[rows], dendrite.nodes[dendrite.parent[rows]]
     step = b - a
-    dirs, lower = [], []
+    dirs = np.full(len(rows), -1, dtype=np.int64)
+    lower = a.copy()
     for k, off in enumerate(lattice.offsets):
-        fwd = np.all(step == off, axis=1)
+        dirs[np.all(step == off, axis=1)] = k
         bwd = np.all(step == -off, axis=1)
-        ends = np.concatenate([a[fwd], b[bwd]])
-        lower.append(ends)
-        dirs.append(np.full(len(ends), k, dtype=np.int64))
-    return np.concatenate(dirs), np.concatenate(lower).reshape(-1, lattice.ndim)
+        dirs[bwd] = k
+        lower[bwd] = b[bwd]
+    if (dirs < 0).any():
+        row = int(rows[np.argmax(dirs < 0)])
+        raise ValueError(
+            f"'{name}' row {row} = {tuple(dendrite.nodes[row].tolist())} steps to its parent by "
+            f"{tuple(step[np.argmax(dirs < 0)].tolist())}, which is no edge of the {lattice.connectivity}-connected "
+            "lattice")
+    return dirs, lower
 
 
-def _check_start(start, lattice: Lattice, n_gens: int) -> None:
+def _path_costs(lattice: Lattice, dendrite: Dendrite, name: str) -> np.ndarray:
+    """float32 path costs of every row from its root along the parents over the lattice's
+    weights, summed from the root outward as a search sums them (so a traced dendrite gets its
+    own costs back, bit for bit)."""
+    cost = np.zeros(len(dendrite), np.float32)
+    child = np.flatnonzero(dendrite.parent >= 0)
+    if not len(child):
+        return cost
+    w = lattice.edge_weights(*_dendrite_edges(lattice, dendrite, child, name))
+    depth = dendrite.depth[child]
+    order = np.argsort(depth, kind="stable")
+    cuts = np.flatnonzero(np.diff(depth[order])) + 1
+    for level in np.split(order, cuts):  # one step per level, parents first
+        rows = child[level]
+        cost[rows] = cost[dendrite.parent[rows]] + w[level]
+    return cost
+
+
+def _check_start(start, lattice: Lattice, n_gens: int) -> Dendrite:
+    """``start`` checked, with its costs recomputed as path costs over ``lattice``."""
     if not isinstance(start, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'start', but got {type(start).__name__}")
     if tuple(start.shape) != lattice.shape:
@@ -168,6 +208,7 @@ def _check_start(start, lattice: Lattice, n_gens: int) -> None:
                 f"'start' labels range over [{start.label.min()}, {start.label.max()}], but they must index the "
                 f"{n_gens} 'generators'"
             )
+    return dataclasses.replace(start, cost=_path_costs(lattice, start, "start"))
 
 
 def _field_costs(cf: CostField, padded: np.ndarray) -> np.ndarray:
@@ -216,15 +257,10 @@ def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_
     """
     lattice = cf.lattice
     cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, max(d - r, 0.0), d + r, within)
-    n = min(m, len(cand))
-    while n > 0:
-        try:
-            return _endpoints._sample(lattice.shape, cand, n, rng, None, min_spacing, why)
-        except ValueError:
-            if min_spacing is None:
-                raise
-            n //= 2  # the spacing leaves room for fewer: ask for half as many
-    return None
+    if len(cand) == 0:
+        return None
+    # in random order, each candidate kept unless a kept one lies within min_spacing: as many as fit
+    return _endpoints._sample(lattice.shape, cand, min(m, len(cand)), rng, None, min_spacing, why, partial=True)
 
 
 def grow(
@@ -265,7 +301,10 @@ def grow(
         seed: int or ``np.random.Generator`` for the endpoint draws.
         device: Warp device (default: Warp's default device).
         start: an initial dendrite on the same lattice (e.g. hand-placed main
-            paths) to grow from; its labels must index ``generators``.
+            paths) to grow from; its labels must index ``generators``, each of its
+            steps must be a lattice edge, and its costs are recomputed as path
+            costs over the lattice's weights from its roots (a traced dendrite
+            keeps its own, bit for bit).
         within: optional region (bool mask or an :mod:`wdendrite.endpoints`
             shape) endpoints must lie in.
         progress: True shows a tqdm bar; a callable gets
@@ -274,7 +313,9 @@ def grow(
             endpoints).
 
     Returns:
-        The grown :class:`Dendrite`; ``generation`` numbers the iterations.
+        The grown :class:`Dendrite`; ``generation`` numbers the iterations,
+        after those of ``start`` (its rows keep theirs; the first iteration
+        is one more than their largest).
         Its ``cost`` is the path cost from each node's generator along the
         dendrite: every new branch continues the cost of the node it joins
         (a single :func:`trace` gives the same: ``dist``).
@@ -282,8 +323,8 @@ def grow(
     Raises:
         TypeError: ``lattice``, ``params``, ``start``, ``seed`` or ``progress`` of the wrong type.
         ValueError: bad ``generators`` (empty, out of bounds, on masked nodes), a ``start``
-            from another lattice shape or whose labels do not index ``generators``, a
-            ``within`` of another shape, a negative ``seed``, a schedule whose bands
+            from another lattice shape, with a step that is no lattice edge or whose labels
+            do not index ``generators``, a ``within`` of another shape or without a usable node, a negative ``seed``, a schedule whose bands
             hold no node at all (none grows, with or without ``start``), or with cheap
             former paths a ``start`` node no generator reaches (searched before any draw).
     """
@@ -298,9 +339,13 @@ def grow(
     elif not callable(progress):
         raise TypeError(f"Expected a bool or a callable for 'progress', but got {progress!r}")
     if start is not None:
-        _check_start(start, lattice, len(gens))
+        start = _check_start(start, lattice, len(gens))
     if within is not None:
         within = _endpoints._within(within, lattice.shape)  # checked (and a region drawn) once, before any search
+        if not (within if lattice.mask is None else within & lattice.mask).any():
+            raise ValueError("'within' holds no usable node of the lattice: no endpoint could be drawn")
+    # iterations continue the generations of ``start``
+    first_generation = 0 if start is None or not len(start) else int(start.generation.max()) + 1
     plan = params.schedule()
     r = params.band
     new_generators = params.cheap == 0.0
@@ -346,7 +391,7 @@ def grow(
             grew = True
             first = 0 if den is None else len(den)
             # (new branches take the label of the node they join: the first generators' rows)
-            den = trace(cf, ep, extend=den, generation=it, _drawn=True)
+            den = trace(cf, ep, extend=den, generation=first_generation + it, _drawn=True)
             if first:
                 # before the next search reuses the records that hold this field
                 den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
@@ -364,7 +409,7 @@ def grow(
                         # growth's own copy, whose later edges are lowered in place
                         lat = lower_dendrite_weights(lat, den, params.cheap, rows=new_rows)
                     else:
-                        dirs, lower = _dendrite_edges(lat, den, new_rows)
+                        dirs, lower = _dendrite_edges(lat, den, new_rows)  # (traced: all lattice edges)
                         lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
                     cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf,
                                         _lowered=lowered)
