@@ -142,21 +142,23 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     z = _elevation("elevation", elevation)
     if filled:
         z = fill(z)
-    with wp.ScopedDevice("cpu"):
-        zw = wp.array(z, dtype=wp.float64, copy=False)  # the receiver kernels only read it: no copy
-        rec = wp.empty((2 if two else 1, z.size), dtype=int)
-        frac = wp.empty(rec.shape if two else (1, 1), dtype=wp.float64)
-        donors = wp.zeros(z.size, dtype=int)
-        if two:
-            wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors])
-        else:
-            wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors])
-        if filled:  # arrays on the CPU device: their NumPy views write through
-            _drain_flats(z, rec.numpy(), frac.numpy() if two else None, donors.numpy())
-        area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64)
-        wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int)],
-                  outputs=[area])
-        return area.numpy().reshape(z.shape)
+    # every array names the CPU device: a scope would change Warp's default device for every
+    # thread of the process while it lasts
+    cpu = "cpu"
+    zw = wp.array(z, dtype=wp.float64, copy=False, device=cpu)  # the receiver kernels only read it: no copy
+    rec = wp.empty((2 if two else 1, z.size), dtype=int, device=cpu)
+    frac = wp.empty(rec.shape if two else (1, 1), dtype=wp.float64, device=cpu)
+    donors = wp.zeros(z.size, dtype=int, device=cpu)
+    if two:
+        wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors], device=cpu)
+    else:
+        wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors], device=cpu)
+    if filled:  # arrays on the CPU device: their NumPy views write through
+        _drain_flats(z, rec.numpy(), frac.numpy() if two else None, donors.numpy())
+    area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64, device=cpu)
+    wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int, device=cpu)],
+              outputs=[area], device=cpu)
+    return area.numpy().reshape(z.shape)
 
 
 _STEPS = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]  # row-major, as the kernels

@@ -476,13 +476,14 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
                                                   for i, x in enumerate(gains)]
     if len(g) != len(imgs):
         raise ValueError(f"Expected {len(imgs)} 'gains', one per layer, but got {len(g)}")
-    with wp.ScopedDevice("cpu"):
-        # the first layer enters as a blend over black, so every layer is scaled and clipped alike
-        acc = wp.zeros(imgs[0].size, dtype=float)
-        for v, gi in zip(imgs, g):
-            wp.launch(_k.blend_kernel, dim=acc.shape[0],
-                      inputs=[acc, wp.array(v.ravel(), dtype=float), float(gi), _BLENDS.index(mode)], outputs=[acc])
-        out = acc.numpy().reshape(imgs[0].shape)
+    # the CPU device named on every array (a scope would change the default for every thread)
+    # the first layer enters as a blend over black, so every layer is scaled and clipped alike
+    acc = wp.zeros(imgs[0].size, dtype=float, device="cpu")
+    for v, gi in zip(imgs, g):
+        wp.launch(_k.blend_kernel, dim=acc.shape[0],
+                  inputs=[acc, wp.array(v.ravel(), dtype=float, device="cpu"), float(gi), _BLENDS.index(mode)],
+                  outputs=[acc], device="cpu")
+    out = acc.numpy().reshape(imgs[0].shape)
     return out.astype(np.float32)
 
 
