@@ -10,8 +10,10 @@ node may first offer its neighbours a cost from a costlier path, and when its
 own least cost (from another generator) extends to the same float32 sum, the
 lower label of the two stays. Which offers are made depends on the order of
 relaxations: fixed on the CPU, free on a GPU, where such a rounding tie may
-then label a node differently from run to run (backtracking follows the
-costs either way, see :mod:`wdendrite.kernels.dendrite`).
+then label a node differently from run to run. Backtracking follows the costs
+either way, but prefers the neighbour that reproduces the whole word (see
+:mod:`wdendrite.kernels.dendrite`), so a path through such a node may then
+take the other generator's way down.
 
 Kernels index a *padded* lattice: the lattice with a one-node border (in
 x, y and, for 3D, z), so a neighbour is always ``node + flat_offsets[k]``. The

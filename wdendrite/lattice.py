@@ -393,12 +393,26 @@ class Lattice:
         """
         if self._weights is not None:
             return self._weights
-        sampled = np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets), np.float32)
-        sampled = fill_outside(sampled, self.offsets)
-        sampled.flags.writeable = False
+        sampled = self._sampled("cpu")
         if self.stores_weights:
             self._weights = sampled  # a masked distribution: computed once asked for, then kept
         return sampled
+
+    def _sampled(self, device) -> np.ndarray:
+        """The distribution's weights computed on ``device`` (read-only, outside entries filled)."""
+        sampled = np.asarray(self.distribution.sample(self.shape, self.lengths, offsets=self.offsets, device=device),
+                             np.float32)
+        sampled = fill_outside(sampled, self.offsets)
+        sampled.flags.writeable = False
+        return sampled
+
+    def _kernel_weights(self, device) -> np.ndarray:
+        """``(K, *shape)`` float32 weights as the kernels on ``device`` use them: :attr:`weights`,
+        except that a lattice storing none recomputes them there (on a GPU, CUDA's ``pow`` may
+        differ from the CPU's by a unit in the last place)."""
+        if self._stored:
+            return self.weights  # records come from the host's weights, whatever the device
+        return self._sampled(device)
 
     @property
     def num_nodes(self) -> int:
