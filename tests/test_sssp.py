@@ -267,6 +267,18 @@ def test_warm_start_mismatches():
         wd.shortest_paths(lat, [[0, 0], [4, 4]], warm_start=capped, limit=10.0)
 
 
+def test_a_cuda_memory_check_counts_what_the_pool_lets_go_at_a_synchronization(monkeypatch):
+    # a stand-in CUDA device whose pool holds 2 GiB of freed blocks until a synchronization
+    gpu = type("FakeCuda", (), {"is_cuda": True, "__str__": lambda self: "cuda:0"})()
+    state = {"free": 1 << 30}
+    monkeypatch.setattr(wp, "get_device", lambda d=None: gpu)
+    monkeypatch.setattr(wp, "synchronize_device", lambda d=None: state.update(free=3 << 30))
+    monkeypatch.setattr(_checks, "available_bytes", lambda device: state["free"])
+    _checks.fits_in_memory(2 << 30, "cuda:0", "a search")  # fits once the pool has let go
+    with pytest.raises(MemoryError, match="needs about 4.00 GiB on device 'cuda:0', but only 3.00 GiB"):
+        _checks.fits_in_memory(4 << 30, "cuda:0", "a search")
+
+
 def test_too_big_for_memory_is_refused_before_work(monkeypatch):
     monkeypatch.setattr(_checks, "available_bytes", lambda device: 1000)
     with pytest.raises(MemoryError, match="GiB"):

@@ -210,10 +210,16 @@ def available_bytes(device) -> int:
 
 def fits_in_memory(need: int, device, what: str) -> None:
     """Raise ``MemoryError`` when ``need`` bytes exceed what ``device`` has free."""
+    device = wp.get_device(device)
     have = available_bytes(device)
+    if need > have and device.is_cuda:
+        # CUDA's memory pool keeps freed blocks until the next synchronization (its default
+        # release threshold is 0): count them as free once it has let them go
+        wp.synchronize_device(device)
+        have = available_bytes(device)
     if need > have:
         raise MemoryError(
-            f"{what} needs about {need / 2**30:.2f} GiB on device '{wp.get_device(device)}', "
+            f"{what} needs about {need / 2**30:.2f} GiB on device '{device}', "
             f"but only {have / 2**30:.2f} GiB are available"
         )
 
