@@ -64,6 +64,8 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
                 continue
             assert "--" + prm.name.replace("_", "-") in text, (name, prm.name)
             assert "(default:" in text
+        # docstrings' reST reads as plain words on a terminal
+        assert "``" not in text and not re.search(r":\w+:`", text), (name, text)
         if preset.size_param:
             # a picture's side is in pixels, a lattice's in nodes
             unit = "pixels" if name in ("dendry", "terrain") else "nodes"
@@ -390,6 +392,13 @@ def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
     (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
     (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["'seed'"]),
     (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),
+    # a library check names the Python parameter; the command adds its option
+    (["lightning", "--size", "32", "--forks", "-1"], None, ["'forks' >= 0, but got -1 (--forks)"]),
+    (["lightning", "--size", "32", "--glow-radius", "-3"], None, ["'glow_radius', but got -3.0 (--glow-radius)"]),
+    (["fractal", "--size", "32", "--alpha", "0.9"], None, ["'alpha' must be > 1", "(--alpha)"]),
+    (["dendry", "--size", "32", "--output", "d.png"], None, ["--output expects one of distance, elevation, level",
+                                                            "output files are named with -o/--out"]),
+    (["tree", "--size", "16", "--geometry", "cones"], None, ["--geometry expects one of tubes, spheres, isosurface"]),
 ])
 def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
@@ -402,6 +411,19 @@ def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp
     for w in words:
         assert w in err, (w, err)
     assert not list(tmp_path.iterdir()) or [p.name for p in tmp_path.iterdir()] == ["c.toml"]
+
+
+def test_the_fractal_takes_every_growth_parameter(tmp_path, monkeypatch):
+    # the schedule's options reach the growth: fewer first endpoints and a steeper attenuation
+    # make fewer endpoints, and d and epsilon in weight units replace the size-relative defaults
+    monkeypatch.chdir(tmp_path)
+    made = {}
+    for name, extra in [("default", []), ("few", ["--count", "2", "--alpha", "3"]),
+                        ("explicit", ["--d", str(1.2 * 96), "--epsilon", str(0.12 * 96)])]:
+        assert cli.main(["fractal", "--size", "96", *extra, "-o", f"{name}.npz", "--quiet"]) == 0
+        made[name] = np.load(tmp_path / f"{name}.npz")["nodes"]
+    assert len(made["few"]) < len(made["default"])
+    np.testing.assert_array_equal(made["explicit"], made["default"])
 
 
 def test_huge_but_valid_values_run(tmp_path, monkeypatch):

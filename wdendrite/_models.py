@@ -56,20 +56,27 @@ class Made:
         return self.picture
 
 
-def fractal(size: int = 256, *, cheap: float = 0.0, seed: int = 0, progress: bool = False) -> Made:
+def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: float = 1.8, beta: float = 2.5,
+            epsilon: float | None = None, cheap: float = 0.0, seed: int = 0, progress: bool = False) -> Made:
     """A fractal dendrite grown from the centre of a size x size lattice (thesis Fig 3.12).
 
     Args:
         size: lattice side in nodes (>= 8).
-        cheap: D, weight factor of the dendrite's edges in later iterations; 0 = its nodes become generators.
+        count: endpoints of the first iteration (m of the thesis).
+        d: path cost of the first iteration's endpoints (default: 1.2 x size).
+        alpha: each iteration divides d by it (> 1).
+        beta: each iteration multiplies the endpoint count by it (>= 1).
+        epsilon: growth stops once d falls to it (default: 0.12 x size).
+        cheap: weight factor D of the dendrite's edges in later iterations; 0: its nodes become generators.
         seed: seed of the weights and the endpoints.
     """
     from . import FractalParams, Lattice, grow, weights
 
     if size < 8:
         raise UsageError(f"--size must be at least 8, got {size}")
-    # a sparse, readable fractal: the first branches reach most of the way out
-    params = FractalParams(count=6, d=1.2 * size, alpha=1.8, beta=2.5, epsilon=0.12 * size, cheap=cheap)
+    # defaults: a sparse, readable fractal whose first branches reach most of the way out
+    params = FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
+                           epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
     # brightness grows with the number of endpoints a node carries (thicker trunks)

@@ -137,11 +137,12 @@ class Param:
 
     def help_text(self) -> str:
         """``doc (default: x) [unit]`` with argparse's % escaped."""
-        # reST literals read as plain words on a terminal
-        doc = (self.doc or self.name.replace("_", " ")).rstrip(".").replace("``", "")
+        doc = _terminal_text((self.doc or self.name.replace("_", " ")).rstrip("."))
         if self.kind == "choice":
             doc += f"; one of {', '.join(self.choices)}"
         unit = f" [{self.unit}]" if self.unit else ""
+        if self.default is None and "(default:" in doc:  # the docstring says what None stands for
+            return f"{doc}{unit}".replace("%", "%%")
         return f"{doc} (default: {_fmt(self.default) if self.default is not None else 'none'}){unit}".replace("%", "%%")
 
     def metavar(self) -> str:
@@ -169,6 +170,8 @@ class Param:
             except (TypeError, ValueError) as exc:  # the dataclass names the field and its bounds
                 raise UsageError(f"{where}: {exc}") from None
         extra = nearest(value, self.choices) if self.kind == "choice" else ""
+        if self.kind in ("choice", "str") and isinstance(value, str) and re.search(r"\.[A-Za-z]\w{1,3}$", value):
+            extra += "; output files are named with -o/--out"  # e.g. --output d.png
         want = {"int": "an integer", "float": "a number", "bool": "true or false", "str": "text",
                 "choice": f"one of {', '.join(self.choices)}", "ints": "integers separated by commas",
                 "floats": "numbers separated by commas", "strs": "names separated by commas",
@@ -308,7 +311,7 @@ def _field_docs(cls) -> dict[str, str]:
     for a, b in zip(body, body[1:]):
         if (isinstance(a, ast.AnnAssign) and isinstance(a.target, ast.Name) and isinstance(b, ast.Expr)
                 and isinstance(b.value, ast.Constant) and isinstance(b.value.value, str)):
-            out[a.target.id] = " ".join(b.value.value.split())
+            out[a.target.id] = " ".join(b.value.value.split("\n\n")[0].split())  # the first paragraph
     return out
 
 
@@ -351,8 +354,13 @@ class Preset:
         return n
 
 
+def _terminal_text(text: str) -> str:
+    """Docstring text as a terminal shows it: reST literals and roles (``x``, :func:`x`) as plain words."""
+    return re.sub(r":\w+:`~?([^`]*)`", r"\1", text).replace("``", "")
+
+
 def _summary(func) -> tuple[str, str]:
-    doc = inspect.getdoc(func) or func.__name__
+    doc = _terminal_text(inspect.getdoc(func) or func.__name__)
     first = doc.split("\n\n")[0]
     body = re.split(r"^Args:$", doc, flags=re.M)[0].rstrip()  # the options list the arguments
     return " ".join(first.split()).replace("%", "%%"), body

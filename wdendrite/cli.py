@@ -412,6 +412,7 @@ def main(argv=None) -> int:
     """Entry point of the ``wdendrite`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     size_note = ""  # how --size became the preset's shape, for errors about that shape
+    preset = None
     try:
         import warp as wp
 
@@ -444,7 +445,7 @@ def main(argv=None) -> int:
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         if size_note and f"'{preset.size_param}'" not in str(exc):
             size_note = ""
-        print(f"wdendrite: error: {exc}{size_note}", file=sys.stderr)
+        print(f"wdendrite: error: {exc}{size_note}{_options_named(exc, preset)}", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # the reader of our report went away (``| head``): the outputs are written, the report is not needed
@@ -462,6 +463,15 @@ def main(argv=None) -> int:
         traceback.print_exc()
         print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
         return 1
+
+
+def _options_named(exc, preset) -> str:
+    """`` (--a, --b)``: the options behind the parameters a library error names in quotes
+    (the preset's checks speak of its Python parameters), or nothing."""
+    if preset is None or isinstance(exc, UsageError):
+        return ""
+    named = dict.fromkeys(n for n in re.findall(r"'(\w+)'", str(exc)) if n in preset.params)
+    return f" ({', '.join('--' + n.replace('_', '-') for n in named)})" if named else ""
 
 
 def _tiled(preset, values: dict, outs: list, args) -> int:

@@ -125,12 +125,18 @@ class DendryParams:
     """Seed of every random number (key points, displacements, terrain noise), in [0, 2**32)."""
     eps: float = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid.
-    Below 0.25 links search 5 x 5 or 7 x 7 cells (see ``search``)."""
+    Below 0.25 links search 5 x 5 or 7 x 7 cells (see ``search``).
+
+    In terrains, every level keeps its key points ``eps`` away from cell borders, so the
+    subtrees of neighbouring level-1 cells meet along those borders; where they hang at
+    different altitudes (each from its own level-1 segment), the elevation, which takes
+    the altitude of the nearest tree point (paper, eq. 4), rises steeply along a straight
+    line there. ``eps = 0`` lets these divides wander like the rest of the tree."""
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
     none finer, as the authors' implementation does (the paper allows a constant or one value per
-    level: give ``(d,) * levels`` for a constant); a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
+    level: repeat the value once per level for a constant); a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
     Lichtenberg rule) links and queries search 7 x 7 cells (see ``search``)."""
     resolution: float = 1.0
     """Level-1 cells per domain unit (> 0): the spacing of the main branches. Terrain slopes
@@ -655,7 +661,9 @@ def dendry(
 
     Args:
         shape: (H, W) of the whole image.
-        domain: ((x0, y0), (x1, y1)) rectangle the image covers, in domain units.
+        domain: ((x0, y0), (x1, y1)) rectangle the image covers, in domain units: column 0
+            lies at x0 and row 0 at y0, so y grows downwards in the image (flip the rows for
+            a map whose north is y1).
         params: the :class:`DendryParams`.
         control: a control function from :mod:`wdendrite.control`; None uses
             :func:`default_control` (the authors' interactive default).

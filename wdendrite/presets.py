@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -468,7 +469,8 @@ def _tree_mesh(den: Dendrite, radius, side, geometry: str):
     raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
 
 
-def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: str = "tubes", seed: int = 0) -> Result:
+def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: Literal["tubes", "spheres", "isosurface"] = "tubes",
+             seed: int = 0) -> Result:
     """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
     (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small).
     Spheres are at least 0.87 nodes wide (neighbours along a diagonal touch) and isosurfaces 0.6
