@@ -85,9 +85,13 @@ def nearest(word: str, names) -> str:
 def progress_bar(desc: str, *, quiet: bool, total: int | None = None, leave: bool = True, delay: float = 0.0):
     """A tqdm bar on stderr, off when ``quiet`` or when the process has no stderr (closed at start:
     tqdm would fail inside its lock and hang the run)."""
-    from tqdm.auto import tqdm
+    off = bool(quiet) or sys.stderr is None
+    if off:  # (tqdm.auto, imported in a notebook without ipywidgets, warns even for a bar never shown)
+        from tqdm.std import tqdm
+    else:
+        from tqdm.auto import tqdm
 
-    kw = dict(total=total, desc=desc, disable=bool(quiet) or sys.stderr is None, leave=leave, file=sys.stderr)
+    kw = dict(total=total, desc=desc, disable=off, leave=leave, file=sys.stderr)
     if delay:
         try:
             return tqdm(**kw, delay=delay)

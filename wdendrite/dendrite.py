@@ -293,7 +293,7 @@ def trace(
     *,
     extend: Dendrite | None = None,
     generation: int | None = None,
-    _drawn: bool = False,
+    **_hooks,
 ) -> Dendrite:
     """Backtrack least-cost paths from ``endpoints`` to their generators (greedy descent).
 
@@ -311,9 +311,9 @@ def trace(
             branch takes the label of the node it joins.
         generation: value stored in ``Dendrite.generation`` for the new nodes
             (default: one more than ``extend``'s largest, else 0).
-        _drawn: the endpoints are an int64 ``(M, ndim)`` array drawn by growth
-            from this cost field's band: in bounds, usable and of finite cost,
-            so they are not checked again.
+        _hooks: ``_drawn=True`` from growth only: the endpoints are an int64 ``(M, ndim)``
+            array drawn from this cost field's band (in bounds, usable, of finite cost), so
+            they are not checked again.
 
     Returns:
         A :class:`Dendrite` holding ``extend``'s nodes followed by the new ones.
@@ -328,6 +328,9 @@ def trace(
     if not isinstance(costfield, CostField):
         raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
     lattice = costfield.lattice
+    if set(_hooks) - {"_drawn"}:
+        raise TypeError(f"trace() got an unexpected keyword argument {min(set(_hooks) - {'_drawn'})!r}")
+    _drawn = bool(_hooks.get("_drawn", False))
     pts = endpoints if _drawn else _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
     if extend is not None:
         if not isinstance(extend, Dendrite):

@@ -309,6 +309,24 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
         )
 
 
+_HOOKS = {"_fifo": None, "_max_threads": None, "_consume_warm_start": False, "_walked": None, "_lowered": None}
+"""Keyword arguments of :func:`shortest_paths` kept out of its signature, with their defaults:
+
+- ``_fifo``: the schedule (default: a work queue per bucket on single-threaded CPU devices,
+  generation rounds on GPUs); the tests choose it.
+- ``_max_threads``: threads per generation-round launch (GPU striding exercised on the CPU).
+- ``_consume_warm_start``: the caller will not read ``warm_start`` again, so its costs need
+  not be kept when the search reuses their memory.
+- ``_walked``: padded node indices of the generator rows after the warm start's, given by
+  growth, whose generators are the warm start's followed by nodes its walks just added on
+  this lattice: those rows are not checked again.
+- ``_lowered``: ``(padded nodes, dirs, new weights, records)`` from growth's
+  ``Lattice._lower_in_place`` on ``warm_start``'s own lattice: only these edges went down since
+  the warm start (the search's records take the new weights unless they are ``records``,
+  which hold them).
+"""
+
+
 def shortest_paths(
     lattice: Lattice,
     generators,
@@ -317,11 +335,7 @@ def shortest_paths(
     limit: float | None = None,
     warm_start: CostField | None = None,
     delta: float | None = None,
-    _fifo: bool | None = None,
-    _max_threads: int | None = None,
-    _consume_warm_start: bool = False,
-    _walked: np.ndarray | None = None,
-    _lowered: tuple | None = None,
+    **_hooks,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -341,20 +355,7 @@ def shortest_paths(
         delta: bucket width of the near-far threshold, in cost units. Larger
             means fewer, bigger rounds (better for GPUs); smaller means less
             repeated work. Default: 16 times the 10th percentile of the edge weights.
-        _fifo: testing hook choosing the schedule (default: a work queue per
-            bucket on single-threaded CPU devices, generation rounds on GPUs).
-        _max_threads: testing hook: threads per generation-round launch (GPU
-            striding exercised on the CPU).
-        _consume_warm_start: the caller will not read ``warm_start`` again, so
-            its costs need not be kept when the search reuses their memory.
-        _walked: padded node indices of the generator rows after the warm
-            start's, given by growth, whose generators are the warm start's
-            followed by nodes its walks just added on this lattice: those rows
-            are not checked again.
-        _lowered: ``(padded nodes, dirs, new weights, records)`` from growth's
-            ``Lattice._lower_in_place`` on ``warm_start``'s own lattice: only
-            these edges went down since the warm start (the search's records
-            take the new weights unless they are ``records``, which hold them).
+        _hooks: for the tests and growth only (see :data:`_HOOKS`).
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -365,6 +366,10 @@ def shortest_paths(
             bounds, on a masked node), limit, delta or warm start.
         MemoryError: when the search would not fit in the device's memory.
     """
+    unknown = set(_hooks) - set(_HOOKS)
+    if unknown:
+        raise TypeError(f"shortest_paths() got an unexpected keyword argument {min(unknown)!r}")
+    _fifo, _max_threads, _consume_warm_start, _walked, _lowered = (_hooks.get(k, v) for k, v in _HOOKS.items())
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
     trusted = _walked is not None and isinstance(warm_start, CostField)
