@@ -62,7 +62,8 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     manifests = sorted(runs.glob("*.manifest.json"))
     assert len(manifests) == 8 + 1 + 1
     rec = json.loads((runs / "fractal_size40_seed1_cheap0.5.manifest.json").read_text())
-    assert rec["params"] == {"size": 40, "cheap": 0.5, "seed": 1} and rec["seed"] == 1
+    assert rec["params"] == {"size": 40, "count": 6, "d": None, "alpha": 1.8, "beta": 2.5, "epsilon": None,
+                             "cheap": 0.5, "seed": 1} and rec["seed"] == 1
     assert rec["device"] == "cpu" and rec["version"] and rec["seconds"] >= 0 and "endpoints" in rec["made"]
     assert all(os.path.exists(p) for p in rec["outputs"])
     from wdendrite.io import load_dendrite
