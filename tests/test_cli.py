@@ -306,52 +306,6 @@ def test_a_deferred_picture_that_fails_leaves_no_output(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def _numpy_relief(z, spacing, area=None):
-    """The terrain picture written with NumPy: numpy.gradient slopes, hillshade, tint, rivers."""
-    gy, gx = np.gradient(z.astype(np.float64), spacing)
-    n = np.stack([-gx, -gy, np.ones_like(gx)], axis=-1)
-    n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    light = np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])
-    shade = np.clip(n @ light, 0, 1)[..., None]
-    t = ((z - z.min()) / (z.max() - z.min()))[..., None]
-    low, mid, high = np.array([0.3, 0.45, 0.25]), np.array([0.55, 0.45, 0.3]), np.array([0.95, 0.95, 0.95])
-    img = np.where(t < 0.6, low + (mid - low) * t / 0.6, mid + (high - mid) * (t - 0.6) / 0.4) * (0.35 + 0.65 * shade)
-    if area is not None:
-        wet = np.clip(np.log(area / (0.001 * z.size)) / np.log(20.0), 0.0, 1.0)[..., None]
-        img = img * (1 - 0.9 * wet) + 0.9 * wet * np.array([0.12, 0.3, 0.85])
-    return img
-
-
-def test_relief_equals_numpy_shading_with_and_without_rivers(device):
-    from wdendrite import hydrology
-
-    z = hydrology.fbm_terrain((61, 47), seed=4)
-    area = hydrology.flow_accumulation(z, filled=True)
-    assert (area > 0.02 * z.size).sum() > 0 and (area > 0.001 * z.size).sum() > 100  # rivers, some full blue
-    for a in (None, area):
-        got = cli.relief(z, 0.05, a, device=device)
-        assert got.shape == (61, 47, 3) and got.dtype == np.float32
-        np.testing.assert_allclose(got, _numpy_relief(z, 0.05, a), atol=2e-6)
-    # a 2 x 2 terrain: one-sided slopes everywhere
-    tiny = np.array([[0.0, 1.0], [3.0, 2.0]])
-    np.testing.assert_allclose(cli.relief(tiny, 1.0, device=device), _numpy_relief(tiny, 1.0), atol=2e-6)
-    # spacings and elevations beyond float32's comfort (the kernel works on scaled elevations)
-    z64 = z.astype(np.float64)
-    for zz, spacing in ((z64, 1e-40), (z64 * 1e37, 1.0), (z64 * 1e-30, 1e-30)):
-        np.testing.assert_allclose(cli.relief(zz, spacing, device=device), _numpy_relief(zz, spacing), atol=2e-6)
-
-
-@pytest.mark.parametrize("kw, match", [
-    (dict(z=np.zeros((1, 5))), "'z'"), (dict(z=np.full((4, 4), np.nan)), "'z'"), (dict(spacing=0.0), "'spacing'"),
-    (dict(area=np.ones((4, 5))), "'area'"), (dict(area=np.zeros((4, 4))), "'area'"), (dict(device="cuda:7"), "'device'"),
-])
-def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):
-    args = dict(z=np.random.default_rng(0).random((4, 4)), spacing=1.0) | kw
-    with pytest.raises((ValueError, TypeError), match=match):
-        cli.relief(**args)
-    assert launches == []
-
-
 def test_an_upper_case_suffix_writes_the_file_named(tmp_path):
     # NumPy appends ".npy" to a name not ending in it: f.NPY must still hold the field
     cli.run_preset("fractal", {"size": 24}, [tmp_path / "f.NPY"], device="cpu")

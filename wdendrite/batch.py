@@ -379,7 +379,8 @@ def _tiled_setup(task: Task):
 
 
 def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", device=None):
-    """A lazy Dask array of a Dendry image (``dendry_setup`` keywords or a tiled task), one block per tile."""
+    """A lazy Dask array of a Dendry image, one block per tile: ``task_or_setup`` is a dict of
+    :func:`wdendrite.dendry`'s keywords (``shape``, ``domain``, ``params``, ``control``) or a tiled task."""
     if isinstance(task_or_setup, Task):
         setup, output = _tiled_setup(task_or_setup)
     else:

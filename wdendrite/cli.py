@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs and notebooks use them
+from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs use them
 from ._spec import UsageError, all_presets, nearest, parse_config, progress_bar, resolve
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",

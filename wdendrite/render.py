@@ -51,7 +51,9 @@ __all__ = [
     "distance_field",
     "glow",
     "node_widths",
+    "relief",
     "thesis_width",
+    "unit_range",
 ]
 
 Metric = Literal["path", "euclidean"]
@@ -598,5 +600,58 @@ def colorize(
                   inputs=[wp.array(img, dtype=float), wp.array(halo, dtype=float),
                           wp.array(_lut(colormap), dtype=wp.vec3), wp.vec3(*gc.tolist()),
                           wp.array(bg, dtype=wp.vec3)],
+                  outputs=[out])
+        return out.numpy()
+
+
+def unit_range(a: np.ndarray) -> np.ndarray:
+    """``a`` scaled from its finite minimum to its maximum onto [0, 1] (non-finite values: 0)."""
+    a = np.asarray(a, np.float64)
+    ok = np.isfinite(a)
+    if not ok.any():
+        return np.zeros(a.shape)
+    lo, hi = a[ok].min(), a[ok].max()
+    return np.where(ok, (a - lo) / (hi - lo) if hi > lo else 0.0, 0.0)
+
+
+def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
+    """Hillshade (light from the north-west) over a green-brown-white elevation tint, rivers in blue.
+
+    Slopes are central differences (one-sided on the border), as ``numpy.gradient``; the tint
+    goes from green-brown at the lowest elevation through brown at 60 % of the range to white.
+
+    Args:
+        z: (H, W) finite elevation, H and W at least 2.
+        spacing: pixel side in the elevation's units (domain units per pixel), > 0.
+        area: optional (H, W) drainage area in cells
+            (:func:`wdendrite.hydrology.flow_accumulation`): blue where more than 0.1 % of the
+            image drains through a cell, full at 2 %.
+        device: Warp device of the shading kernel (default: Warp's default device).
+
+    Returns:
+        (H, W, 3) float32 picture in [0, 1].
+
+    Raises:
+        ValueError, TypeError: ``z`` not a finite 2D real array of at least 2 x 2, ``spacing``
+            not positive, ``area`` not positive and finite or not of ``z``'s shape, an absent
+            device.
+    """
+    z = _checks.finite_array("z", z, "2D (H, W)", lambda s: len(s) == 2 and min(s) >= 2, dtype=np.float64)
+    spacing = _checks.positive("spacing", spacing)
+    if area is not None:
+        area = _checks.float_array("area", area, z.shape, positive=True)
+    device = _checks.device(device)
+    span = float(z.max() - z.min())
+    t = unit_range(z).astype(np.float32)
+    # slopes are gain x differences of t; beyond 1e18 the light sees vertical walls either way (and
+    # float32 squares of such slopes stay finite)
+    gain = min(span / spacing, 1e18)
+    light = np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])
+    with wp.ScopedDevice(device):
+        out = wp.empty(z.shape, dtype=wp.vec3)
+        wp.launch(_k.relief_kernel, dim=z.shape,
+                  inputs=[wp.array(t, dtype=float), gain, wp.vec3(*light),
+                          wp.array(area if area is not None else np.ones((0, 0), np.float32), dtype=float),
+                          0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
                   outputs=[out])
         return out.numpy()
