@@ -36,11 +36,17 @@ def show(img, scale=1):
 
 NOTEBOOKS = {
     "01_quickstart": [
-        ("md", "# wdendrite quickstart\n\nA random-weighted lattice, least-cost paths from a generator, "
-               "backtracking from endpoints into a dendrite, and a picture of it. The searches, the backtracking "
-               "and the rendering are Warp kernels; "
-               "the same code runs on the CPU and on CUDA (`wp.ScopedDevice('cuda:0')`)."),
+        ("md", "# wdendrite quickstart\n\nA random-weighted lattice, least-cost paths from a generator, backtracking "
+               "from endpoints into a dendrite, and a picture of it. The searches, the backtracking and the rendering "
+               "are Warp kernels; the same code runs on the CPU and on CUDA (`wp.ScopedDevice('cuda:0')`).\n\nThe "
+               "first run compiles Warp's kernels (about 10-20 s, once; they are cached in `~/.cache/warp` "
+               "afterwards), and on a machine without an NVIDIA driver Warp prints one harmless warning line, `Warp "
+               "CUDA warning: ... GPU execution will not be available.`, and runs everything on the CPU. The notebooks "
+               "run in Jupyter (`pip install jupyter`)."),
         ("code", SETUP),
+        ("md", "The least path cost from the generator at the centre to every node, divided by its largest value: dark "
+               "is cheap to reach (black at the generator), bright is expensive (white at the costliest node). The "
+               "printed numbers are the field's shape and that largest cost."),
         ("code", '''\
 n = 96 if SMALL else 400
 lat = wd.Lattice((n, n), connectivity=8, weights=wd.weights.Uniform(r=10, seed=1))
@@ -54,7 +60,8 @@ den = wd.trace(cf, ends)
 print(len(den), "nodes,", len(den.endpoints), "endpoints")
 from wdendrite import render
 show(1 - render.brightness(den, render.Taper(2.5, 0.8, along="path"), metric="euclidean"))'''),
-        ("md", "Fractal growth repeats this with endpoints in shrinking cost bands around the dendrite (thesis Fig 3.12):"),
+        ("md", "Fractal growth repeats this with endpoints in shrinking cost bands around the dendrite (thesis Fig "
+               "3.12):"),
         ("code", '''\
 mean = float(lat.weights[0].mean())
 params = wd.FractalParams(count=6, d=0.45 * n * mean, alpha=1.8, beta=2.5, epsilon=0.06 * n * mean)
@@ -67,21 +74,25 @@ io.save_png("quickstart_lightning.png", res.image, overwrite=True)
 show(res.image)'''),
     ],
     "02_path_planning": [
-        ("md", "# Path-planning dendrites: the papers' figures\n\nXu & Mould's path-planning papers (the 2007 "
-               "paper and constructive path planning, as cited in `wdendrite.presets`) and Xu's thesis (2008). "
-               "Sizes are the papers' unless `SMALL`."),
+        ("md", "# Path-planning dendrites: the papers' figures\n\nXu & Mould's path-planning papers (the 2007 paper "
+               "and constructive path planning, as cited in `wdendrite.presets`) and Xu's thesis (2008). Sizes are the "
+               "papers' unless `SMALL`."),
         ("code", SETUP),
-        ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), 2007 paper Fig. 8:"),
+        ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), 2007 paper Fig. 8. "
+               "Columns, left to right: alpha = 2.0, 1.5, 1.2; rows, top to bottom: beta = 2, 3, 4 (the preset's "
+               "defaults; every panel grows 3 iterations from the same weights and seed):"),
         ("code", '''\
 res = presets.fractal_grid(48 if SMALL else 170)
 show(res.image)'''),
-        ("md", "**Weight distributions** `W = 1 + v^n`: Manhattan-like for n = 0 to erratic for n = 8 (thesis 4.2; "
-               "for n > 4 the preset draws v from (0, 100^(4/n)), so that float32 path costs still resolve every "
-               "edge):"),
+        ("md", "**Weight distributions** `W = 1 + v^n`, the same 20 endpoints in every panel. Panels, left to right: n "
+               "= 0 (Manhattan-like), n = 1, n = 4 and n = 8 (erratic); thesis 4.2 (for n > 4 the preset draws v from "
+               "(0, 100^(4/n)), so that float32 path costs still resolve every edge):"),
         ("code", '''\
 res = presets.weight_distributions((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
-        ("md", "**Tropisms**: weights biased toward one side stretch the cost contours and the dendrite with them:"),
+        ("md", "**Tropisms**: weights biased toward one side stretch the cost contours and the dendrite with them. "
+               "Panels, left to right: biased toward the left, the right, the top and the bottom (strength 12; 20 "
+               "endpoints on one cost contour of each field):"),
         ("code", '''\
 res = presets.tropisms((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
@@ -89,49 +100,64 @@ show(res.image)'''),
         ("code", '''\
 res = presets.competition((96, 96) if SMALL else (300, 300))
 show(res.image)'''),
-        ("md", "**DLA imitation** (2007 paper, Fig. 11) and **dendritic letters** (Fig. 13):"),
+        ("md", "First **DLA imitation** (2007 paper, Fig. 11: 4 iterations, alpha 2.0, beta 4.0), then **dendritic "
+               'letters** "wd" (Fig. 13):'),
         ("code", '''\
 display(show(presets.dla_imitation((96, 96) if SMALL else (500, 500)).image))
 show(presets.letters("wd", height=48 if SMALL else 300).image)'''),
     ],
     "03_lightning": [
-        ("md", "# Lightning\n\nTwo graphs with power weights: the main stroke and its forks, and a second graph "
-               "of side branches; widths taper along paths (eq. 2), a halo glows around them."),
+        ("md", "# Lightning\n\nTwo graphs with power weights: the main stroke and its forks, and a second graph of "
+               "side branches; widths taper along paths (eq. 2), a halo glows around them."),
         ("code", SETUP),
         ("code", '''\
 n = 128 if SMALL else 600
 res = presets.lightning((n, n), seed=7)
 show(res.image)'''),
-        ("md", "Every field of `LightningParams` is documented; the same settings are options of `wdendrite lightning`:"),
+        ("md", "Every field of `LightningParams` is documented; the same settings are options of `wdendrite "
+               "lightning`. First a calm stroke (alpha = 1.5, 3 forks, no minor forks, glow gain 0.6), then a wild one "
+               "(alpha = 4.0, 16 forks, 24 minor forks, glow radius 20) (the picture above has the defaults: alpha = "
+               "3.0, 9 forks, 14 minor forks):"),
         ("code", '''\
 calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0, glow_gain=0.6)
 wild = presets.LightningParams(alpha=4.0, forks=16, minor_forks=24, glow_radius=20)
 display(show(presets.lightning((n, n), params=calm, seed=7).image))
 show(presets.lightning((n, n), params=wild, seed=7).image)'''),
-        ("md", "One path at the papers' widths: T = 5.0 with a halo, 1.6, and the thesis' factors 0.6 and 0.2 "
-               "(constructive path planning Fig. 3, thesis Fig. 4.9):"),
+        ("md", "One path at the papers' widths (constructive path planning Fig. 3, thesis Fig. 4.9). Panels, left to "
+               "right: brightness `exp(-(d/T)^2)` with T = 5.0 pixels (a wide glow) and T = 1.6 (a thin stroke); then "
+               "the thesis' rule `exp(-a (c d)^2)`, a = 1/10000, with width factor c = 0.6 and c = 0.2, on a path over "
+               "rougher weights (r = 100), d being the path cost to the path over those weights.\n\nThe width factor "
+               "multiplies that cost, so a *smaller* factor gives a *wider* path: 0.6 is like T = 167 cost units "
+               "(about 3 pixels here), 0.2 like T = 500 (about 10 pixels). Panels 3-4 look saturated white because the "
+               "thesis then sets every brightness above 0.7 to 1: everything within about 0.6 T of the path is pure "
+               "white, a core about 10 pixels wide for 0.6 and 30 for 0.2, with a ragged halo outside it."),
         ("code", '''\
 show(presets.width_demo((100, 60) if SMALL else (200, 120)).image)'''),
-        ("md", "Widths: constant next to tapering along paths and along branches (constructive path planning Fig. 4):"),
+        ("md", "Widths (constructive path planning Fig. 4), 6 endpoints, panels left to right: constant T = 5.0; "
+               "tapering by eq. 2 from 5.0 at the generator to 0.8 at each path's tip; the same taper along branches "
+               "(every side branch starts again at 5.0 where it leaves its parent):"),
         ("code", '''\
 show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
     ],
     "04_3d": [
-        ("md", "# 3D: trees, coral, lichen, rock and moss\n\nThe same path planning on 26-connected 3D lattices; "
-               "tubes or isosurfaces give meshes (`trimesh`), previews are ray cast with Warp."),
+        ("md", "# 3D: trees, coral, lichen, rock and moss\n\nThe same path planning on 26-connected 3D lattices; tubes "
+               "or isosurfaces give meshes (`trimesh`), previews are ray cast with Warp."),
         ("code", SETUP),
         ("code", '''\
 tree = presets.elm_tree((24, 24, 24) if SMALL else (80, 80, 80), endpoints=8 if SMALL else 17)
 print(tree.mesh)
 show(tree.image)'''),
-        ("md", "The same endpoints with weights biased toward a vertical axis, away from it, or upward "
-               "(constructive path planning Fig. 5):"),
+        ("md", "The same endpoints (24; 8 at `SMALL` sizes) with weights biased toward a vertical axis, away from it, "
+               "or upward (constructive path planning Fig. 5). Panels, left to right: toward the axis, away from the "
+               "axis, toward the top (strength 3):"),
         ("code", '''\
 show(presets.tropism_objects((20, 20, 20) if SMALL else (60, 60, 60), endpoints=8 if SMALL else 24).image)'''),
         ("code", '''\
 coral = presets.staghorn_coral((20, 20, 20) if SMALL else (50, 50, 50), endpoints=8 if SMALL else 24,
                                refine_n=3)
 show(coral.image)'''),
+        ("md", "First a rock (the region nearest in path cost to a central generator, meshed; 2007 paper Fig. 10), "
+               "then lichen grown over the surface of a rock of the same kind (Fig. 16):"),
         ("code", '''\
 rock = presets.rock((24, 24, 24) if SMALL else (128, 128, 128), smooth=2 if SMALL else 6)
 display(show(rock.image))
@@ -143,9 +169,11 @@ io.save_mesh("moss.glb", moss.mesh, overwrite=True)    # OBJ, PLY, STL or GLB fr
 show(moss.image)'''),
     ],
     "05_dendry_terrain": [
-        ("md", "# Dendry terrain and hydrology\n\nGaillard et al. (2019): a per-pixel function giving the distance "
-               "to an implicit branching tree, and a terrain built on it. Every pixel is independent, so a window "
-               "of a huge image is computed alone, bit for bit."),
+        ("md", "# Dendry terrain and hydrology\n\nGaillard et al. (2019): a per-pixel function giving the distance to "
+               "an implicit branching tree, and a terrain built on it. Every pixel is independent, so a window of a "
+               "huge image is computed alone, bit for bit.\n\nIn the grey pictures below the distance is shown as "
+               "`exp(-distance / median)`: white on the tree, darker away from it; elevations are scaled to [0, 1]: "
+               "bright is high, and the tree's branches are the dark valleys."),
         ("code", SETUP),
         ("code", '''\
 from wdendrite import control, hydrology
@@ -160,8 +188,18 @@ z = wd.dendry((n, n), output="elevation", **kw)
 win = wd.dendry((n, n), output="elevation", window=(n // 4, n // 3, 20, 30), **kw)
 assert np.array_equal(win, z[n // 4: n // 4 + 20, n // 3: n // 3 + 30])   # a window is the same region
 show((z - z.min()) / (z.max() - z.min()))'''),
-        ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the "
-               "filled terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
+        ("md", "The straight, steep slopes along some vertical and horizontal lines at whole domain units (here x = 1 "
+               "and x = 2) are level-1 cell borders. With `eps = 0.25` every level keeps its key points away from cell "
+               "borders, so the subtrees of neighbouring level-1 cells meet there; where they hang at different "
+               "altitudes, the elevation (which takes the altitude of the nearest tree point, the paper's eq. 4) "
+               "climbs steeply along a straight line. `eps = 0` lets these divides wander like the rest of the tree. "
+               "Left: `eps = 0.25` as above; right: the same terrain with `eps = 0`:"),
+        ("code", '''\
+import dataclasses
+z_free = wd.dendry((n, n), output="elevation", **dict(kw, params=dataclasses.replace(p, eps=0.0)))
+show(np.concatenate([(a - a.min()) / (a.max() - a.min()) for a in (z, z_free)], axis=1))'''),
+        ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the filled "
+               "terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
         ("code", '''\
 for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=1))]:
     d = hydrology.depressions(terrain)
@@ -169,17 +207,19 @@ for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=
 d8 = hydrology.flow_accumulation(z, filled=True)
 dinf = hydrology.flow_accumulation(z, filled=True, method="dinf")
 show(np.concatenate([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], axis=1))'''),
-        ("md", "The command draws the same terrain, shaded, with its rivers: "
-               "`wdendrite terrain --size 512 --levels 3 --seed 1 -o terrain.png`."),
+        ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 --levels 3 "
+               "--seed 1 -o terrain.png`."),
         ("code", '''\
-from wdendrite import cli
-show(cli.MODELS["terrain"](n, params=p, seed=1).image)      # what `wdendrite terrain` runs'''),
+show(wd.render.relief(z, 4.0 / n, d8))   # the picture `wdendrite terrain` draws: shading, tint, D8 rivers'''),
     ],
     "06_batch": [
         ("md", "# Batch jobs on a GPU workstation\n\nA TOML job file lists presets with sweeps; `wdendrite batch "
-               "jobs.toml` writes every output atomically with a manifest and skips what is complete when run "
-               "again. `--scheduler local` spreads the tasks over a Dask `LocalCluster` (one worker per GPU: "
-               "`--workers 2 --device cuda`), `--scheduler tcp://host:8786` over an existing cluster."),
+               "jobs.toml` writes every output atomically with a manifest and skips what is complete when run again. "
+               "`--scheduler local` spreads the tasks over a Dask `LocalCluster` (one worker per GPU: `--workers 2 "
+               "--device cuda`), `--scheduler tcp://host:8786` over an existing cluster.\n\nThe notebooks run in "
+               "Jupyter (`pip install jupyter`). The two cells on a Dask `LocalCluster` (the `competition` jobs run "
+               'with `scheduler="local"`, and the lazy Dask terrain) need `pip install "dask[distributed]"` (or `pip '
+               'install "wdendrite[distributed]"`); the other cells need only wdendrite.'),
         ("code", SETUP),
         ("code", '''\
 import json, tempfile
@@ -216,9 +256,10 @@ man = json.loads((folder / "runs" / f"lightning_shape{size}x{size}_seed1.manifes
 {k: man[k] for k in ("preset", "seed", "device", "version", "seconds")}'''),
         ("md", "Running the file again does nothing: every task is complete."),
         ("code", '''\
-batch.run_file(folder / "jobs.toml", quiet=True)'''),
-        ("md", "The same kind of file on a Dask `LocalCluster` (threads here; on a workstation, the command "
-               "`wdendrite batch jobs.toml --scheduler local --workers 2 --device cuda` gives each worker a GPU):"),
+code = batch.run_file(folder / "jobs.toml", quiet=True)
+print("exit code", code, "(0: every task complete)")'''),
+        ("md", "The same kind of file on a Dask `LocalCluster` (threads here; on a workstation, the command `wdendrite "
+               "batch jobs.toml --scheduler local --workers 2 --device cuda` gives each worker a GPU):"),
         ("code", '''\
 (folder / "more.toml").write_text(f"""
 out = "runs"
@@ -230,12 +271,15 @@ size = {2 * size}
 """)
 batch.run_file(folder / "more.toml", scheduler="local", workers=1, processes=False, quiet=True)
 display(Image.open(folder / "runs" / f"competition_shape{2 * size}x{2 * size}_seed3.png"))'''),
-        ("md", "A large Dendry terrain is a lazy Dask array, one block per tile (computed by the cluster's workers):"),
+        ("md", "A large Dendry terrain is a lazy Dask array, one block per tile (computed by the cluster's workers); "
+               "the picture is the elevation of its top-left corner, scaled to [0, 1] (bright is high):"),
         ("code", '''\
 from distributed import Client, LocalCluster
-from wdendrite import cli
-setup = cli.dendry_setup(4 * size, wd.DendryParams(levels=2, delta=0.1, noise=0.05), extent=16.0,
-                         control="perlin", frequency=1.0, drained=False, seed=0)
+from wdendrite import control
+# what wdendrite.dendry takes: the whole image's shape, its domain, the parameters and the control
+setup = dict(shape=(4 * size, 4 * size), domain=((0.0, 0.0), (16.0, 16.0)),
+             params=wd.DendryParams(levels=2, delta=0.1, noise=0.05, seed=0),
+             control=control.perlin(seed=0, frequency=1.0, domain=((-0.2, -0.4), (1.4, 0.7))))
 with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \\
         Client(cluster) as client:
     arr = batch.dendry_array(setup, tile=size, device="cpu")
@@ -249,7 +293,7 @@ tiled = np.load(name.with_suffix(".npy"), mmap_mode="r")
 extent = json.loads(name.with_suffix(".manifest.json").read_text())["params"]["extent"]
 print(tiled.shape, tiled.dtype, "extent", extent)
 # every 4th pixel: a pixel of the picture spans 4 of the file's
-show(cli.relief(np.asarray(tiled[::4, ::4]), extent * 4 / tiled.shape[1]))'''),
+show(wd.render.relief(np.asarray(tiled[::4, ::4]), extent * 4 / tiled.shape[1]))'''),
     ],
 }
 
