@@ -52,6 +52,8 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
     for name in ("lightning", "tree", "coral", "lichen", "moss", "rock", "fractal", "letters", "competition",
                  "terrain", "dendry", "costs", "batch"):
         assert name in out
+    # presets named after their models also answer to their functions' names
+    assert "tree (elm-tree)" in out and "coral (staghorn-coral)" in out and "lichen (lichen-on-rock)" in out
     code, out, _ = wd("lightning", "--help", cwd=tmp_path)
     assert code == 0
     assert "--glow-radius X Blur radius of the halo (pixels), > 0 (default: 14.0) [pixels]" in " ".join(out.split())
@@ -69,7 +71,12 @@ def test_help_lists_every_preset_and_parameter_with_default_and_unit(tmp_path):
         if preset.size_param:
             # a picture's side is in pixels, a lattice's in nodes
             unit = "pixels" if name in ("dendry", "terrain") else "nodes"
-            assert re.search(r"--size N largest side; sets '\w+' \(default: \d+\) \[" + unit + r"\]", text), (name, text)
+            # a shape's largest side, else the one length that sizes the preset, in its own words
+            what = "largest side" if preset.size_param in ("shape", "size") else re.escape(
+                preset.params[preset.size_param].doc.rstrip("."))
+            assert re.search(r"--size N " + what + r"; sets '\w+' \(default: \d+\) \[" + unit + r"\]", text), (name, text)
+        if "shape" in preset.params:  # a 2D preset's shape is (H, W), a 3D one's (D, H, W)
+            assert ("(D, H, W)" in text) == preset.meshes, (name, text)
 
 
 def test_formats_from_the_suffix(tmp_path):

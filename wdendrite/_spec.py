@@ -391,7 +391,10 @@ def make_preset(name: str, func) -> Preset:
         if kind is None:
             p.fixed.append(prm.name)
             continue
-        p.params[prm.name] = Param(prm.name, prm.default, kind, choices, docs.get(prm.name) or DOCS.get(prm.name, ""))
+        doc = docs.get(prm.name) or DOCS.get(prm.name, "")
+        if prm.name == "shape" and not docs.get(prm.name) and isinstance(prm.default, tuple):
+            doc = "lattice shape, " + ("(H, W)" if len(prm.default) == 2 else "(D, H, W)")  # the preset's own
+        p.params[prm.name] = Param(prm.name, prm.default, kind, choices, doc)
     for pname, unit in getattr(func, "units", {}).items():
         if pname in p.params:
             p.params[pname].own_unit = unit

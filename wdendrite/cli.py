@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs use them
-from ._spec import UsageError, all_presets, nearest, parse_config, progress_bar, resolve
+from ._spec import ALIASES, UsageError, all_presets, nearest, parse_config, progress_bar, resolve
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
@@ -294,8 +294,10 @@ def _add_common(p, preset) -> None:
     g = p.add_argument_group("common options")
     if preset.size_param:
         sp = preset.params[preset.size_param]
+        # a shape's largest side, or the one length the preset is sized by (a panel's side, a height)
+        what = "largest side" if preset.size_param in ("shape", "size") else sp.doc.rstrip(".")
         g.add_argument("--size", type=int, default=argparse.SUPPRESS, metavar="N",
-                       help=f"largest side; sets '{preset.size_param}' "
+                       help=f"{what}; sets '{preset.size_param}' "
                             f"(default: {preset.default_size}) [{sp.unit}]" if sp else "")
     if "seed" in preset.params:
         g.add_argument("--seed", type=int, default=argparse.SUPPRESS, metavar="INT",
@@ -363,7 +365,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"wdendrite {__version__}")
     sub = p.add_subparsers(dest="command", metavar="PRESET", required=True, parser_class=_Parser)
     for name, preset in all_presets().items():
-        s = sub.add_parser(name, help=preset.summary, description=preset.doc,
+        # a preset named after its model (tree) also answers to its function's name (elm-tree)
+        aliases = [f.replace("_", "-") for f, a in ALIASES.items() if a == name]
+        s = sub.add_parser(name, aliases=aliases, help=preset.summary, description=preset.doc,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         _add_params(s, preset)
         _add_common(s, preset)
