@@ -186,6 +186,29 @@ def test_every_terrain_control_makes_a_terrain(tmp_path, ctl):
     assert np.isfinite(np.load(tmp_path / "t.npy")).all() and rec["outputs"]
 
 
+def test_a_failed_rename_puts_back_what_earlier_renames_replaced(tmp_path, monkeypatch):
+    # three outputs, the first replacing a file: the third rename fails, so the first path holds
+    # its old bytes again, the second (new) path is gone, and nothing temporary is left
+    import os
+
+    (tmp_path / "a.npy").write_bytes(b"keep")
+    real, calls = os.replace, []
+
+    def flaky(src, dst):
+        calls.append(dst)
+        if str(dst).endswith("c.png"):
+            raise OSError("device went away")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", flaky)
+    outs = [tmp_path / "a.npy", tmp_path / "b.npz", tmp_path / "c.png"]
+    with pytest.raises(OSError, match="device went away"):
+        cli.run_preset("fractal", {"size": 24}, outs, device="cpu", force=True)
+    assert (tmp_path / "a.npy").read_bytes() == b"keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
+    assert any(str(d).endswith("c.png") for d in calls)
+
+
 def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):
     # the second output fails while being written: the first is not left behind, and a file
     # already at the first path keeps its bytes

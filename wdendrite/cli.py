@@ -113,8 +113,8 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
 
     All or nothing: every output is first written to a temporary file beside its path, and
-    only when all are written are they renamed into place; a failure removes them and leaves
-    every path as it was.
+    only when all are written are they renamed into place; a failure, in the writing or in
+    the renames, removes them and leaves every path as it was.
     """
     from . import io
 
@@ -135,13 +135,47 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
             if p.exists() and not force:
                 raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
-        for tmp, p in staged:
-            os.replace(tmp, p)
+        _rename_all(staged)
     except BaseException:
         for tmp, _ in staged:
             tmp.unlink(missing_ok=True)
         raise
     return [str(p) for p in paths]
+
+
+def _rename_all(staged) -> None:
+    """Rename every ``(tmp, path)`` onto its path, all or none: a file a rename replaces is kept
+    under a hard link until every rename has succeeded, and put back if one fails."""
+    from . import io
+
+    done = []  # (path, the link to the file it replaced, or None)
+    try:
+        for tmp, p in staged:
+            keep = None
+            if p.exists():
+                keep = io.temporary_beside(p)
+                keep.unlink()
+                try:
+                    os.link(p, keep)
+                except OSError:  # no hard links here: that file cannot be put back
+                    keep = None
+            try:
+                os.replace(tmp, p)
+            except BaseException:
+                if keep is not None:
+                    keep.unlink(missing_ok=True)
+                raise
+            done.append((p, keep))
+    except BaseException:
+        for p, keep in reversed(done):
+            if keep is not None:
+                os.replace(keep, p)
+            else:
+                p.unlink(missing_ok=True)
+        raise
+    for _, keep in done:
+        if keep is not None:
+            keep.unlink(missing_ok=True)
 
 
 def _save_npy(path, array: np.ndarray) -> None:
