@@ -256,3 +256,35 @@ def test_tree_spheres_and_isosurfaces_hold_together():
     assert r.min() == pytest.approx(0.5 * 3**0.5, rel=1e-3)  # the twigs' taper alone is thinner at 32^3
     iso = presets.elm_tree((32, 32, 32), endpoints=6, geometry="isosurface").mesh
     assert len(iso.split(only_watertight=False)) == 1
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_fractal_presets_grow_inside_their_lattice(seed):
+    # the first cost d comes from the lattice's measured path cost per node, so the tips stop
+    # short of the border (with the mean weight instead they ran off every side)
+    for den, side in [(presets.dla_imitation((96, 96), seed=seed).dendrite, 96),
+                      (presets.competition((96, 96), seed=seed).dendrite, 96),
+                      *[(d, 48) for d in presets.fractal_grid(48, seed=seed).parts["dendrites"].values()]]:
+        assert not ((den.nodes == 0) | (den.nodes == side - 1)).any(), (seed, side)
+        reach = np.sqrt(((den.nodes - side // 2) ** 2).sum(1)).max() if side == 96 and den.label.max() == 0 else None
+        assert reach is None or reach > 0.5 * side / 2  # and they still fill most of it
+
+
+def test_weight_n0_on_the_thesis_lattice_gives_manhattan_paths():
+    # 4-connected and every weight equal: each path is a staircase as long as its Manhattan distance
+    res = presets.weight_distributions((48, 48), ns=(0,), endpoints=6, seed=3)
+    den = res.parts["dendrites"][0]
+    root = den.nodes[den.parent < 0][0]
+    for e in den.endpoints:
+        path = den.path(int(e))
+        assert len(path) - 1 == np.abs(den.nodes[e] - root).sum()
+    assert (np.abs(den.nodes[den.parent >= 0] - den.nodes[den.parent[den.parent >= 0]]).sum(1) == 1).all()
+    with pytest.raises(ValueError, match="'connectivity' 4 or 8"):
+        presets.weight_distributions((48, 48), connectivity=6)
+
+
+def test_simple_dendrite_endpoints_keep_apart():
+    den = presets.simple_dendrite((96, 96), endpoints=12, seed=2).dendrite
+    ends = den.nodes[den.endpoints]
+    gaps = np.sqrt(((ends[:, None] - ends[None]) ** 2).sum(-1))[np.triu_indices(len(ends), 1)]
+    assert gaps.min() >= 96 / 12

@@ -360,7 +360,10 @@ def isosurface(
     """The surface around a 3D dendrite where the distance to the nearest node equals that node's radius.
 
     The distance field comes from the dendrite's nodes (the papers' section
-    3.3: the dendrite as generators); each node's radius may taper.
+    3.3: the dendrite as generators); each node's radius may taper. The paper
+    measures it by a breadth-first search over the lattice (``metric="path"``
+    with unit weights); the default, Euclidean distance, gives round branches
+    where lattice steps give blocky ones.
 
     Args:
         dendrite: a non-empty 3D dendrite.

@@ -105,26 +105,47 @@ def _tile(panels: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:
     return out
 
 
-def _mean_weight(lat: Lattice) -> float:
-    return float(lat.weights[0].mean())
+_REACH = 0.85
+"""Fraction of its half-width (in path cost) a fractal preset's schedule reaches: the first
+endpoints lie at cost d from the generator and each later iteration's d / alpha^k beyond the
+dendrite, so its tips reach about d (1 + 1/alpha + ... + 1/alpha^(n-1)) from the centre."""
+
+
+def _cost_per_node(lat: Lattice, centre, radius: float) -> float:
+    """Least path cost per node of straight-line distance from ``centre``: the median over the
+    nodes between 0.8 and 1 times ``radius`` away (it is well below the mean weight, since least
+    paths pick cheap edges)."""
+    dist = shortest_paths(lat, [centre]).dist
+    grid = np.indices(lat.shape, dtype=np.float64)
+    r = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, centre)))
+    ring = (r >= 0.8 * radius) & (r <= radius) & np.isfinite(dist)
+    return float(np.median(dist[ring] / r[ring])) if ring.any() else float(lat.weights[0].mean())
 
 
 # --------------------------------------------------------------------------- 2D dendrites
 
 
 def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, seed: int = 0) -> Result:
-    """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints)."""
+    """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints),
+    at least a twelfth of the smaller side apart (the paper's rejection sampling keeps endpoints from
+    appearing too near each other)."""
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     cf = shortest_paths(lat, gen)
-    den = trace(cf, _endpoints_in("endpoints", endpoints, "in", shape, lambda: _ep.random(lat, endpoints, seed=seed)))
+    den = trace(cf, _endpoints_in("endpoints", endpoints, "in", shape,
+                                  lambda: _ep.random(lat, endpoints, seed=seed, min_spacing=min(shape) / 12)))
     return Result(_drawing(den), den, parts={"lattice": lat})
 
 
-def _fractal_params(cell: int, mean: float, alpha: float, beta: float, iterations: int, count: int) -> FractalParams:
-    d = 0.4 * cell * mean
-    FractalParams(count=count, d=d, alpha=alpha, beta=beta, epsilon=d / 2)  # alpha, beta and count first
+def _fractal_params(half: int, per_node: float, alpha: float, beta: float, iterations: int,
+                    count: int) -> FractalParams:
+    """A schedule of ``iterations`` steps whose tips reach about :data:`_REACH` of ``half`` nodes,
+    paths costing ``per_node`` per node (see :func:`_cost_per_node`)."""
+    FractalParams(count=count, d=2.0, alpha=alpha, beta=beta, epsilon=1.0)  # alpha, beta and count first
+    a = float(alpha)  # > 1, checked above
+    reach = (1.0 - a ** -float(iterations)) / (1.0 - 1.0 / a)  # 1 + 1/a + ... + 1/a^(n-1)
+    d = _REACH * half * per_node / reach
     # epsilon between the last and the next d, so the schedule has exactly `iterations` steps
     try:
         eps = d / float(alpha) ** (iterations - 0.5)
@@ -145,18 +166,22 @@ def fractal_grid(
     count: int = 4,
     seed: int = 0,
 ) -> Result:
-    """Fractal dendrites for every attenuation alpha (columns) and branching beta (rows) (2007 paper, Fig. 8).
-    ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
+    """Fractal dendrites for every attenuation alpha (columns, left to right) and branching beta (rows)
+    (thesis Fig. 3.13; the 2007 paper's Fig. 8 puts the alphas right to left). Each panel's first
+    cost d is set from the lattice's measured path cost per node so that its tips reach about 85 %
+    of the way to the border. ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
     holds every panel's, keyed by ``(alpha, beta)``."""
     cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
     for b in betas:  # every panel's schedule checked before the first grows
         for a in alphas:
             _fractal_params(cell // 2, 1.0, a, b, iterations, count)
-    panels, dens = [], {}
+    panels, dens, per_node = [], {}, None
     for b in betas:
         for a in alphas:
             lat = Lattice((cell, cell), 8, weights=_w.Uniform(r=10, seed=seed))
-            p = _fractal_params(cell // 2, _mean_weight(lat), a, b, iterations, count)
+            if per_node is None:  # every panel has the same weights
+                per_node = _cost_per_node(lat, (cell // 2, cell // 2), cell // 2)
+            p = _fractal_params(cell // 2, per_node, a, b, iterations, count)
             den = grow(lat, [[cell // 2, cell // 2]], p, seed=seed)
             dens[(a, b)] = den
             panels.append(_drawing(den, 1.2))
@@ -165,23 +190,26 @@ def fractal_grid(
 
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
                   seed: int = 0) -> Result:
-    """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations)."""
+    """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations),
+    its first cost d set from the lattice's measured path cost per node so that the cluster's tips
+    reach about 85 % of the way to the border."""
     shape, iterations = _shape(shape, 2), _checks.integer("iterations", iterations, low=1)
     _fractal_params(min(shape) // 2, 1.0, alpha, beta, iterations, count)  # checked before the lattice is built
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
-    p = _fractal_params(min(shape) // 2, _mean_weight(lat), alpha, beta, iterations, count)
-    den = grow(lat, [[shape[0] // 2, shape[1] // 2]], p, seed=seed)
+    centre = (shape[0] // 2, shape[1] // 2)
+    p = _fractal_params(min(shape) // 2, _cost_per_node(lat, centre, min(shape) // 2), alpha, beta, iterations, count)
+    den = grow(lat, [centre], p, seed=seed)
     return Result(_drawing(den, 1.0), den, parts={"lattice": lat, "params": p})
 
 
-def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band: bool = False):
+def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band: bool = False, connectivity: int = 8):
     """One drawing per weight distribution; endpoints fixed, or (``band``) on one cost contour of each field."""
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     ep = _endpoints_in("endpoints", endpoints, "in", shape,
                       lambda: _ep.random(shape, endpoints, seed=seed, min_spacing=min(shape) / 12))
     panels, dens = [], []
     for dist in distributions:
-        lat = Lattice(shape, 8, weights=dist)
+        lat = Lattice(shape, connectivity, weights=dist)
         cf = shortest_paths(lat, gen)
         if band:
             # the contour is stretched toward the cheap side, and so is the dendrite
@@ -194,7 +222,7 @@ def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band:
     return panels, dens
 
 
-def _polynomial(shape, n: float, seed: int):
+def _polynomial(shape, n: float, seed: int, connectivity: int):
     """``W = 1 + v^n`` (thesis section 4.2); for n > 4, v is drawn from (0, 100^(4/n)) instead of (0, 100).
 
     Float32 path costs cannot resolve weights spanning 1e16 (n = 8): cheap edges
@@ -203,25 +231,32 @@ def _polynomial(shape, n: float, seed: int):
     """
     if n <= 4:
         return _w.Polynomial(n=n, seed=seed)
-    lengths = Lattice((2, 2), 8).lengths
+    lengths = Lattice((2, 2), connectivity).lengths
     v = _checks.rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
     return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
 
 
-def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 20, seed: int = 0) -> Result:
+def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 20, connectivity: int = 4,
+                         seed: int = 0) -> Result:
     """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic.
-    For n > 4, v is drawn from (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays
-    1e8 and float32 path costs resolve every edge (with 1e16 cheap edges vanish from the sums)."""
+    The thesis' lattice is 4-connected, where n = 0 makes Manhattan paths; on an 8-connected one
+    (``connectivity=8``) they run straight and at 45 degrees instead. For n > 4, v is drawn from
+    (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays 1e8 and float32 path costs
+    resolve every edge (with 1e16 cheap edges vanish from the sums)."""
     shape = _shape(shape, 2)
-    panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed) for n in ns],
-                                      _checks.integer("endpoints", endpoints, low=1), seed)
+    if connectivity not in (4, 8) or isinstance(connectivity, bool):
+        raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
+    panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns],
+                                      _checks.integer("endpoints", endpoints, low=1), seed, connectivity=connectivity)
     return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
 
 
 def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), strength: float = 12.0,
              endpoints: int = 20, seed: int = 0) -> Result:
-    """Spatially biased weights (constructive path planning): endpoints on one cost contour, which the
-    bias stretches toward the cheap side, so each dendrite grows toward it."""
+    """Spatially biased weights (constructive path planning, Fig. 5; thesis Fig. 4.5): endpoints on one
+    cost contour, which the bias stretches toward the cheap side, so each dendrite grows toward it.
+    Unlike the papers, whose root sits at the bottom among scattered endpoints, the root is at the
+    centre, so that the four directions show side by side on the same footing."""
     shape = _shape(shape, 2)
     dists = [_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength) for t in toward]
     panels, dens = _panels_of_weights(shape, dists, _checks.integer("endpoints", endpoints, low=1), seed, band=True)
@@ -233,7 +268,9 @@ def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
     shape, count = _shape(shape, 2), _checks.integer("count", count, low=2)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
     gens = np.array([[shape[0] // 2, shape[1] // 3], [shape[0] // 2, 2 * shape[1] // 3]])
-    p = _fractal_params(min(shape) // 3, _mean_weight(lat), 1.5, 3.0, 3, count)
+    # each reaches about 0.3 of the side: to its own border, and past the middle toward the other
+    half = int(0.35 * min(shape))
+    p = _fractal_params(half, _cost_per_node(lat, tuple(gens[0]), min(shape) // 3), 1.5, 3.0, 3, count)
     den = grow(lat, gens, p, seed=seed)
     colours = [np.array([0.75, 0.3, 0.1]), np.array([0.1, 0.35, 0.7])]
     img = np.ones((*shape, 3), np.float32)
@@ -263,14 +300,16 @@ def _text_mask(text: str, height: int) -> np.ndarray:
     return np.asarray(img) > 127
 
 
-def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000: float = 6.0, seed: int = 0) -> Result:
+def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000: float = 24.0, seed: int = 0) -> Result:
     """Dendritic letters: paths fill letter-shaped regions (2007 paper, Fig. 13; thesis Figs. 5.5-5.6).
 
     Args:
         text: the word, drawn with Pillow's default font (ignored when ``mask`` is given).
         height: lattice height in nodes (the thesis used 300^2 per letter).
         mask: optional ``(H, W)`` bool array of the shape to fill instead of text.
-        paths_per_1000: endpoints per 1000 usable nodes (600 paths in a 300^2 letter is about 6-7).
+        paths_per_1000: endpoints per 1000 nodes inside the letters. The thesis put 600 paths in
+            each letter's 300^2 lattice; letters covering about 28 % of their lattice, as Pillow's
+            default font draws them, that is about 24.
         seed: seed of the weights and the endpoints.
     """
     from scipy import ndimage
@@ -373,9 +412,14 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
 
     The first graph holds the main stroke, from a generator at the top to an
     endpoint at the bottom, plus forks near it; the second graph, with other
-    weights, holds only side branches, grown from the upper main stroke.
-    Their brightness images are combined, given a halo and lit over a night
-    sky. ``parts`` holds both dendrites, the core brightness ``"value"`` and
+    weights, holds only side branches, grown from the upper main stroke (the
+    thesis starts both graphs at the same generator; growing the second from
+    the stroke keeps its branches on it). Their brightness images are
+    combined, given a halo and lit over a night sky. Two choices differ from
+    the papers: brightness falls off with the distance in pixels, not the path
+    cost over the random lattice (``render.brightness(..., metric="path",
+    lattice=...)`` gives that ragged look), and a blurred halo is added, which
+    the constructive paper says its renderings largely lack. ``parts`` holds both dendrites, the core brightness ``"value"`` and
     the halo ``"glow"``.
     """
     shape = _shape(shape, 2)
@@ -414,7 +458,9 @@ def _one_path(shape, r: float, seed: int) -> tuple[Dendrite, Lattice]:
 
 def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
     """One path at several widths: T = 5.0 (with a halo) and 1.6, and the thesis' factors 0.6 and 0.2
-    with ``exp(-a (c Ts)^2)``, a = 1/10000, clamped above 0.7 (constructive path planning Fig. 3, thesis Fig. 4.9)."""
+    with ``exp(-a (c Ts)^2)``, a = 1/10000, clamped above 0.7 (constructive path planning Fig. 3, thesis Fig. 4.9).
+    The thesis' panels use their own path over rougher weights (``r`` = 100, within the thesis' 10-100),
+    whose path costs set the widths; at factor 0.2 the glow fills the panel."""
     shape = _shape(shape, 2)
     den, _ = _one_path(shape, 10.0, seed)
     thesis_den, thesis_lat = _one_path(shape, 100.0, seed)
@@ -472,7 +518,9 @@ def _tree_mesh(den: Dendrite, radius, side, geometry: str):
 def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: Literal["tubes", "spheres", "isosurface"] = "tubes",
              seed: int = 0) -> Result:
     """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
-    (constructive path planning Figs. 6-8: 80^3 lattice, 17-36 endpoints, taper beta 0.3 main / 0.2 small).
+    (constructive path planning Figs. 6-8: 80^3 lattice, 20 and 36 endpoints, taper beta 0.3 main / 0.2 small;
+    17 endpoints as in thesis Table 5.1). The paper draws a sphere at each node; tubes, the default, give
+    the same branches with far fewer faces.
     Spheres are at least 0.87 nodes wide (neighbours along a diagonal touch) and isosurfaces 0.6
     (:data:`wdendrite.geometry.MIN_ISO_RADIUS`), so thin twigs stay joined."""
     shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
@@ -518,7 +566,9 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
 
 def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
     """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
-    (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement)."""
+    (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement). ``refine_n`` = 3
+    keeps the default quick; the thesis refines with 7, 9 or 15 for more winding detail. The
+    branches are tubes where the paper puts a sphere at each node."""
     shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if refine_n:  # 0 or None: no refinement; checked before the coarse dendrite is grown
         _check_n_e(refine_n, 0.75, n_name="refine_n")
@@ -583,7 +633,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     allowed = ~inside | on_surface
     lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=(seed + 1) % 2**32), mask=allowed)
     top = surf[np.argmax(surf[:, 0] - 0.3 * np.abs(surf[:, 1:] - np.asarray(shape[1:]) / 2).sum(axis=1))]
-    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, count)
+    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, count)  # (paths over the rock's surface)
     den = grow(lichen_lat, [top], p, seed=seed, within=on_surface)
     rock_mesh = _geo.region_mesh(cf.label, 0, smooth=6)
     scale = min(shape) / 128.0
