@@ -160,7 +160,18 @@ def numpy_accumulation(z: np.ndarray, method: str) -> np.ndarray:
 # ---------------------------------------------------------------------------- driver
 
 
-def _terrains(sizes: list[int], folder: str) -> list[tuple[str, str]]:
+def serpentine(n: int) -> np.ndarray:
+    """The flat drainers' worst case: a one-cell-wide flat winding row by row through walls over
+    the whole n x n terrain, out at (1, 0), its far end about n^2 / 2 cells away."""
+    z = np.full((n, n), 10.0)
+    z[1:-1:2, 1:-1] = 5.0
+    for r in range(2, n - 2, 2):
+        z[r, n - 2 if r % 4 == 2 else 1] = 5.0
+    z[1, 0] = 5.0
+    return z
+
+
+def _terrains(sizes: list[int], folder: str, serpentine_size: int = 0) -> list[tuple[str, str]]:
     _quiet_warp()
     from wdendrite import control, hydrology
     from wdendrite.dendry import DendryParams, dendry
@@ -173,6 +184,8 @@ def _terrains(sizes: list[int], folder: str) -> list[tuple[str, str]]:
         out.append((f"dendry {n}^2", z))
     n = max(sizes)
     out.append((f"fbm {n}^2", hydrology.fbm_terrain((n, n), seed=0)))
+    if serpentine_size:
+        out.append((f"serpentine {serpentine_size}^2", serpentine(serpentine_size)))
     files = []
     for name, z in out:
         path = os.path.join(folder, name.replace(" ", "_").replace("^", "") + ".npy")
@@ -202,6 +215,9 @@ def main() -> None:
     ap.add_argument("--filled", action="store_true",
                     help="also filled terrains ('+fill'): our fill and flat draining against pysheds' "
                          "fill_depressions + resolve_flats, each side's fill inside its time")
+    ap.add_argument("--serpentine", type=int, default=0, metavar="N",
+                    help="also an N x N terrain whose one flat winds through all of it (the flat draining's "
+                         "worst case; 0: none)")
     args = ap.parse_args()
     if args.quick:
         args.sizes, args.repeat = [256], 1
@@ -211,7 +227,7 @@ def main() -> None:
     print("| terrain | method | wdendrite s | MiB | pysheds s | MiB | pysheds / ours | same | NumPy s | MiB | NumPy / ours | same |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     with tempfile.TemporaryDirectory() as folder:
-        for name, path in _terrains(args.sizes, folder):
+        for name, path in _terrains(args.sizes, folder, args.serpentine):
             for method in ("d8", "dinf") + (("d8+fill", "dinf+fill") if args.filled else ()):
                 sides = [("wdendrite", "wdendrite_case", None)]
                 if peer:
