@@ -167,8 +167,8 @@ class Refined(Distribution):
         key = str(device)
         if key not in cache:
             links = np.full(1, -1, np.int32) if self.links is None else np.asarray(self.links).astype(np.int32).ravel()
-            cache[key] = (wp.array(np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel(),
-                                   dtype=float, device=device),
+            node_major = np.ascontiguousarray(np.moveaxis(self.coarse, 0, -1), np.float32).ravel()
+            cache[key] = (wp.array(node_major, dtype=float, device=device, copy=not device.is_cpu),  # (a new array)
                           wp.array(links, dtype=int, device=device))
         return cache[key]
 
