@@ -160,13 +160,14 @@ def numpy_accumulation(z: np.ndarray, method: str) -> np.ndarray:
 # ---------------------------------------------------------------------------- driver
 
 
-def serpentine(n: int) -> np.ndarray:
+def serpentine(h: int, w: int) -> np.ndarray:
     """The flat drainers' worst case: a one-cell-wide flat winding row by row through walls over
-    the whole n x n terrain, out at (1, 0), its far end about n^2 / 2 cells away."""
-    z = np.full((n, n), 10.0)
+    the whole h x w terrain, out at (1, 0), its far end about h * w / 2 cells away (the tests use
+    it too: its distances wrap the drainer's ring of buckets many times)."""
+    z = np.full((h, w), 10.0)
     z[1:-1:2, 1:-1] = 5.0
-    for r in range(2, n - 2, 2):
-        z[r, n - 2 if r % 4 == 2 else 1] = 5.0
+    for r in range(2, h - 2, 2):
+        z[r, w - 2 if r % 4 == 2 else 1] = 5.0
     z[1, 0] = 5.0
     return z
 
@@ -185,7 +186,7 @@ def _terrains(sizes: list[int], folder: str, serpentine_size: int = 0) -> list[t
     n = max(sizes)
     out.append((f"fbm {n}^2", hydrology.fbm_terrain((n, n), seed=0)))
     if serpentine_size:
-        out.append((f"serpentine {serpentine_size}^2", serpentine(serpentine_size)))
+        out.append((f"serpentine {serpentine_size}^2", serpentine(serpentine_size, serpentine_size)))
     files = []
     for name, z in out:
         path = os.path.join(folder, name.replace(" ", "_").replace("^", "") + ".npy")

@@ -186,13 +186,17 @@ def test_every_terrain_control_makes_a_terrain(tmp_path, ctl):
     assert np.isfinite(np.load(tmp_path / "t.npy")).all() and rec["outputs"]
 
 
-def test_a_failed_rename_puts_back_what_earlier_renames_replaced(tmp_path, monkeypatch):
+@pytest.mark.parametrize("links", [True, False])
+def test_a_failed_rename_puts_back_what_earlier_renames_replaced(links, tmp_path, monkeypatch):
     # three outputs, the first replacing a file: the third rename fails, so the first path holds
-    # its old bytes again, the second (new) path is gone, and nothing temporary is left
+    # its old bytes again, the second (new) path is gone, and nothing temporary is left; also
+    # where the file system makes no hard links (the old file is then moved aside)
     import os
 
     (tmp_path / "a.npy").write_bytes(b"keep")
     real, calls = os.replace, []
+    if not links:
+        monkeypatch.setattr(os, "link", lambda *a, **k: (_ for _ in ()).throw(OSError("no hard links here")))
 
     def flaky(src, dst):
         calls.append(dst)
@@ -207,6 +211,25 @@ def test_a_failed_rename_puts_back_what_earlier_renames_replaced(tmp_path, monke
     assert (tmp_path / "a.npy").read_bytes() == b"keep"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
     assert any(str(d).endswith("c.png") for d in calls)
+
+
+def test_a_read_only_output_is_replaced_and_stays_read_only(tmp_path):
+    # the staged file is written while its owner may write it, and takes the old file's mode
+    # just before the rename (which does not need the old file to be writable)
+    import os
+    import stat
+
+    from wdendrite import io
+
+    for name, write in [("a.npy", lambda: cli.run_preset("fractal", {"size": 16}, [tmp_path / "a.npy"],
+                                                         device="cpu", force=True)),
+                        ("b.txt", lambda: io.atomic_write(tmp_path / "b.txt", lambda p: open(p, "w").write("new"),
+                                                          overwrite=True))]:
+        (tmp_path / name).write_bytes(b"old")
+        os.chmod(tmp_path / name, 0o444 | stat.S_ISUID)
+        write()
+        assert (tmp_path / name).read_bytes() != b"old"
+        assert (tmp_path / name).stat().st_mode & 0o7777 == 0o444  # (set-id bits are not carried over)
 
 
 def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):

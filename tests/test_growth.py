@@ -381,8 +381,12 @@ def test_growth_refuses_an_empty_region_and_factors_that_round_to_zero():
     with pytest.raises(ValueError, match=r"'cheap' = 1e-46 is below float32's smallest normal"):
         wd.FractalParams(cheap=1e-46)
     start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5]])
-    with pytest.raises(ValueError, match=r"'factor' = 1e-40 is below"):
+    with pytest.raises(ValueError, match=r"'factor' = 1e-40 is below.*use a larger factor"):
         lower_dendrite_weights(LAT, start, 1e-40)
+    # iterations numbered after the start's generations must fit int32: said before any search
+    old = dataclasses.replace(start, generation=np.full(len(start), 2**31 - 2, np.int32))
+    with pytest.raises(ValueError, match=r"'start' has generations up to 2147483646"):
+        wd.grow(LAT, [[48, 48]], PARAMS, start=old)
     assert wd.FractalParams(cheap=1e-30).cheap == 1e-30
 
 

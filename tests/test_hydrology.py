@@ -236,14 +236,20 @@ def _drained_flats_reference(surface, rec):
 
 
 def _serpentine(h: int, w: int) -> np.ndarray:
-    """A one-cell-wide flat winding row by row through walls, out at (1, 0): its far end is
-    about h * w / 2 cells away, so its distances wrap the drainer's ring of buckets many times."""
-    z = np.full((h, w), 10.0)
-    z[1:-1:2, 1:-1] = 5.0
-    for r in range(2, h - 2, 2):
-        z[r, w - 2 if r % 4 == 2 else 1] = 5.0
-    z[1, 0] = 5.0
-    return z
+    """The benchmark's worst case for the flat drainer (benchmarks/bench_hydrology.py)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    folder = Path(__file__).resolve().parent.parent / "benchmarks"
+    spec = importlib.util.spec_from_file_location("bench_hydrology", folder / "bench_hydrology.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(folder))  # (it imports its folder's _measure)
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(folder))
+    return module.serpentine(h, w)
 
 
 @pytest.mark.parametrize("make", [lambda rng: rng.random((14, 17)),

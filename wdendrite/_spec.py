@@ -429,6 +429,12 @@ def _flatten(p: Preset, argname: str, instance, sig) -> None:
 _CACHE: dict = {}
 
 
+def canonical_name(name):
+    """The command's name of a preset also given by its function's name (``elm_tree`` or
+    ``elm-tree``: ``tree``); anything else unchanged."""
+    return ALIASES.get(name.replace("-", "_"), name) if isinstance(name, str) else name
+
+
 def all_presets() -> dict[str, Preset]:
     """Every preset by command name: ``wdendrite.presets`` first, then the command's own models."""
     if "all" in _CACHE:

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._spec import UsageError, all_presets, nearest, progress_bar, read_toml, resolve
+from ._spec import UsageError, all_presets, canonical_name, nearest, progress_bar, read_toml, resolve
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
            "run_tiled", "tile_windows", "tiled_array", "worker_device", "write_tiled"]
@@ -132,7 +132,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     where = f"job {k + 1}"
     if not isinstance(job, dict):
         raise UsageError(f"{where}: expected a [[job]] table, but got {job!r}")
-    name, presets = job.get("preset"), all_presets()
+    name, presets = canonical_name(job.get("preset")), all_presets()
     where = f"job {k + 1} ({name})" if name in presets else where
     _keys(job, _JOB_KEYS, where)
     if name not in presets:

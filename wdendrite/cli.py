@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._models import MODELS, dendry_setup, relief, unit_range  # re-exported: batch jobs use them
-from ._spec import ALIASES, UsageError, all_presets, nearest, parse_config, progress_bar, resolve
+from ._models import MODELS, dendry_setup, relief, unit_range  # dendry_setup for batch jobs; relief and unit_range kept importable from here
+from ._spec import ALIASES, UsageError, all_presets, canonical_name, nearest, parse_config, progress_bar, resolve
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
@@ -128,10 +128,12 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     staged = []
     try:
         for p in paths:
+            mode = io.final_mode(p)
             tmp = io.temporary_beside(p)
             staged.append((tmp, p))
             with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
                 _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
+            os.chmod(tmp, mode)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
             if p.exists() and not force:
                 raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
@@ -145,10 +147,11 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
 
 def _rename_all(staged) -> None:
     """Rename every ``(tmp, path)`` onto its path, all or none: a file a rename replaces is kept
-    under a hard link until every rename has succeeded, and put back if one fails."""
+    under a hard link until every rename has succeeded, and put back if one fails (where the
+    file system has no hard links, it is moved aside just before its path is renamed onto)."""
     from . import io
 
-    done = []  # (path, the link to the file it replaced, or None)
+    done = []  # (path, where the file it replaced is kept, or None: there was none)
     try:
         for tmp, p in staged:
             keep = None
@@ -157,13 +160,13 @@ def _rename_all(staged) -> None:
                 keep.unlink()
                 try:
                     os.link(p, keep)
-                except OSError:  # no hard links here: that file cannot be put back
-                    keep = None
+                except OSError:  # no hard links here: the old file moves aside instead
+                    os.replace(p, keep)
             try:
                 os.replace(tmp, p)
             except BaseException:
                 if keep is not None:
-                    keep.unlink(missing_ok=True)
+                    os.replace(keep, p)
                 raise
             done.append((p, keep))
     except BaseException:
@@ -274,6 +277,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     """
     import warp as wp
 
+    name = canonical_name(name)
     preset = all_presets().get(name)
     if preset is None:
         raise UsageError(f"unknown preset {name!r}{nearest(name, all_presets())}")

@@ -76,7 +76,7 @@ class FractalParams:
         cheap = _checks.nonnegative("cheap", self.cheap, allow_none=False)
         if cheap > 1:
             raise ValueError(f"Expected 'cheap' (D) in [0, 1], but got {self.cheap!r}")
-        _check_factor("cheap", cheap)
+        _check_factor("cheap", cheap, "use 0 for new generators, or a larger D")
         if not float(self.d) > float(self.epsilon):
             raise ValueError(
                 f"'d' ({self.d!r}) must exceed 'epsilon' ({self.epsilon!r}): growth runs while d > epsilon, "
@@ -115,12 +115,12 @@ class FractalParams:
         return out
 
 
-def _check_factor(name: str, factor: float) -> None:
+def _check_factor(name: str, factor: float, hint: str) -> None:
     """Refuse a weight factor so small that float32 weights times it would round to 0."""
     tiny = float(np.finfo(np.float32).tiny)
     if 0 < factor < tiny:
         raise ValueError(f"'{name}' = {factor!r} is below float32's smallest normal number ({tiny:.3g}): the "
-                         "lowered weights would round to 0; use 0 for new generators, or a larger factor")
+                         f"lowered weights would round to 0; {hint}")
 
 
 def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, rows=None) -> Lattice:
@@ -142,7 +142,7 @@ def lower_dendrite_weights(lattice: Lattice, dendrite: Dendrite, factor: float, 
     factor = _checks.positive("factor", factor)
     if factor > 1:
         raise ValueError(f"Expected 'factor' in (0, 1], but got {factor!r}: former paths only get cheaper")
-    _check_factor("factor", factor)
+    _check_factor("factor", factor, "use a larger factor")
     if tuple(dendrite.shape) != lattice.shape:
         raise ValueError(f"'dendrite' has shape {tuple(dendrite.shape)}, but 'lattice' has shape {lattice.shape}")
     dirs, lower = _dendrite_edges(lattice, dendrite, rows)
@@ -177,15 +177,15 @@ def _dendrite_edges(lattice: Lattice, dendrite: Dendrite, rows=None, name: str =
     return dirs, lower
 
 
-def _path_costs(lattice: Lattice, dendrite: Dendrite, name: str) -> np.ndarray:
-    """float32 path costs of every row from its root along the parents over the lattice's
-    weights, summed from the root outward as a search sums them (so a traced dendrite gets its
-    own costs back, bit for bit)."""
+def _path_costs(lattice: Lattice, dendrite: Dendrite, name: str, device) -> np.ndarray:
+    """float32 path costs of every row from its root along the parents over the weights the
+    kernels on ``device`` use, summed from the root outward as a search sums them (so a dendrite
+    traced there gets its own costs back, bit for bit)."""
     cost = np.zeros(len(dendrite), np.float32)
     child = np.flatnonzero(dendrite.parent >= 0)
     if not len(child):
         return cost
-    w = lattice.edge_weights(*_dendrite_edges(lattice, dendrite, child, name))
+    w = lattice._edge_weights(*_dendrite_edges(lattice, dendrite, child, name), device=device)
     depth = dendrite.depth[child]
     order = np.argsort(depth, kind="stable")
     cuts = np.flatnonzero(np.diff(depth[order])) + 1
@@ -195,7 +195,7 @@ def _path_costs(lattice: Lattice, dendrite: Dendrite, name: str) -> np.ndarray:
     return cost
 
 
-def _check_start(start, lattice: Lattice, n_gens: int) -> Dendrite:
+def _check_start(start, lattice: Lattice, n_gens: int, device, iterations: int) -> Dendrite:
     """``start`` checked, with its costs recomputed as path costs over ``lattice``."""
     if not isinstance(start, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'start', but got {type(start).__name__}")
@@ -208,7 +208,11 @@ def _check_start(start, lattice: Lattice, n_gens: int) -> Dendrite:
                 f"'start' labels range over [{start.label.min()}, {start.label.max()}], but they must index the "
                 f"{n_gens} 'generators'"
             )
-    return dataclasses.replace(start, cost=_path_costs(lattice, start, "start"))
+        last = int(start.generation.max()) + iterations  # growth numbers its iterations after the start's
+        if last > np.iinfo(np.int32).max:
+            raise ValueError(f"'start' has generations up to {int(start.generation.max())}; the {iterations} "
+                             f"iterations after them would pass int32's {np.iinfo(np.int32).max}")
+    return dataclasses.replace(start, cost=_path_costs(lattice, start, "start", device))
 
 
 def _field_costs(cf: CostField, padded: np.ndarray) -> np.ndarray:
@@ -338,15 +342,15 @@ def grow(
         progress = bool(progress)
     elif not callable(progress):
         raise TypeError(f"Expected a bool or a callable for 'progress', but got {progress!r}")
+    plan = params.schedule()
     if start is not None:
-        start = _check_start(start, lattice, len(gens))
+        start = _check_start(start, lattice, len(gens), _checks.device(device), len(plan))
     if within is not None:
         within = _endpoints._within(within, lattice.shape)  # checked (and a region drawn) once, before any search
         if not (within if lattice.mask is None else within & lattice.mask).any():
             raise ValueError("'within' holds no usable node of the lattice: no endpoint could be drawn")
     # iterations continue the generations of ``start``
     first_generation = 0 if start is None or not len(start) else int(start.generation.max()) + 1
-    plan = params.schedule()
     r = params.band
     new_generators = params.cheap == 0.0
     bar = None

@@ -95,9 +95,11 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     if _STAGED.get():
         write(str(path))
         return path
+    mode = final_mode(path)
     tmp = str(temporary_beside(path))
     try:
         write(tmp)
+        os.chmod(tmp, mode)  # (written while the owner could write it)
         if overwrite:
             os.replace(tmp, path)
         else:
@@ -119,15 +121,21 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     return path
 
 
+def final_mode(path) -> int:
+    """Permissions a file written to ``path`` ends with: those of the file it replaces (without
+    set-id or sticky bits), else what a plain ``open()`` gives a new file."""
+    try:
+        return os.stat(path).st_mode & 0o777
+    except OSError:  # nothing there yet (or nothing readable)
+        return 0o666 & ~_umask()
+
+
 def temporary_beside(path) -> Path:
     """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
-    stage ``path`` in, with the mode of the file it will replace, or else the mode a plain
-    ``open()`` would give it (mkstemp's are private)."""
+    stage ``path`` in: :func:`final_mode`'s permissions, writable by its owner while it is
+    written (mkstemp's are private); give it ``final_mode(path)`` before the rename."""
     path = Path(path)
-    try:
-        mode = stat.S_IMODE(os.stat(path).st_mode)
-    except OSError:  # nothing there yet (or nothing readable): what a new file gets
-        mode = 0o666 & ~_umask()
+    mode = final_mode(path) | stat.S_IWUSR
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
