@@ -291,3 +291,17 @@ def test_simple_dendrite_endpoints_keep_apart():
     ends = den.nodes[den.endpoints]
     gaps = np.sqrt(((ends[:, None] - ends[None]) ** 2).sum(-1))[np.triu_indices(len(ends), 1)]
     assert gaps.min() >= 96 / 12
+
+
+def test_lightning_can_fall_off_with_path_cost_as_the_papers_do():
+    # the same strokes; with metric "path" the brightness is the papers' exp(-(c/T)^2) of the path
+    # cost over each graph's own lattice, so it differs off the strokes and is 1 on them
+    kw = dict(forks=3, minor_forks=2, glow_gain=0.0)
+    a = presets.lightning((96, 96), params=LightningParams(**kw), seed=2)
+    b = presets.lightning((96, 96), params=LightningParams(metric="path", **kw), seed=2)
+    np.testing.assert_array_equal(a.dendrite.nodes, b.dendrite.nodes)
+    va, vb = a.parts["value"], b.parts["value"]
+    assert 0.0 <= vb.min() and vb.max() <= 1.0 and not np.allclose(va, vb)
+    assert (vb[tuple(b.dendrite.nodes.T)] == 1.0).all()
+    with pytest.raises(ValueError, match="'metric'"):
+        LightningParams(metric="manhattan")

@@ -360,9 +360,15 @@ class LightningParams:
     """Blur radius of the halo (pixels), > 0."""
     glow_gain: float = 1.4
     """Strength of the halo, >= 0."""
+    metric: Literal["euclidean", "path"] = "euclidean"
+    """What brightness falls off with: "euclidean", the distance in pixels (smooth strokes), or
+    "path", the papers' path cost over each graph's own random lattice, the widths scaled by its
+    measured cost per pixel (ragged strokes whose glow creeps along cheap edges)."""
 
     def __post_init__(self):
         _checks.positive("alpha", self.alpha)
+        if self.metric not in ("euclidean", "path"):
+            raise ValueError(f"Expected 'metric' in ('euclidean', 'path'), but got {self.metric!r}")
         # the weights' own bound, in this preset's words: Power's default range (1, max), times the
         # longest edge a lattice may have (sqrt 3), below the supported largest weight
         top, limit = _w.Power().max, math.log(_w._MAX_WEIGHT / math.sqrt(3.0))
@@ -417,11 +423,12 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     thesis starts both graphs at the same generator; growing the second from
     the stroke keeps its branches on it). Their brightness images are
     combined, given a halo and lit over a night sky. Two choices differ from
-    the papers: brightness falls off with the distance in pixels, not the path
-    cost over the random lattice (``render.brightness(..., metric="path",
-    lattice=...)`` gives that ragged look), and a blurred halo is added, which
-    the constructive paper says its renderings largely lack. ``parts`` holds both dendrites, the core brightness ``"value"`` and
-    the halo ``"glow"``.
+    the papers by default: brightness falls off with the distance in pixels,
+    not the path cost over the random lattice (``params.metric = "path"``
+    gives the papers' ragged look), and a blurred halo is added, which the
+    constructive paper says its renderings largely lack (``glow_gain = 0``
+    leaves it out). ``parts`` holds both dendrites, the core brightness
+    ``"value"`` and the halo ``"glow"``.
     """
     shape = _shape(shape, 2)
     if not isinstance(params, LightningParams):
@@ -435,7 +442,16 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     first = trace(cf1, _forks_near(lat1, main, params.forks, rng, "forks"), extend=main) if params.forks else main
     # the papers' widths are for 600^2 pictures; keep the look at other sizes
     s = max(min(h, w) / 600.0, 0.5)
-    v1 = _r.brightness(first, _scaled(params.main_width, s), side=_scaled(params.fork_width, s))
+
+    def value_of(den, lat, width, side=None):
+        if params.metric == "euclidean":
+            return _r.brightness(den, _scaled(width, s), side=None if side is None else _scaled(side, s))
+        # widths in path cost: pixels times what a least path costs per pixel on this lattice
+        c = s * _cost_per_node(lat, tuple(den.nodes[den.parent < 0][0]), min(h, w) / 3)
+        return _r.brightness(den, _scaled(width, c), side=None if side is None else _scaled(side, c),
+                             metric="path", lattice=lat)
+
+    v1 = value_of(first, lat1, params.main_width, params.fork_width)
     layers, gains, second, lat2 = [v1], [1.0], None, None
     if params.minor_forks:
         lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
@@ -443,7 +459,7 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
         # travel down to endpoints lower in the picture, crossing the first graph's branches
         stem = main.nodes[(main.nodes[:, 0] > 0.06 * h) & (main.nodes[:, 0] < 0.4 * h)]
         second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng, "minor_forks"))
-        layers.append(_r.brightness(second, _scaled(params.minor_width, s)))
+        layers.append(value_of(second, lat2, params.minor_width))
         gains.append(params.minor_gain)
     value = _r.composite(layers, mode="max", gains=gains)
     halo = _r.glow(value, radius=params.glow_radius * s) * params.glow_gain
