@@ -78,7 +78,7 @@ class Setup:
 
     levels: int
     seed: wp.uint32
-    eps: float
+    eps: vec6  # key points in [eps, 1 - eps] of their cells, per level (primitives: the finest level's)
     resolution: float
     inv_resolution: float  # 1 / resolution: kernels multiply (a division costs several multiplications)
     delta: vec6  # sideways displacement per level, times the segment length
@@ -146,13 +146,15 @@ def cell_rand(seed: wp.uint32, level: int, c: wp.vec2i, stream: int) -> float:
 
 @wp.func
 def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
-    """The jittered key point of cell ``c``: uniform in the cell shrunk by ``eps`` on each side."""
+    """The jittered key point of cell ``c``: uniform in the cell shrunk by its level's ``eps`` on
+    each side (levels beyond the tree's, the primitives', take the finest level's)."""
     h = cell_size(level)
-    span = 1.0 - 2.0 * s.eps
+    e = s.eps[wp.min(level, s.levels) - 1]
+    span = 1.0 - 2.0 * e
     key = cell_key(s.seed, level, c)
     return wp.vec2(
-        (float(c[0]) + s.eps + span * key_uniform(key, 0)) * h,
-        (float(c[1]) + s.eps + span * key_uniform(key, 1)) * h,
+        (float(c[0]) + e + span * key_uniform(key, 0)) * h,
+        (float(c[1]) + e + span * key_uniform(key, 1)) * h,
     )
 
 

@@ -192,12 +192,15 @@ show((z - z.min()) / (z.max() - z.min()))'''),
                "and x = 2) are level-1 cell borders. With `eps = 0.25` every level keeps its key points away from cell "
                "borders, so the subtrees of neighbouring level-1 cells meet there; where they hang at different "
                "altitudes, the elevation (which takes the altitude of the nearest tree point, the paper's eq. 4) "
-               "climbs steeply along a straight line. `eps = 0` lets these divides wander like the rest of the tree. "
-               "Left: `eps = 0.25` as above; right: the same terrain with `eps = 0`:"),
+               "climbs steeply along a straight line. `eps = 0` lets these divides wander like the rest of the tree; "
+               "one eps per level, `(0.25, 0, ...)`, frees them while level 1 keeps its key points near their cells' "
+               "centres. Left to right: `eps = 0.25` as above, `eps = (0.25, 0, ...)` and `eps = 0`:"),
         ("code", '''\
 import dataclasses
+z_finer = wd.dendry((n, n), output="elevation",
+                    **dict(kw, params=dataclasses.replace(p, eps=(0.25,) + (0.0,) * (p.levels - 1))))
 z_free = wd.dendry((n, n), output="elevation", **dict(kw, params=dataclasses.replace(p, eps=0.0)))
-show(np.concatenate([(a - a.min()) / (a.max() - a.min()) for a in (z, z_free)], axis=1))'''),
+show(np.concatenate([(a - a.min()) / (a.max() - a.min()) for a in (z, z_finer, z_free)], axis=1))'''),
         ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the filled "
                "terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
         ("code", '''\

@@ -69,7 +69,7 @@ class _Tree:
         self.p = params
         self.ctl = ctl
         ci, cj = np.meshgrid(np.arange(lo, hi), np.arange(lo, hi), indexing="ij")
-        pts = _key_points(params.seed, params.eps, 1, ci, cj)
+        pts = _key_points(params.seed, params.epses()[0], 1, ci, cj)
         z = ctl.evaluate((pts / params.resolution).reshape(-1, 2)).reshape(ci.shape).astype(np.float64)
         n = hi - lo
         segs, zs = [], []
@@ -104,7 +104,7 @@ class _Tree:
                     pts[(ci, cj)] = parent
                     zpts[(ci, cj)] = self.z[level - 1][(ci >> 1, cj >> 1)]
                     continue
-                q = _key_points(self.p.seed, self.p.eps, level, np.array(ci), np.array(cj))
+                q = _key_points(self.p.seed, self.p.epses()[level - 1], level, np.array(ci), np.array(cj))
                 pts[(ci, cj)] = q
                 _, d = _project(q, allseg[:, 0], allseg[:, 1])
                 k = int(np.argmin(d))
@@ -271,7 +271,7 @@ def _check_tree(p, size, ctl=CTL, margin=4):
     tree = _region_tree(p, size, ctl)
     cells, keyp, verts = tree[0]
     index = {tuple(c): i for i, c in enumerate(cells.tolist())}
-    np.testing.assert_allclose(keyp[:, :2], _key_points(p.seed, p.eps, 1, cells[:, 0], cells[:, 1]), atol=2e-6)
+    np.testing.assert_allclose(keyp[:, :2], _key_points(p.seed, p.epses()[0], 1, cells[:, 0], cells[:, 1]), atol=2e-6)
     z = ctl.evaluate(keyp[:, :2])
     np.testing.assert_array_equal(keyp[:, 2], z)
     lo1, hi1 = cells.min(0), cells.max(0)
@@ -296,7 +296,7 @@ def _check_tree(p, size, ctl=CTL, margin=4):
         new = keyp[:, 3] == _SEGMENT
         assert (new == ~inherits).all()  # an unbounded control: every other cell joins the tree
         q = keyp[new, :2].astype(float)
-        np.testing.assert_allclose(q, _key_points(p.seed, p.eps, level, cells[new, 0], cells[new, 1]), atol=2e-6)
+        np.testing.assert_allclose(q, _key_points(p.seed, p.epses()[level - 1], level, cells[new, 0], cells[new, 1]), atol=2e-6)
         inner = ((cells[new] >> (level - 1) >= lo1 + margin) & (cells[new] >> (level - 1) <= hi1 - margin)).all(1)
         a, b, nxt = _pieces_of(p, tree, level)
         control_z = ctl.evaluate(keyp[new, :2])
@@ -359,7 +359,7 @@ def _terrain(p, tree, pts):
     for u in pts * p.resolution:
         c = np.floor(u * f).astype(int)
         ci, cj = np.meshgrid(np.arange(c[0] - 2, c[0] + 3), np.arange(c[1] - 2, c[1] + 3), indexing="ij")
-        q = _key_points(p.seed, p.eps, pl, ci.ravel(), cj.ravel())
+        q = _key_points(p.seed, p.epses()[p.levels - 1], pl, ci.ravel(), cj.ravel())  # the finest level's
         d, z, _ = tree.nearest(q)
         # eq. 7: smooth step from the control's minimum to its maximum at h^beta
         t = np.clip((np.maximum(z, 0) ** p.beta - CTL.minimum) / (CTL.maximum - CTL.minimum), 0, 1)
@@ -495,6 +495,8 @@ def test_lichtenberg_branches_join_at_45_degrees(device):
         # 7 x 7 searches, on seeds where a 5 x 5 search misses links too:
         (6, 12, dict(eps=0.1, delta=1.0)),  # 37 (5 x 5: 1); the largest displacement
         (21, 12, dict(eps=0.0, delta=0.3, rule="lichtenberg")),  # 1 (5 x 5: 1); they reach farther
+        # one eps per level: level 1 packed, finer levels free (the free regime's searches)
+        (146, 14, dict(eps=(0.25, 0.0, 0.0), delta=0.1)),
     ],
 )
 def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, size, kw):
@@ -573,6 +575,7 @@ def test_displacements_that_radii_ignore_change_nothing(device, kw, idle):
         (200, dict(eps=0.0, delta=1.0, levels=3), (48, 48, 40, 40)),
         # from 4 levels finest segments reach farther: 5 x 5 queries got one of these pixels wrong
         (1, dict(eps=0.0, delta=0.5, levels=4), (48, 48, 40, 40)),
+        (3, dict(eps=(0.25, 0.0, 0.0), delta=0.1, levels=3), (48, 48, 40, 40)),  # one eps per level
     ],
 )
 def test_pixels_measure_the_nearest_piece_of_the_whole_tree(device, seed, kw, window):
@@ -835,6 +838,8 @@ def test_lichtenberg_tree_stays_in_its_bowl(device):
         (dict(levels=2.0), "levels"),
         (dict(eps=-0.1), "eps"),
         (dict(eps=0.6), "eps"),
+        (dict(levels=2, eps=(0.25,)), "one 'eps' per level"),
+        (dict(levels=2, eps=(0.25, 0.7)), "eps"),
         (dict(delta=-0.1), "delta"),
         (dict(delta=(0.1, -0.1), levels=2), "delta"),
         (dict(delta=(0.1, 0.1, 0.1), levels=2), "delta"),
@@ -1038,3 +1043,24 @@ def test_default_control_is_the_authors_interactive_perlin(device):
     b = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, control=default_control(), device=device)
     assert np.array_equal(a, b)
     assert default_control().domain == ((-0.2, -0.5), (1.4, 0.7))
+
+
+def test_one_eps_per_level_keeps_each_levels_key_points_in_its_band(device):
+    # a single eps equals the same value given per level, bit for bit; per level, level 1's key
+    # points stay in their cells' middle half while finer ones spread over whole cells
+    base = dict(levels=3, delta=0.1, beta=0.5, noise=0.05, seed=4)
+    dom = ((0.0, 0.0), (4.0, 4.0))
+    one = dendry((48, 48), domain=dom, params=DendryParams(eps=0.25, **base), output="elevation", device=device)
+    each = dendry((48, 48), domain=dom, params=DendryParams(eps=(0.25,) * 3, **base), output="elevation", device=device)
+    assert one.tobytes() == each.tobytes()
+    p = DendryParams(eps=(0.25, 0.0, 0.0), **base)
+    tree = _cached_tree((64, 64), domain=dom, params=p, control=CTL, control_domain=dom, device=device)
+    for level, (cells, keyp, _) in enumerate(tree, 1):
+        own = keyp[:, 3] == _SEGMENT
+        frac = keyp[own, :2] * 2 ** (level - 1) - cells[own]  # position inside the cell, in [0, 1)
+        if level == 1:
+            assert frac.min() >= 0.25 - 1e-6 and frac.max() <= 0.75 + 1e-6
+        else:
+            assert frac.min() < 0.1 and frac.max() > 0.9  # (hundreds of points: some near the borders)
+    assert p.radii() == DendryParams(eps=0.0, **base).radii()  # the free regime's searches
+

@@ -123,15 +123,17 @@ class DendryParams:
     """Number of tree levels n, 1-6; each level halves the cell size."""
     seed: int = 0
     """Seed of every random number (key points, displacements, terrain noise), in [0, 2**32)."""
-    eps: float = 0.25
-    """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid.
-    Below 0.25 links search 5 x 5 or 7 x 7 cells (see ``search``).
+    eps: float | tuple[float, ...] = 0.25
+    """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid;
+    one value for every level, or a tuple of one per level. Below 0.25 at any level links search
+    5 x 5 or 7 x 7 cells (see ``search``).
 
     In terrains, every level keeps its key points ``eps`` away from cell borders, so the
     subtrees of neighbouring level-1 cells meet along those borders; where they hang at
     different altitudes (each from its own level-1 segment), the elevation, which takes
     the altitude of the nearest tree point (paper, eq. 4), rises steeply along a straight
-    line there. ``eps = 0`` lets these divides wander like the rest of the tree."""
+    line there. ``eps = 0`` lets these divides wander like the rest of the tree, and
+    ``(0.25, 0, ...)`` does so while keeping level 1's key points near their cells' centres."""
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
@@ -174,7 +176,12 @@ class DendryParams:
         put = functools.partial(object.__setattr__, self)
         put("levels", integer("levels", self.levels, low=1, high=6))
         put("seed", seed32(self.seed))
-        put("eps", _float_in("eps", self.eps, 0.0, 0.5))
+        if isinstance(self.eps, (tuple, list, np.ndarray)):
+            if len(self.eps) != self.levels:
+                raise ValueError(f"Expected one 'eps' per level ({self.levels}), but got {tuple(self.eps)!r}")
+            put("eps", tuple(_float_in("eps", e, 0.0, 0.5) for e in self.eps))
+        else:
+            put("eps", _float_in("eps", self.eps, 0.0, 0.5))
         if isinstance(self.delta, (tuple, list, np.ndarray)):
             if len(self.delta) != self.levels:
                 raise ValueError(f"Expected one 'delta' per level ({self.levels}), but got {tuple(self.delta)!r}")
@@ -196,6 +203,11 @@ class DendryParams:
             raise ValueError(f"Expected 'search' in {_SEARCHES}, but got {self.search!r}")
         put("search", str(self.search))
 
+    def epses(self) -> tuple[float, ...]:
+        """``eps`` per level (6 values, unused levels repeating the last)."""
+        per = list(self.eps) if isinstance(self.eps, tuple) else [self.eps] * self.levels
+        return tuple(per + [per[-1]] * (6 - len(per)))
+
     def deltas(self) -> tuple[float, ...]:
         """Displacement per level (6 values, unused levels 0)."""
         if isinstance(self.delta, tuple):
@@ -216,7 +228,7 @@ class DendryParams:
             return (3 if self.levels == 1 else 2), 2, 1
         # displacements bend only split segments: levels 1-3, subdivision on
         widest = max((d for d, n in zip(self.deltas(), _PIECES) if n > 1 and self.subdivision), default=0.0)
-        packed = self.eps >= _PACKED_EPS
+        packed = min(self.epses()) >= _PACKED_EPS  # (every level's points packed)
         straight = not self.subdivision or (not self.smoothing and widest == 0.0)
         if self.rule == "terrain":
             if packed and straight and self.levels <= _PACKED_LEVELS:
@@ -250,7 +262,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.need_z = int(output == "elevation")
     s.levels = p.levels
     s.seed = wp.uint32(p.seed)
-    s.eps = p.eps
+    s.eps = _kd.vec6(*p.epses())
     s.resolution = p.resolution
     s.inv_resolution = 1.0 / p.resolution
     s.delta = _kd.vec6(*p.deltas())
