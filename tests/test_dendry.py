@@ -627,7 +627,10 @@ def test_cached_equals_per_pixel_in_adversarial_setups(device, levels):
     # distance so far) is most delicate: key points on a regular grid (eps 0.5: equal distances
     # everywhere, so ties decide), key points anywhere in their cells (eps 0), the largest
     # sideways displacement (delta 1), both connection rules; windows must match the image too
-    cases = ((0.5, 0.0, "terrain"), (0.0, 1.0, "terrain"), (0.5, 0.3, "lichtenberg"), (0.0, 1.0, "lichtenberg"))
+    # and one eps per level, alternating the extremes (the primitives take the finest level's)
+    mixed = tuple(0.5 if k % 2 == 0 else 0.0 for k in range(levels))
+    cases = ((0.5, 0.0, "terrain"), (0.0, 1.0, "terrain"), (0.5, 0.3, "lichtenberg"), (0.0, 1.0, "lichtenberg"),
+             (mixed, 0.3, "terrain"), (mixed, 0.3, "lichtenberg"))
     for eps, delta, rule in cases:
         p = DendryParams(levels=levels, eps=eps, delta=delta, beta=0.5, noise=0.05, rule=rule, seed=11)
         for output in ("distance", "elevation", "level"):
