@@ -74,6 +74,15 @@ def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) 
     return x
 
 
+def _per_level(name: str, value, levels: int, hi: float) -> float | tuple[float, ...]:
+    """``value`` in [0, hi]: one number, or a sequence of one per level (a tuple)."""
+    if isinstance(value, (tuple, list, np.ndarray)):
+        if len(value) != levels:
+            raise ValueError(f"Expected one '{name}' per level ({levels}), but got {tuple(value)!r}")
+        return tuple(_float_in(name, v, 0.0, hi) for v in value)
+    return _float_in(name, value, 0.0, hi)
+
+
 @dataclass(frozen=True)
 class DendryParams:
     """Parameters of the Dendry function (paper Table 2).
@@ -176,18 +185,8 @@ class DendryParams:
         put = functools.partial(object.__setattr__, self)
         put("levels", integer("levels", self.levels, low=1, high=6))
         put("seed", seed32(self.seed))
-        if isinstance(self.eps, (tuple, list, np.ndarray)):
-            if len(self.eps) != self.levels:
-                raise ValueError(f"Expected one 'eps' per level ({self.levels}), but got {tuple(self.eps)!r}")
-            put("eps", tuple(_float_in("eps", e, 0.0, 0.5) for e in self.eps))
-        else:
-            put("eps", _float_in("eps", self.eps, 0.0, 0.5))
-        if isinstance(self.delta, (tuple, list, np.ndarray)):
-            if len(self.delta) != self.levels:
-                raise ValueError(f"Expected one 'delta' per level ({self.levels}), but got {tuple(self.delta)!r}")
-            put("delta", tuple(_float_in("delta", d, 0.0, 1.0) for d in self.delta))
-        else:
-            put("delta", _float_in("delta", self.delta, 0.0, 1.0))
+        put("eps", _per_level("eps", self.eps, self.levels, 0.5))
+        put("delta", _per_level("delta", self.delta, self.levels, 1.0))
         put("resolution", _float_in("resolution", self.resolution, 0.0, 1.0e6, open_lo=True))
         for name in ("smoothing", "subdivision"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
