@@ -372,6 +372,7 @@ def test_job_names_keep_letters_of_any_script(tmp_path):
 def test_a_job_names_a_preset_by_its_function_too(tmp_path):
     # elm_tree and elm-tree are the command's "tree", in job files as on the command line
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "elm_tree"\nsize = 16\n'
-                                        '[[job]]\npreset = "staghorn-coral"\nsize = 16\n')
+                                        '[[job]]\npreset = "staghorn-coral"\nsize = 16\n'
+                                        '[[job]]\npreset = "simple_dendrite"\nsize = 16\n')
     tasks, _ = batch.load_jobs(tmp_path / "jobs.toml")
-    assert [t.preset for t in tasks] == ["tree", "coral"]
+    assert [t.preset for t in tasks] == ["tree", "coral", "simple-dendrite"]

@@ -213,6 +213,31 @@ def test_a_failed_rename_puts_back_what_earlier_renames_replaced(links, tmp_path
     assert any(str(d).endswith("c.png") for d in calls)
 
 
+@pytest.mark.parametrize("links", [True, False])
+def test_a_failed_rename_onto_an_existing_output_keeps_it_and_leaves_nothing(links, tmp_path, monkeypatch):
+    # the rename onto a path that holds a file fails: that file keeps its bytes and no copy of
+    # it is left beside it, with or without hard links
+    import os
+
+    (tmp_path / "a.npy").write_bytes(b"keep")
+    real, onto = os.replace, []
+
+    def flaky(src, dst):  # the first rename onto a.npy (the staged file's) fails; putting back works
+        if str(dst) == str(tmp_path / "a.npy"):
+            onto.append(src)
+            if len(onto) == 1:
+                raise OSError("device went away")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", flaky)
+    if not links:
+        monkeypatch.setattr(os, "link", lambda *a, **k: (_ for _ in ()).throw(OSError("no hard links here")))
+    with pytest.raises(OSError, match="device went away"):
+        cli.run_preset("fractal", {"size": 16}, [tmp_path / "a.npy", tmp_path / "b.png"], device="cpu", force=True)
+    assert (tmp_path / "a.npy").read_bytes() == b"keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
+
+
 def test_a_read_only_output_is_replaced_and_stays_read_only(tmp_path):
     # the staged file is written while its owner may write it, and takes the old file's mode
     # just before the rename (which does not need the old file to be writable)

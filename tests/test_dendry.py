@@ -495,8 +495,10 @@ def test_lichtenberg_branches_join_at_45_degrees(device):
         # 7 x 7 searches, on seeds where a 5 x 5 search misses links too:
         (6, 12, dict(eps=0.1, delta=1.0)),  # 37 (5 x 5: 1); the largest displacement
         (21, 12, dict(eps=0.0, delta=0.3, rule="lichtenberg")),  # 1 (5 x 5: 1); they reach farther
-        # one eps per level: level 1 packed, finer levels free (the free regime's searches)
+        # one eps per level: level 1 packed, finer levels free (the free regime's searches; with
+        # 3 x 3 links this seed missed some)
         (146, 14, dict(eps=(0.25, 0.0, 0.0), delta=0.1)),
+        (4, 12, dict(eps=(0.25, 0.0, 0.0), delta=0.0, smoothing=False, subdivision=False)),
     ],
 )
 def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, size, kw):
@@ -543,6 +545,11 @@ def test_the_papers_search_is_what_search_paper_runs_and_it_misses_links(device)
         (dict(levels=6, eps=0.25, delta=0.1), (3, 3, 2)),
         (dict(levels=6, eps=0.25, delta=0.2), (3, 3, 3)),
         (dict(levels=6, eps=0.0, delta=0.5), (3, 3, 3)),
+        # one eps per level: packed only when every level is (3 x 3 links missed some at (0.25, 0, 0))
+        (dict(levels=3, delta=0.0, eps=(0.25, 0.25, 0.25), smoothing=False), (2, 2, 1)),
+        (dict(levels=3, delta=0.0, eps=(0.25, 0.0, 0.0), smoothing=False), (2, 2, 2)),
+        (dict(levels=3, delta=0.0, eps=(0.0, 0.25, 0.25), smoothing=False), (2, 2, 2)),
+        (dict(levels=3, delta=0.1, eps=(0.25, 0.2, 0.25), rule="lichtenberg"), (3, 3, 3)),
     ],
 )
 def test_radii_follow_the_measured_regimes(kw, want):
@@ -1066,4 +1073,3 @@ def test_one_eps_per_level_keeps_each_levels_key_points_in_its_band(device):
         else:
             assert frac.min() < 0.1 and frac.max() > 0.9  # (hundreds of points: some near the borders)
     assert p.radii() == DendryParams(eps=0.0, **base).radii()  # the free regime's searches
-

@@ -431,8 +431,10 @@ _CACHE: dict = {}
 
 def canonical_name(name):
     """The command's name of a preset also given by its function's name (``elm_tree`` or
-    ``elm-tree``: ``tree``); anything else unchanged."""
-    return ALIASES.get(name.replace("-", "_"), name) if isinstance(name, str) else name
+    ``elm-tree``: ``tree``; ``simple_dendrite``: ``simple-dendrite``); anything else unchanged."""
+    if not isinstance(name, str):
+        return name
+    return ALIASES.get(name.replace("-", "_"), name.replace("_", "-"))
 
 
 def all_presets() -> dict[str, Preset]:

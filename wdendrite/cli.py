@@ -154,18 +154,21 @@ def _rename_all(staged) -> None:
     done = []  # (path, where the file it replaced is kept, or None: there was none)
     try:
         for tmp, p in staged:
-            keep = None
+            keep, linked = None, False
             if p.exists():
                 keep = io.temporary_beside(p)
                 keep.unlink()
                 try:
                     os.link(p, keep)
+                    linked = True
                 except OSError:  # no hard links here: the old file moves aside instead
                     os.replace(p, keep)
             try:
                 os.replace(tmp, p)
             except BaseException:
-                if keep is not None:
+                if linked:  # p is still the old file (renaming a link onto it would do nothing)
+                    keep.unlink()
+                elif keep is not None:
                     os.replace(keep, p)
                 raise
             done.append((p, keep))

@@ -76,7 +76,7 @@ def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) 
 
 def _per_level(name: str, value, levels: int, hi: float) -> float | tuple[float, ...]:
     """``value`` in [0, hi]: one number, or a sequence of one per level (a tuple)."""
-    if isinstance(value, (tuple, list, np.ndarray)):
+    if isinstance(value, (tuple, list, np.ndarray)) and np.ndim(value) > 0:
         if len(value) != levels:
             raise ValueError(f"Expected one '{name}' per level ({levels}), but got {tuple(value)!r}")
         return tuple(_float_in(name, v, 0.0, hi) for v in value)
@@ -134,8 +134,8 @@ class DendryParams:
     """Seed of every random number (key points, displacements, terrain noise), in [0, 2**32)."""
     eps: float | tuple[float, ...] = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid;
-    one value for every level, or a tuple of one per level. Below 0.25 at any level links search
-    5 x 5 or 7 x 7 cells (see ``search``).
+    one value for every level, or a tuple of one per level (the terrain's primitives take the
+    finest level's). Below 0.25 at any level links search 5 x 5 or 7 x 7 cells (see ``search``).
 
     In terrains, every level keeps its key points ``eps`` away from cell borders, so the
     subtrees of neighbouring level-1 cells meet along those borders; where they hang at

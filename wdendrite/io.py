@@ -132,10 +132,10 @@ def final_mode(path) -> int:
 
 def temporary_beside(path) -> Path:
     """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
-    stage ``path`` in: :func:`final_mode`'s permissions, writable by its owner while it is
-    written (mkstemp's are private); give it ``final_mode(path)`` before the rename."""
+    stage ``path`` in: :func:`final_mode`'s permissions, readable and writable by its owner while
+    it is written (mkstemp's are private); give it ``final_mode(path)`` before the rename."""
     path = Path(path)
-    mode = final_mode(path) | stat.S_IWUSR
+    mode = final_mode(path) | stat.S_IRUSR | stat.S_IWUSR  # (writers may read back what they write)
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:

@@ -128,15 +128,20 @@ def _cost_per_node(lat: Lattice, centre, radius: float) -> float:
 def simple_dendrite(shape=(600, 600), *, endpoints: int = 15, r: float = 10.0, seed: int = 0) -> Result:
     """A dendrite from one central generator to random endpoints (2007 paper, Table 1: 600^2, 15 endpoints),
     kept apart by rejection sampling as in the paper: a twelfth of the smaller side, or less when
-    many endpoints are asked for (half the side of the square each would have to itself)."""
+    many endpoints are asked for (see :func:`_spacing`)."""
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     cf = shortest_paths(lat, gen)
     den = trace(cf, _endpoints_in("endpoints", endpoints, "in", shape,
-                                  lambda: _ep.random(lat, endpoints, seed=seed, min_spacing=min(
-                                      min(shape) / 12, 0.5 * math.sqrt(shape[0] * shape[1] / endpoints)))))
+                                  lambda: _ep.random(lat, endpoints, seed=seed, min_spacing=_spacing(shape, endpoints))))
     return Result(_drawing(den), den, parts={"lattice": lat})
+
+
+def _spacing(shape, endpoints: int) -> float:
+    """Least distance between random endpoints: a twelfth of the smaller side, or half the side
+    of the square each endpoint would have to itself when many are asked for."""
+    return min(min(shape) / 12, 0.5 * math.sqrt(shape[0] * shape[1] / endpoints))
 
 
 def _fractal_params(half: int, per_node: float, alpha: float, beta: float, iterations: int,
@@ -207,7 +212,7 @@ def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band:
     """One drawing per weight distribution; endpoints fixed, or (``band``) on one cost contour of each field."""
     gen = np.array([[shape[0] // 2, shape[1] // 2]])
     ep = _endpoints_in("endpoints", endpoints, "in", shape,
-                      lambda: _ep.random(shape, endpoints, seed=seed, min_spacing=min(shape) / 12))
+                      lambda: _ep.random(shape, endpoints, seed=seed, min_spacing=_spacing(shape, endpoints)))
     panels, dens = [], []
     for dist in distributions:
         lat = Lattice(shape, connectivity, weights=dist)
