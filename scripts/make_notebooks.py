@@ -123,6 +123,14 @@ calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0, glow_gain=0.6)
 wild = presets.LightningParams(alpha=4.0, forks=16, minor_forks=24, glow_radius=20)
 display(show(presets.lightning((n, n), params=calm, seed=7).image))
 show(presets.lightning((n, n), params=wild, seed=7).image)'''),
+        ("md", "By default brightness falls off with the distance in pixels. The papers use the path cost over the "
+               "lattice the stroke was planned on (`metric=\"path\"`): the same strokes, left, become ragged, right, "
+               "their light creeping along cheap edges:"),
+        ("code", '''\
+import dataclasses
+plain = presets.lightning((n, n), seed=7)
+ragged = presets.lightning((n, n), params=dataclasses.replace(presets.LightningParams(), metric="path"), seed=7)
+show(np.concatenate([plain.image, ragged.image], axis=1))'''),
         ("md", "One path at the papers' widths (constructive path planning Fig. 3, thesis Fig. 4.9). Panels, left to "
                "right: brightness `exp(-(d/T)^2)` with T = 5.0 pixels (a wide glow) and T = 1.6 (a thin stroke); then "
                "the thesis' rule `exp(-a (c d)^2)`, a = 1/10000, with width factor c = 0.6 and c = 0.2, on a path over "
