@@ -185,7 +185,8 @@ def _path_costs(lattice: Lattice, dendrite: Dendrite, name: str, device) -> np.n
     child = np.flatnonzero(dendrite.parent >= 0)
     if not len(child):
         return cost
-    w = lattice._edge_weights(*_dendrite_edges(lattice, dendrite, child, name), device=device)
+    dirs, lower = _dendrite_edges(lattice, dendrite, child, name)
+    w = lattice._edge_weights(dirs, np.ravel_multi_index(tuple(lower.T), lattice.shape), device=device)
     depth = dendrite.depth[child]
     order = np.argsort(depth, kind="stable")
     cuts = np.flatnonzero(np.diff(depth[order])) + 1

@@ -602,19 +602,16 @@ class Lattice:
             vs.append(index[dst][ok])
             ks.append(np.full(len(us[-1]), k, np.int64))
         u, v, k = np.concatenate(us), np.concatenate(vs), np.concatenate(ks)
-        return u, v, self._edge_weights(k, np.stack(np.unravel_index(u, self.shape), axis=1))
+        return u, v, self._edge_weights(k, u)
 
-    def _edge_weights(self, dirs, coords, device="cpu") -> np.ndarray:
-        """float32 weights of the edges ``weights[dirs[i]][coords[i]]`` (rows of ``offsets`` and
-        the ``(E, ndim)`` coordinates of each edge's lower end, both valid: not checked here), as
-        the kernels on ``device`` use them: read from the host records, else evaluated for
-        these edges only, on ``device`` (see :meth:`_kernel_weights`)."""
-        dirs = np.asarray(dirs, np.int64)
-        coords = np.asarray(coords, np.int64).reshape(-1, self.ndim)
+    def _edge_weights(self, dirs, nodes, device="cpu") -> np.ndarray:
+        """float32 weights of the edges ``weights[dirs[i]]`` at flat node ``nodes[i]`` (C order;
+        rows of ``offsets`` and each edge's lower end, both valid: not checked here), as the
+        kernels on ``device`` use them: read from the host records, else evaluated for these
+        edges only, on ``device`` (see :meth:`_kernel_weights`)."""
         if self._weights is not None:
-            return self._weights[(dirs, *coords.T)]
-        flat = np.ravel_multi_index(tuple(coords.T), self.shape)
-        return self.distribution.evaluate(self.shape, self.lengths, flat, dirs, offsets=self.offsets, device=device)
+            return self._weights[(dirs, *np.unravel_index(nodes, self.shape))]
+        return self.distribution.evaluate(self.shape, self.lengths, nodes, dirs, offsets=self.offsets, device=device)
 
     def to_csgraph(self):
         """The lattice as a symmetric ``scipy.sparse.csr_matrix`` of shape (N, N) (needs SciPy).
