@@ -111,11 +111,12 @@ endpoints lie at cost d from the generator and each later iteration's d / alpha^
 dendrite, so its tips reach about d (1 + 1/alpha + ... + 1/alpha^(n-1)) from the centre."""
 
 
-def _cost_per_node(lat: Lattice, centre, radius: float) -> float:
+def _cost_per_node(lat: Lattice, centre, radius: float, dist=None) -> float:
     """Least path cost per node of straight-line distance from ``centre``: the median over the
     nodes between 0.8 and 1 times ``radius`` away (it is well below the mean weight, since least
-    paths pick cheap edges)."""
-    dist = shortest_paths(lat, [centre]).dist
+    paths pick cheap edges). ``dist``: the costs from ``centre`` when already searched."""
+    if dist is None:
+        dist = shortest_paths(lat, [centre]).dist
     grid = np.indices(lat.shape, dtype=np.float64)
     r = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, centre)))
     ring = (r >= 0.8 * radius) & (r <= radius) & np.isfinite(dist)
@@ -448,15 +449,15 @@ def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), 
     # the papers' widths are for 600^2 pictures; keep the look at other sizes
     s = max(min(h, w) / 600.0, 0.5)
 
-    def value_of(den, lat, width, side=None):
+    def value_of(den, lat, width, side=None, dist=None):
         if params.metric == "euclidean":
             return _r.brightness(den, _scaled(width, s), side=None if side is None else _scaled(side, s))
         # widths in path cost: pixels times what a least path costs per pixel on this lattice
-        c = s * _cost_per_node(lat, tuple(den.nodes[den.parent < 0][0]), min(h, w) / 3)
+        c = s * _cost_per_node(lat, tuple(den.nodes[den.parent < 0][0]), min(h, w) / 3, dist)
         return _r.brightness(den, _scaled(width, c), side=None if side is None else _scaled(side, c),
                              metric="path", lattice=lat)
 
-    v1 = value_of(first, lat1, params.main_width, params.fork_width)
+    v1 = value_of(first, lat1, params.main_width, params.fork_width, cf1.dist)  # (first's root: the generator)
     layers, gains, second, lat2 = [v1], [1.0], None, None
     if params.minor_forks:
         lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
