@@ -376,3 +376,10 @@ def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):
     with pytest.raises((ValueError, TypeError), match=match):
         wd.render.relief(**args)
     assert launches == []
+
+
+def test_unit_range_maps_the_finite_values_onto_0_1():
+    a = np.array([[2.0, 4.0, np.nan], [np.inf, 3.0, -np.inf]])
+    np.testing.assert_array_equal(wd.render.unit_range(a), [[0.0, 1.0, 0.0], [0.0, 0.5, 0.0]])
+    np.testing.assert_array_equal(wd.render.unit_range(np.full((2, 3), 7.0)), np.zeros((2, 3)))  # no span
+    np.testing.assert_array_equal(wd.render.unit_range(np.full(4, np.nan)), np.zeros(4))  # nothing finite
