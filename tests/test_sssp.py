@@ -105,6 +105,46 @@ def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo
 
 
 @SETTINGS
+@given(problems(), st.floats(0.01, 100.0), st.one_of(st.just(np.inf), st.floats(0.0, 40.0)), st.data())
+def test_one_launch_search_equals_buckets_driven_from_the_host(problem, delta, limit, data):
+    # the work queue's buckets emptied in one launch (the CPU default) against one launch per
+    # bucket from the host: the same costs and labels bit for bit, the same buckets and
+    # relaxations (the same queue order), cold and warm
+    lat, gens = problem
+    split = data.draw(st.integers(1, len(gens)))
+    runs = []
+    for host in (False, True):
+        first = wd.shortest_paths(lat, gens[:split], limit=limit, delta=delta, _host_rounds=host, device="cpu")
+        cold = (first.dist.copy(), first.label.copy(), first.rounds, first.relaxed)
+        warm = wd.shortest_paths(lat, gens, limit=limit, delta=delta, warm_start=first, _host_rounds=host,
+                                 device="cpu")
+        runs.append((cold, (warm.dist, warm.label, warm.rounds, warm.relaxed)))
+    for (one, host) in zip(*runs):
+        np.testing.assert_array_equal(one[0].view(np.uint32), host[0].view(np.uint32))
+        np.testing.assert_array_equal(one[1], host[1])
+        assert one[2:] == host[2:]
+    _check_against_scipy(lat, gens, wd.shortest_paths(lat, gens, limit=limit, delta=delta), limit=limit)
+
+
+@pytest.mark.parametrize("store", [True, False])
+@pytest.mark.parametrize("shape, conn", [((40, 50), 8), ((12, 13, 14), 26)])
+def test_one_launch_search_equals_host_buckets_on_larger_lattices(shape, conn, store):
+    # many buckets (a narrow delta) over stored and hashed weights, with a mask and a limit
+    rng = np.random.default_rng(5)
+    mask = rng.random(shape) < 0.9
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Power(alpha=3, max=11, seed=2), mask=mask,
+                     store_weights=store)
+    gens = np.argwhere(mask)[rng.integers(0, mask.sum(), 4)]
+    for delta, limit in ((0.3, np.inf), (None, 60.0)):
+        one = wd.shortest_paths(lat, gens, delta=delta, limit=limit, device="cpu")
+        one = (one.dist.copy(), one.label.copy(), one.rounds, one.relaxed)
+        host = wd.shortest_paths(lat, gens, delta=delta, limit=limit, _host_rounds=True, device="cpu")
+        np.testing.assert_array_equal(one[0].view(np.uint32), host.dist.view(np.uint32))
+        np.testing.assert_array_equal(one[1], host.label)
+        assert one[2:] == (host.rounds, host.relaxed) and one[2] > (20 if delta else 0)
+
+
+@SETTINGS
 @given(problems(), st.floats(0.0, 40.0), st.integers(1, 9))
 def test_generation_round_schedule_matches_scipy(problem, limit, threads):
     # the GPU schedule: threads stride over each frontier generation

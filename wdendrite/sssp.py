@@ -1,10 +1,12 @@
 """Shortest path costs from generator nodes over a lattice (near-far delta-stepping).
 
 The search keeps a *near* frontier of nodes whose cost is below a moving
-threshold and a *far* pile of the rest. Each round relaxes the near frontier
-in one kernel launch; when it runs dry the threshold moves up by ``delta`` and
-the far pile is split. Work stays close to the number of nodes reached,
-instead of a whole-lattice sweep per hop as in plain Bellman-Ford.
+threshold and a *far* pile of the rest. Each round relaxes the near frontier;
+when it runs dry the threshold moves up by ``delta`` and the far pile is
+split. Work stays close to the number of nodes reached, instead of a
+whole-lattice sweep per hop as in plain Bellman-Ford. On a GPU the host drives
+the rounds, one launch each; on the CPU (one thread per launch) a single
+launch runs them all, each bucket emptied as a work queue.
 
 Ties are broken by a fixed rule: among generators at the same least cost a
 node takes the lowest generator row (see :class:`CostField`).
@@ -192,6 +194,8 @@ class _Frontiers:
         self.lists = [wp.empty(cap, dtype=wp.int32, device=device) for _ in range(4)]
         self.counts = wp.zeros(4, dtype=wp.int32, device=device)
         self.far_min = wp.full(1, math.inf, dtype=float, device=device)
+        self.stats = wp.zeros(2, dtype=wp.int64, device=device)
+        """Buckets emptied and nodes relaxed by a one-launch search."""
         self._cpu = device.is_cpu
         self.max_threads: int | None = None
         # on the CPU the NumPy views share memory with the device arrays
@@ -237,7 +241,10 @@ def _default_delta(lattice: Lattice) -> float:
     # Least-cost paths run along cheap edges, so the bucket width follows the
     # cheap end of the weights: 16 times their 10th percentile was the best
     # width, within 10 %, on the CPU for both uniform (1 + 10 R) and heavily
-    # skewed power weights (R^3); the mean misleads for the latter by 20x.
+    # skewed power weights (R^3); the mean misleads for the latter by 20x. With all buckets in
+    # one launch (no launch per bucket), half that width relaxed 10-20 % fewer nodes yet took
+    # 0.94-1.02x the time on stored weights (cold searches at 600^2-1024^2 and 80^3, fractal
+    # growth at 512^2) and 0.90x on hashed ones: not enough to make the width depend on the device.
     if lattice._weights is not None:
         # whole rows (along x) spread over the weights held in the host records, read in place: cheap, and they
         # still see weights that vary across the lattice (tropisms, maps)
@@ -309,11 +316,14 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
         )
 
 
-_HOOKS = {"_fifo": None, "_max_threads": None, "_consume_warm_start": False, "_walked": None, "_lowered": None}
+_HOOKS = {"_fifo": None, "_host_rounds": False, "_max_threads": None, "_consume_warm_start": False, "_walked": None,
+          "_lowered": None}
 """Keyword arguments of :func:`shortest_paths` kept out of its signature, with their defaults:
 
 - ``_fifo``: the schedule (default: a work queue per bucket on single-threaded CPU devices,
   generation rounds on GPUs); the tests choose it.
+- ``_host_rounds``: with the work queue, drive the buckets from the host, one launch
+  each, instead of in one launch (the same costs, labels and counts: the tests compare them).
 - ``_max_threads``: threads per generation-round launch (GPU striding exercised on the CPU).
 - ``_consume_warm_start``: the caller will not read ``warm_start`` again, so its costs need
   not be kept when the search reuses their memory.
@@ -369,7 +379,8 @@ def shortest_paths(
     unknown = set(_hooks) - set(_HOOKS)
     if unknown:
         raise TypeError(f"shortest_paths() got an unexpected keyword argument {min(unknown)!r}")
-    _fifo, _max_threads, _consume_warm_start, _walked, _lowered = (_hooks.get(k, v) for k, v in _HOOKS.items())
+    _fifo, _host_rounds, _max_threads, _consume_warm_start, _walked, _lowered = (
+        _hooks.get(k, v) for k, v in _HOOKS.items())
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
     trusted = _walked is not None and isinstance(warm_start, CostField)
@@ -452,7 +463,7 @@ def shortest_paths(
         fr.max_threads = _max_threads
         # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
         kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
-        launches.begin(kernel_limit, fifo, far_id)
+        launches.begin(kernel_limit, fifo, far_id, one_launch=fifo and not _host_rounds)
         rounds, relaxed = _run(arrays, fr, launches, delta_f)
         result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
@@ -584,10 +595,29 @@ class _Launches:
         self._split: dict[tuple[int, int], _Recorded] = {}
         self._search = 0
 
-    def begin(self, limit: float, fifo: bool, far_id: int) -> None:
-        """Start a search with these bounds and schedule."""
-        self._limit, self.fifo, self._far_id = limit, fifo, far_id
+    def begin(self, limit: float, fifo: bool, far_id: int, one_launch: bool = False) -> None:
+        """Start a search with these bounds and schedule (``one_launch``: a work queue whose
+        buckets are all emptied in one launch, see :meth:`whole`)."""
+        self._limit, self.fifo, self._far_id, self.one_launch = limit, fifo, far_id, fifo and one_launch
         self._search += 1
+
+    def whole(self, delta: float, generation: int) -> tuple[int, int]:
+        """Run the whole search in one single-threaded launch; returns (buckets, relaxed nodes).
+
+        The work-queue schedule of :func:`_run` without a launch and a read-back
+        per bucket. (A narrower ``delta`` saves relaxations but, measured with this
+        launch, no time: see :func:`_default_delta`.)
+        """
+        fr, a = self._fr, self._arrays()
+        wp.launch(
+            _k.search_kernel,
+            dim=1,
+            inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[0], fr.lists[2], self._limit,
+                    delta, generation],
+            outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.stats],
+        )
+        rounds, relaxed = (int(v) for v in fr.stats.numpy())
+        return rounds, relaxed
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
         rec = self._relax.get((self.fifo, near, far))
@@ -651,6 +681,8 @@ def _run(arrays, fr: _Frontiers, launches: _Launches, delta: float) -> tuple[int
     """
     fifo = launches.fifo
     queue_generation = arrays.stamps.next() if fifo else 0
+    if launches.one_launch:
+        return launches.whole(delta, queue_generation)
     near, far = 0, 0  # which near list (slot 0/1) and far pile (slot 2/3) are current
     threshold = -math.inf
 
