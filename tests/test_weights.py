@@ -305,6 +305,9 @@ def test_kernel_params_struct():
         (lambda: weights.Uniform(seed=-1), "'seed'"),
         (lambda: weights.Uniform(seed=2**32), "'seed'"),
         (lambda: weights.Constant(value=-1.0), "'value'"),
+        (lambda: weights.Constant(value=1e-50), "'value' >= 1.175e-38"),  # would round to 0 in float32
+        (lambda: weights.Constant(value=1e31), "'value' < 1e\\+30"),
+        (lambda: weights.Biased(weights.Uniform(), ((weights.Tropism("left"), 7),)), "op in 'terms'"),
         (lambda: weights.Tropism("up"), "'toward'"),
         (lambda: weights.Tropism("left", strength=-1.0), "'strength'"),
         (lambda: weights.Tropism("left", exponent=0.0), "'exponent'"),
@@ -376,6 +379,14 @@ def test_overflowing_composite_raises():
 def test_constant_weights_must_be_positive():
     with pytest.raises(ValueError, match="value"):
         weights.Constant(0.0)
+
+
+def test_smallest_constant_weight_stays_positive_in_the_lattice():
+    tiny = float(np.finfo(np.float32).tiny)
+    lat = wd.Lattice((3, 4), 8, weights=weights.Constant(tiny))
+    assert lat.weights.min() > 0
+    with pytest.raises(TypeError, match="'terms'"):
+        weights.Biased(weights.Uniform(), (weights.Tropism("left"),))
 
 
 @pytest.mark.parametrize(

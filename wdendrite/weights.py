@@ -246,10 +246,18 @@ class Constant(Distribution):
     """Weights ``length * value``: no randomness (with ``value = 1``, plain lattice distances)."""
 
     value: float = 1.0
-    """Cost of a unit-length edge; must be > 0 (paths need positive steps)."""
+    """Cost of a unit-length edge; must be > 0 (paths need positive steps), at least float32's
+    smallest normal number (about 1.2e-38; smaller values would round to 0 in the lattice's
+    float32 weights) and below 1e30."""
 
     def __post_init__(self):
-        _number("value", self.value, low=0.0, low_open=True)
+        x = _number("value", self.value, low=0.0, low_open=True)
+        tiny = float(np.finfo(np.float32).tiny)
+        if x < tiny:
+            raise ValueError(f"Expected 'value' >= {tiny:.4g} (float32's smallest normal number; the lattice's "
+                             f"float32 weights would round it to 0), but got {self.value!r}")
+        if not x < _MAX_WEIGHT:
+            raise ValueError(f"Expected 'value' < {_MAX_WEIGHT:g} (the largest supported weight), but got {self.value!r}")
 
     def _base(self):
         return _kw.CONSTANT, float(self.value), 0.0, 0
@@ -582,9 +590,15 @@ class Biased(Distribution):
     def __post_init__(self):
         if not isinstance(self.base, Distribution) or isinstance(self.base, Biased):
             raise TypeError(f"Expected a plain distribution for 'base', but got {self.base!r}")
+        if not isinstance(self.terms, tuple) or any(not (isinstance(t, tuple) and len(t) == 2) for t in self.terms):
+            raise TypeError(f"Expected 'terms' as a tuple of (field, op) pairs, but got {self.terms!r}")
         ops = [op for _, op in self.terms]
         if any(not isinstance(f, _Field) for f, _ in self.terms):
             raise TypeError(f"Expected Tropism or Map fields in 'terms', but got {self.terms!r}")
+        bad = [op for op in ops if isinstance(op, bool) or op not in (_kw.ADD, _kw.MULTIPLY)]
+        if bad:
+            raise ValueError(f"Expected each op in 'terms' to be kernels.weights.ADD ({_kw.ADD}) or MULTIPLY "
+                             f"({_kw.MULTIPLY}), but got {bad[0]!r}")
         if any(a == _kw.MULTIPLY and b == _kw.ADD for a, b in zip(ops, ops[1:])):
             raise ValueError(
                 "A field cannot be added after one was multiplied in: write (dist + field_a) * field_b, "
