@@ -1,9 +1,11 @@
 """The `wdendrite` command, run as a real subprocess (exit codes, messages, files), plus its registry."""
 
 import json
+import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -409,6 +411,19 @@ def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
     assert long.exists() and (tmp_path / "f.npz").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([long.name, "f.npz"])
     assert len(made) == 2  # one temporary per output, made by the command
+
+
+def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch):
+    # each staged file is flushed before any of them takes its name; then the folder is
+    from wdendrite import io
+
+    events = []
+    real_sync, real_folder, real_replace = io.sync_to_disk, io.sync_folder, os.replace
+    monkeypatch.setattr(io, "sync_to_disk", lambda p: (events.append(("file", Path(p).suffix)), real_sync(p)))
+    monkeypatch.setattr(io, "sync_folder", lambda p: (events.append(("folder", Path(p))), real_folder(p)))
+    monkeypatch.setattr(os, "replace", lambda a, b: (events.append(("rename", Path(b).suffix)), real_replace(a, b)))
+    cli.run_preset("fractal", {"size": 32}, [tmp_path / "f.png", tmp_path / "f.npz"], device="cpu")
+    assert events == [("file", ".png"), ("file", ".npz"), ("rename", ".png"), ("rename", ".npz"), ("folder", tmp_path)]
 
 
 @pytest.mark.parametrize("args, config, words", [

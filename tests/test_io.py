@@ -414,3 +414,23 @@ def test_a_dendrite_saved_under_another_suffix_loads_with_its_format(tmp_path):
         np.testing.assert_array_equal(den.nodes, DEN2.nodes)
     with pytest.raises(ValueError, match="Unknown dendrite format from the suffix"):
         load_dendrite(tmp_path / "d-npz.dat")
+
+
+def test_a_written_file_reaches_the_disk_before_its_rename(tmp_path, monkeypatch):
+    # the temporary file is flushed (fsync) before it takes the name, then the folder's entries
+    events = []
+    real_fsync, real_replace, real_link = os.fsync, os.replace, os.link
+
+    def fsync(fd):
+        events.append(("fsync", os.path.basename(os.readlink(f"/proc/self/fd/{fd}"))))
+        real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", lambda a, b: (events.append(("rename", os.path.basename(a))), real_replace(a, b)))
+    monkeypatch.setattr(os, "link", lambda a, b: (events.append(("rename", os.path.basename(a))), real_link(a, b)))
+    for overwrite in (False, True):
+        events.clear()
+        atomic_write(tmp_path / "out.txt", lambda tmp: open(tmp, "w").write("data"), overwrite=overwrite)
+        names = [e for e in events if e[0] == "fsync"]
+        assert len(names) == 2 and names[0][1].startswith(".out.txt.") and names[1][1] == tmp_path.name
+        assert events.index(names[0]) < events.index(("rename", names[0][1])) < events.index(names[1])

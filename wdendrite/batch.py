@@ -508,9 +508,14 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
             done += 1
             if progress:
                 progress(done, len(windows))
+    from .io import sync_folder, sync_to_disk
+
+    if partial.is_file():
+        sync_to_disk(partial)
     if final.exists():
         shutil.rmtree(final) if final.is_dir() else final.unlink()
     os.replace(partial, final)
+    sync_folder(final.parent)
     shutil.rmtree(marks, ignore_errors=True)
     return final
 

@@ -129,10 +129,11 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     try:
         for p in paths:
             mode = io.final_mode(p)
-            tmp = io.temporary_beside(p)
+            tmp = io.temporary_beside(p, mode)
             staged.append((tmp, p))
             with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
                 _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
+            io.sync_to_disk(tmp)
             os.chmod(tmp, mode)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
             if p.exists() and not force:
@@ -182,6 +183,8 @@ def _rename_all(staged) -> None:
     for _, keep in done:
         if keep is not None:
             keep.unlink(missing_ok=True)
+    for folder in {p.parent for p, _ in done}:
+        io.sync_folder(folder)
 
 
 def _save_npy(path, array: np.ndarray) -> None:

@@ -96,9 +96,10 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         write(str(path))
         return path
     mode = final_mode(path)
-    tmp = str(temporary_beside(path))
+    tmp = str(temporary_beside(path, mode))
     try:
         write(tmp)
+        sync_to_disk(tmp)
         os.chmod(tmp, mode)  # (written while the owner could write it)
         if overwrite:
             os.replace(tmp, path)
@@ -118,7 +119,34 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    sync_folder(path.parent)
     return path
+
+
+def sync_to_disk(path) -> None:
+    """Flush the file at ``path`` to the disk before it is renamed over an older one: after a crash
+    the name then holds the old content or the new, never a file the system had not yet written."""
+    fd = os.open(path, os.O_RDWR if os.name == "nt" else os.O_RDONLY)  # (Windows flushes writable files only)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def sync_folder(folder) -> None:
+    """Flush ``folder``'s entries (the renames just made in it) to the disk, where the system allows."""
+    if os.name == "nt":
+        return  # folders cannot be opened for a flush there; NTFS logs renames itself
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some file systems refuse to flush a folder: the renames stand, only less durably
+        pass
+    finally:
+        os.close(fd)
 
 
 def final_mode(path) -> int:
@@ -130,12 +158,12 @@ def final_mode(path) -> int:
         return 0o666 & ~_umask()
 
 
-def temporary_beside(path) -> Path:
+def temporary_beside(path, mode: int | None = None) -> Path:
     """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
-    stage ``path`` in: :func:`final_mode`'s permissions, readable and writable by its owner while
-    it is written (mkstemp's are private); give it ``final_mode(path)`` before the rename."""
+    stage ``path`` in: ``mode`` (default :func:`final_mode`'s), readable and writable by its owner
+    while it is written (mkstemp's are private); give it its final mode before the rename."""
     path = Path(path)
-    mode = final_mode(path) | stat.S_IRUSR | stat.S_IWUSR  # (writers may read back what they write)
+    mode = (final_mode(path) if mode is None else mode) | stat.S_IRUSR | stat.S_IWUSR  # (writers may read back)
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
