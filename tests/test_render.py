@@ -330,6 +330,12 @@ def test_widths_beyond_float32_are_refused():
                  lambda: brightness(DEN, 1e39)):
         with pytest.raises(ValueError, match=r"in \(0, 1e\+30\] as a float32 width"):
             call()
+    # and in an array of widths, naming the first
+    wide = np.full(len(DEN), 2.0)
+    wide[3] = 1e31
+    for call in (lambda: node_widths(DEN, wide), lambda: brightness(DEN, wide)):
+        with pytest.raises(ValueError, match=r"'width' in \(0, 1e\+30\] .* got 1e\+31 at index 3"):
+            call()
 
 
 def _numpy_relief(z, spacing, area=None):

@@ -225,7 +225,12 @@ def _width_values(name: str, width, den: Dendrite, br: Branches) -> np.ndarray:
         return _taper_widths(den, br, width)
     if np.ndim(width) == 0:
         return np.full(len(den), _width_number(name, width))
-    return _checks.float_array(name, width, (len(den),), positive=True).astype(np.float64)
+    values = _checks.float_array(name, width, (len(den),), positive=True).astype(np.float64)
+    wide = np.flatnonzero(values > _WIDEST)
+    if wide.size:
+        raise ValueError(f"Expected every '{name}' in (0, {_WIDEST:g}] as a float32 width, but got "
+                         f"{values[wide[0]]:g} at index {int(wide[0])} ({wide.size} above {_WIDEST:g})")
+    return values
 
 
 def node_widths(dendrite: Dendrite, width: Width = 5.0, *, side: Width | None = None, _name: str = "width") -> np.ndarray:
