@@ -408,16 +408,21 @@ def test_new_generators_on_or_off_the_dendrite_become_roots_only_when_off_it():
     np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])
 
 
-def test_walks_do_not_stop_at_nodes_of_cost_zero_off_the_dendrite():
-    # edges of weight 0 in float32 (a vanishing constant plus a tropism that is 0 in column 0) give
-    # nodes of cost 0 that are not generators: the walks must not take them for dendrite nodes
-    lat = wd.Lattice((20, 20), 4, weights=wd.weights.Constant(1e-46) + wd.weights.Tropism("left", strength=1.0))
-    assert (lat.weights == 0).any()
-    gens = np.array([[0, 0]])  # walks cross a plateau of equal costs toward lower node indices only
-    den = wd.trace(wd.shortest_paths(lat, gens), [[10, 12]])
+@pytest.mark.parametrize("top", [True, False])
+def test_walks_cross_plateaus_of_weights_negligible_against_the_cost(top):
+    # weights must be positive, so only generators cost 0; but a weight below the float32 spacing of
+    # the cost so far (1e-45 after 10 steps of 1) adds nothing: column 0 is a plateau of cost 10, left
+    # at its top or bottom corner, where dist[next] + w == dist[here] holds both ways; the walks must
+    # neither loop nor stop on it, whether its way out lies toward lower or higher node indices
+    w = np.ones((2, 20, 20), np.float32)  # direction 0: (0, 1), direction 1: (1, 0)
+    w[1, :, 0] = 1e-45
+    lat = wd.Lattice((20, 20), 4, weights=w)
+    np.testing.assert_array_equal(lat.offsets, [[0, 1], [1, 0]])
+    gens = np.array([[0, 10]] if top else [[19, 10]])
+    den = wd.trace(wd.shortest_paths(lat, gens), [[5, 15]] if top else [[14, 15]])
     cf = wd.shortest_paths(lat, np.concatenate([gens, den.nodes]))
-    zero = np.argwhere(cf.dist == 0)
-    assert len(zero) > len(den)  # column 0 costs nothing beyond the dendrite's nodes
+    assert (cf.dist[:, 0] == 10).all()  # the plateau
+    assert (cf.dist == 0).sum() == len(den)
     ends = [[2, 3], [18, 5]]
     out = wd.trace(cf, ends, extend=den)
     assert len({tuple(n) for n in out.nodes.tolist()}) == len(out), "a node appears twice"
@@ -430,6 +435,9 @@ def test_walks_do_not_stop_at_nodes_of_cost_zero_off_the_dendrite():
     for e in ends:
         row = int(np.flatnonzero((out.nodes == e).all(axis=1))[0])
         assert tuple(out.nodes[out.path(row)[-1]]) in g
+    # one walk goes along the plateau (up to its top corner, or down to its bottom one)
+    row = int(np.flatnonzero((out.nodes == (ends[1] if top else ends[0])).all(axis=1))[0])
+    assert (out.nodes[out.path(row)][:, 1] == 0).sum() >= 13
 
 
 @pytest.mark.parametrize("field", ["count", "d", "alpha", "beta", "epsilon", "cheap"])
