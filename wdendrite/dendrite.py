@@ -419,8 +419,9 @@ def trace(
             # ... then the dendrite row of every node on it
             rows[all_padded] = np.arange(len(all_padded), dtype=np.int32)
             if claim_zero:
-                # a node of cost 0 is on the dendrite unless an edge weight is 0 in float32: then the
-                # table does not hold some node a walk stopped at, and the walks are made again
+                # a node of cost 0 is on the dendrite: lattices refuse weights of 0, so only generators
+                # cost 0. Should a node of cost 0 off it appear all the same, the table does not hold
+                # some node a walk stopped at, and the walks are made again with the dendrite marked
                 linked = np.concatenate([fresh_pred[fresh_pred >= 0], starts])
                 at = rows[linked]
                 held = (at >= 0) & (at < len(all_padded))
