@@ -258,6 +258,17 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "fractal"\nseeds = [0, -1]\n', ["job 1 (fractal)", "[0, 2**32)", "got -1"]),
     ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["png", "npz"]\n', ["makes no dendrite", "'npz'"]),
     ('out = "o"\n[[job]]\npreset = "rock"\nformats = ["obj", "json"]\n', ["makes no dendrite", "'json'"]),
+    # values the preset would refuse when it runs are refused before any task runs, naming the job
+    ('out = "o"\n[[job]]\npreset = "costs"\n[[job]]\npreset = "fractal"\nsize = 4\n',
+     ["job 2 (fractal)", "'size'", "got 4"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\ngrid = { alpha = [2.0, 0.5] }\n', ["job 1 (fractal)", "'alpha'"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\nformats = "npy"\nparams = { extent = -1 }\n',
+     ["job 1 (terrain)", "'extent'", "-1"]),
+    ('out = "o"\n[[job]]\npreset = "lightning"\nsize = 4\n', ["job 1 (lightning)", "'shape'", "(4, 4)"]),
+    ('out = "o"\n[[job]]\nsize = 4\n', ["job 1", "needs a 'preset'"]),
+    ('out = "o"\n[[job]]\npreset = "costs"\nname = 5\n', ["job 1 (costs)", "'name'", "got 5"]),
+    ('out = "o"\n[[job]]\npreset = "costs"\nname = "' + "n" * 300 + '"\n', ["job 1 (costs)", "shorter 'name'"]),
+    ('out = "o"\ndevice = "cuda:97"\n[[job]]\npreset = "costs"\n', ["job file 'jobs.toml': 'device'", "'cuda:97'"]),
 ])
 def test_bad_job_files_exit_2_and_write_nothing(tmp_path, text, words):
     (tmp_path / "jobs.toml").write_text(text)
@@ -329,12 +340,13 @@ def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     out = tmp_path / "o"
     deadline = time.time() + 120
-    while run.poll() is None and time.time() < deadline and len(list(out.glob("*.manifest.json"))) < 3:
+    while run.poll() is None and time.time() < deadline and len(list(out.glob("*.png"))) < 3:
         time.sleep(0.005)
     run.send_signal(signal.SIGKILL)
     run.wait()
     (out / ".costs_size160_seed39.png.left-by-a-kill.png").write_bytes(b"half")  # as a killed write leaves
-    done = len(list(out.glob("*.manifest.json")))
+    # a task's manifest vouches for its parameters once its outputs are in (before, it only lists them)
+    done = sum(json.loads(m.read_text())["params"] is not None for m in out.glob("*.manifest.json"))
     code, stdout, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
     assert code == 0, err
     assert f"{40 - done} run, {done} already complete" in stdout
@@ -376,3 +388,74 @@ def test_a_job_names_a_preset_by_its_function_too(tmp_path):
                                         '[[job]]\npreset = "simple_dendrite"\nsize = 16\n')
     tasks, _ = batch.load_jobs(tmp_path / "jobs.toml")
     assert [t.preset for t in tasks] == ["tree", "coral", "simple-dendrite"]
+
+
+def test_batch_refuses_files_it_did_not_make_unless_forced(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nseeds = [1, 2]\n')
+    (tmp_path / "o").mkdir()
+    mine = tmp_path / "o" / "costs_size16_seed2.png"
+    mine.write_bytes(b"a picture of mine")
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 2 and "costs_size16_seed2.png" in err and "--force" in err, err
+    assert mine.read_bytes() == b"a picture of mine" and sorted(p.name for p in mine.parent.iterdir()) == [mine.name]
+    code, out, err = wd("batch", "jobs.toml", "--dry-run", cwd=tmp_path)
+    assert code == 0 and out.count("needs --force") == 1
+    code, out, err = wd("batch", "jobs.toml", "--quiet", "--force", cwd=tmp_path)
+    assert code == 0, err
+    assert mine.read_bytes().startswith(b"\x89PNG")
+    # files the batch made are its own: other parameters under the same name overwrite them unforced
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nseeds = [1, 2]\n'
+                                        'params = { generators = 2 }\n')
+    before = mine.read_bytes()
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 0 and "2 run" in out, err
+    assert mine.read_bytes() != before
+    assert json.loads((tmp_path / "o" / "costs_size16_seed2.manifest.json").read_text())["params"]["generators"] == 2
+
+
+def test_a_tiled_job_computes_each_tile_once_for_all_its_outputs(tmp_path):
+    shape, tile = (30, 26), 8
+
+    def value(window):
+        r0, c0, h, w = window
+        return np.add.outer(np.arange(r0, r0 + h) * 0.5, np.cos(np.arange(c0, c0 + w))).astype(np.float32)
+
+    calls = []
+
+    def counted(window, die_after=None):
+        if window[2:] != (1, 1):
+            if die_after is not None and len(calls) == die_after:
+                raise KeyboardInterrupt
+            calls.append(window)
+        return value(window)
+
+    outs = [tmp_path / "a.npy", tmp_path / "b.npy"]
+    with pytest.raises(KeyboardInterrupt):
+        batch.write_tiled(lambda w: counted(w, die_after=4), shape, tile, outs)
+    assert not any(p.exists() for p in outs)  # neither file under its final name
+    assert batch.write_tiled(counted, shape, tile, outs) == outs
+    windows = batch.tile_windows(shape, tile)
+    assert sorted(calls) == sorted(windows)  # each tile once over both runs, for both files
+    for p in outs:
+        assert np.array_equal(np.load(p), value((0, 0, *shape)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
+
+
+def test_workers_on_one_host_take_different_gpus_whatever_their_names():
+    class Client:
+        def __init__(self, addresses):
+            self.addresses = addresses
+
+        def scheduler_info(self, n_workers=-1):
+            return {"workers": {a: {} for a in self.addresses}}
+
+    class Worker:
+        def __init__(self, address, name, client):
+            self.address, self.name, self.client = address, name, client
+
+    addresses = ["tcp://10.0.0.1:4001", "tcp://10.0.0.1:39999", "tcp://10.0.0.2:4000", "tcp://10.0.0.1:5000"]
+    client = Client(addresses)
+    # names that hash alike, or that are not numbers at all, must not put two workers on one GPU
+    workers = [Worker(a, f"worker-{k % 2}", client) for k, a in enumerate(addresses)]
+    ranks = [batch._rank_on_host(w) for w in workers]
+    assert ranks == [0, 2, 0, 1]  # per host, in the order of the addresses

@@ -18,7 +18,6 @@ from typing import Literal
 import numpy as np
 
 from . import _checks
-from ._spec import UsageError
 from .dendry import DendryParams
 from .render import relief, unit_range
 
@@ -61,19 +60,25 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
         cheap: weight factor D of the dendrite's edges in later iterations; 0: its nodes become generators.
         seed: seed of the weights and the endpoints.
     """
-    from . import FractalParams, Lattice, grow, weights
+    from . import Lattice, grow, weights
 
-    if size < 8:
-        raise UsageError(f"--size must be at least 8, got {size}")
-    # defaults: a sparse, readable fractal whose first branches reach most of the way out
-    params = FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
-                           epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
+    params = _fractal_params(size, count, d, alpha, beta, epsilon, cheap)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
     # brightness grows with the number of endpoints a node carries (thicker trunks)
     img = np.zeros(lat.shape)
     img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
     return Made(img, den, parts={"field": img})
+
+
+def _fractal_params(size, count, d, alpha, beta, epsilon, cheap, **_):
+    """The growth parameters of :func:`fractal` (every value checked; what ``fractal.check`` runs)."""
+    from . import FractalParams
+
+    size = _checks.integer("size", size, low=8)
+    # defaults: a sparse, readable fractal whose first branches reach most of the way out
+    return FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
+                         epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
 
 
 def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
@@ -86,10 +91,7 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     """
     from . import Lattice, shortest_paths, weights
 
-    if size < 8:
-        raise UsageError(f"--size must be at least 8, got {size}")
-    if generators < 1:
-        raise UsageError(f"--generators must be at least 1, got {generators}")
+    _costs_check(size, generators)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     gens = _checks.rng(seed).integers(0, size, size=(generators, 2))
     cf = shortest_paths(lat, gens)
@@ -99,6 +101,12 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     tint = (cf.label * 0.61803) % 1.0
     rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
     return Made(rgb, parts={"field": d})
+
+
+def _costs_check(size, generators, **_) -> None:
+    """Check the values of :func:`costs` (what ``costs.check`` runs)."""
+    _checks.integer("size", size, low=8)
+    _checks.integer("generators", generators, low=1)
 
 
 Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]
@@ -113,10 +121,9 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
     """
     from . import control as ctl
 
-    if isinstance(size, bool) or not isinstance(size, int) or size < 1:
-        raise UsageError(f"--size must be a positive integer, got {size!r}")
+    size = _checks.integer("size", size, low=1)
     if not extent > 0 or not math.isfinite(extent):
-        raise UsageError(f"--extent must be a positive number of domain units, got {extent!r}")
+        raise ValueError(f"Expected 'extent' a positive finite number of domain units, but got {extent!r}")
     if control in ("perlin", "ridged"):
         c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
     elif control == "radial":
@@ -126,7 +133,7 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
     elif control == "lichtenberg":
         c = ctl.lichtenberg(scale=0.2)  # [0, 1], as terrains take it; the values keep their order
     else:
-        raise UsageError(f"--control must be one of {', '.join(typing.get_args(Control))}, got {control!r}")
+        raise ValueError(f"Expected 'control' in {typing.get_args(Control)}, but got {control!r}")
     if drained:
         c = ctl.drained(c)
     return {"shape": (size, size), "domain": ((0.0, 0.0), (extent, extent)),
@@ -195,6 +202,17 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
 
     return Made(picture, parts=parts)
 
+
+def _dendry_check(size, params, extent, control, frequency, drained, seed, **_) -> None:
+    """Check the values of :func:`dendry` and :func:`terrain` (what their ``check`` runs)."""
+    dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained, seed=seed)
+
+
+# each model's check takes all its arguments (defaults filled in) and raises what the model would
+# raise for them, without the work: a batch checks every task before it runs any
+fractal.check = _fractal_params
+costs.check = _costs_check
+dendry.check = terrain.check = _dendry_check
 
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}
 """The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""

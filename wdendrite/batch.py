@@ -26,11 +26,17 @@ parameters, seed, device, package version and timing. A task is complete when
 its manifest matches its parameters and every output exists; re-running the file
 skips complete tasks and redoes the rest. Tiled fields record each finished tile,
 so a killed run resumes with the tiles it had not written.
+
+Every task is checked before any runs (values its preset would refuse, file
+names too long). Files in the way of a task's outputs that no manifest of the
+task lists (files the batch did not make) stop the run before it starts unless
+it is forced.
 """
 
 from __future__ import annotations
 
 import functools
+import inspect
 import itertools
 import json
 import os
@@ -53,6 +59,7 @@ _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
 TILED_PRESETS = ("dendry", "terrain")
 _TILED_FORMATS = ("npy", "zarr")
+_NAME_BYTES = 255  # longest file name most file systems take
 
 
 @dataclass
@@ -76,13 +83,22 @@ class Task:
         """Path of the task's manifest."""
         return Path(self.outputs[0]).with_name(self.name + ".manifest.json")
 
-    def complete(self) -> bool:
-        """True when the manifest records these parameters and every output exists."""
+    def _record(self) -> dict:
         try:
             rec = json.loads(self.manifest.read_text())
         except (OSError, ValueError):
-            return False
-        return rec.get("params") == self.params and all(Path(p).exists() for p in self.outputs)
+            return {}
+        return rec if isinstance(rec, dict) else {}
+
+    def complete(self) -> bool:
+        """True when the manifest records these parameters and every output exists."""
+        return self._record().get("params") == self.params and all(Path(p).exists() for p in self.outputs)
+
+    def foreign(self) -> list[str]:
+        """Outputs that exist but that no manifest of this task lists: files a batch did not make."""
+        ours = self._record().get("outputs", [])
+        ours = set(ours) if isinstance(ours, list) else set()
+        return [p for p in self.outputs if p not in ours and os.path.lexists(p)]
 
 
 # --------------------------------------------------------------------------- job files
@@ -132,9 +148,13 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     where = f"job {k + 1}"
     if not isinstance(job, dict):
         raise UsageError(f"{where}: expected a [[job]] table, but got {job!r}")
-    name, presets = canonical_name(job.get("preset")), all_presets()
+    if "preset" not in job:
+        raise UsageError(f"{where}: needs a 'preset', e.g. preset = \"lightning\"")
+    name, presets = canonical_name(job["preset"]), all_presets()
     where = f"job {k + 1} ({name})" if name in presets else where
     _keys(job, _JOB_KEYS, where)
+    if "name" in job and (not isinstance(job["name"], str) or not job["name"].strip()):
+        raise UsageError(f"{where}: 'name' must be a non-empty text (a file stem), but got {job['name']!r}")
     if name not in presets:
         raise UsageError(f"{where}: unknown preset {name!r}{nearest(name, presets)}")
     preset = presets[name]
@@ -184,10 +204,19 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if size is not None:
             values[preset.size_param] = sized[size]
         try:
-            _, full = resolve(preset, values)
+            kwargs, full = resolve(preset, values)
+            check = getattr(preset.func, "check", None)
+            if check is not None:  # the values the preset would refuse, refused before any task runs
+                bound = inspect.signature(preset.func).bind_partial(**kwargs)
+                bound.apply_defaults()
+                check(**bound.arguments)
         except (ValueError, TypeError) as exc:  # a parameter dataclass refused a value: say which job
             raise UsageError(f"{where}: {exc}") from None
         stem = _task_name(job.get("name", name), preset, full, dict(zip(grid, combo)))
+        longest = len(os.fsencode(stem)) + len(".manifest.json")  # as long as ".{stem}.partial.zarr"
+        if longest > _NAME_BYTES:
+            raise UsageError(f"{where}: the task name {stem[:40]!r}... makes file names of {longest} bytes, "
+                             f"more than the {_NAME_BYTES} file systems allow; give the job a shorter 'name'")
         tasks.append(Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile))
     return tasks
 
@@ -299,7 +328,8 @@ def _write_manifest(task: Task, rec: dict) -> None:
 
 
 def worker_device(device: str | None) -> str | None:
-    """On a Dask worker, plain ``"cuda"`` means one GPU per worker: worker k gets ``cuda:(k mod GPUs)``.
+    """On a Dask worker, plain ``"cuda"`` means one GPU per worker: the workers on one machine, in the
+    order of their addresses, take its GPUs in turn (``cuda:(k mod GPUs)`` for the k-th of them).
 
     Anywhere else (or for any other device) ``device`` is returned as it is.
     """
@@ -308,24 +338,53 @@ def worker_device(device: str | None) -> str | None:
     try:
         from distributed import get_worker
 
-        name = get_worker().name
+        worker = get_worker()
     except (ImportError, ValueError):  # not on a worker
         return device
-    import zlib
-
     import warp as wp
 
     count = wp.get_cuda_device_count()
-    k = name if isinstance(name, int) else zlib.crc32(str(name).encode())
-    return f"cuda:{k % count}" if count else device
+    if not count:
+        return device
+    return f"cuda:{_rank_on_host(worker) % count}"
+
+
+def _rank_on_host(worker) -> int:
+    """The place of ``worker`` among the scheduler's workers on its host, ordered by address (cached)."""
+    if getattr(worker, "_wdendrite_rank", None) is None:
+        host = worker.address.rsplit(":", 1)[0]
+        try:
+            info = worker.client.scheduler_info(n_workers=-1)["workers"]
+        except TypeError:  # distributed before n_workers=: every worker is listed
+            info = worker.client.scheduler_info()["workers"]
+        port = lambda a: int(a.rsplit(":", 1)[1]) if a.rsplit(":", 1)[1].isdigit() else -1  # noqa: E731
+        peers = sorted((a for a in info if a.rsplit(":", 1)[0] == host), key=lambda a: (port(a), a))
+        rank = peers.index(worker.address) if worker.address in peers else worker.name
+        worker._wdendrite_rank = rank if isinstance(rank, int) else 0
+    return worker._wdendrite_rank
+
+
+def _claim(task: Task) -> None:
+    """Before a task runs: an old manifest must not vouch for new outputs. Where outputs exist already
+    it is replaced by one that lists them but vouches for no parameters (the task is not complete
+    until its new manifest is written, and its files stay known as the batch's); else it goes."""
+    if any(os.path.lexists(p) for p in task.outputs):
+        _write_manifest(task, {"name": task.name, "preset": task.preset, "params": None,
+                               "outputs": task.outputs, "running": True})
+    else:
+        task.manifest.unlink(missing_ok=True)
 
 
 def run_task(task: Task, device: str | None = None) -> dict:
-    """Run one (untiled) task, write its outputs and then its manifest; return the manifest."""
+    """Run one (untiled) task, write its outputs and then its manifest; return the manifest.
+
+    Outputs that exist are overwritten: :func:`run_file` refuses, before any task runs, files
+    that no manifest lists unless it is forced.
+    """
     from .cli import run_preset
 
     started = time.time()
-    task.manifest.unlink(missing_ok=True)  # an old manifest must not vouch for new outputs
+    _claim(task)  # an old manifest must not vouch for new outputs
     rec = run_preset(task.preset, task.values, task.outputs, device=worker_device(device), force=True, quiet=True)
     man = _manifest(task, rec, started)
     _write_manifest(task, man)
@@ -414,10 +473,13 @@ class _Target:
         self.mark(window).touch()
 
 
-def _store_block(block, target: _Target, block_info=None):
-    (r0, r1), (c0, c1) = block_info[0]["array-location"]
-    target.write((r0, c0, r1 - r0, c1 - c0), block)
-    return np.ones((1, 1), np.int8)
+def _tile_into(window, tile_fn, targets) -> tuple:
+    """Compute one tile and write it into every target that lacks it; return its window."""
+    values = np.asarray(tile_fn(window), np.float32)
+    for target in targets:
+        if not target.mark(window).exists():
+            target.write(window, values)
+    return window
 
 
 def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
@@ -459,65 +521,69 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
     return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
 
 
-def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "") -> Path:
+def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = ""):
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
-    Finished tiles are recorded; calling again after an interruption computes only the
-    missing ones. On a Dask ``client`` the tiles are the blocks of :func:`tiled_array`,
-    computed by the workers, which write them straight into the file (they must share
-    its file system). The finished file replaces ``path`` by a rename.
+    ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
+    computed once and written to all of them, and they are renamed into place together
+    once every tile is in. Finished tiles are recorded; calling again after an
+    interruption computes only the missing ones. On a Dask ``client`` each tile is one
+    task of the workers, which write it straight into the files (they must share the
+    file system). Every finished file replaces its path by a rename.
 
     Args:
-        tile_fn: ``(row0, col0, h, w) -> (h, w)`` array, the window of the whole image.
+        tile_fn: ``(row0, col0, h, w) -> (h, w)`` array, the window of the whole image
+            (picklable when a ``client`` computes it).
         shape: (H, W) of the whole image.
         tile: tile side in pixels.
-        path: the output file.
+        path: the output file, or a list of them.
         client: a ``distributed.Client`` (None: compute here, one tile after another).
         progress: a callable told ``(done, total)`` after every tile.
         key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
 
+    Returns:
+        The written path (a list of them when ``path`` is a list).
+
     Raises:
         whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
-        pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial file
-        is made.
+        pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
+        are made.
     """
-    final = Path(path)
+    finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
     if client is None:
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)
-    partial, marks = _open_partial(final, shape, tile, key)
-    target = _Target(partial, marks)
+    opened = [_open_partial(final, shape, tile, key) for final in finals]
+    targets = [_Target(partial, marks) for partial, marks in opened]
     windows = tile_windows(shape, tile)
-    todo = [w for w in windows if not target.mark(w).exists()]
+    todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
     done = len(windows) - len(todo)
     if client is None:
-        for w in todo:
-            target.write(w, np.asarray(tile_fn(w), np.float32))
-            done += 1
-            if progress:
-                progress(done, len(windows))
+        finished = (_tile_into(w, tile_fn, targets) for w in todo)
     else:
         from distributed import as_completed
 
-        arr = tiled_array(tile_fn, shape, tile)
-        stored = arr.map_blocks(_store_block, target, dtype=np.int8, chunks=((1,) * arr.numblocks[0],
-                                                                              (1,) * arr.numblocks[1]))
-        futures = [client.compute(stored.blocks[w[0] // tile, w[1] // tile]) for w in todo]
-        for fut in as_completed(futures):
-            fut.result()
-            done += 1
-            if progress:
-                progress(done, len(windows))
+        # one task per tile (not one graph per tile of a Dask array, whose cost grows with the tiles)
+        finished = (f.result() for f in as_completed(client.map(_tile_into, todo, tile_fn=tile_fn,
+                                                                targets=targets, pure=False)))
+    for _ in finished:
+        done += 1
+        if progress:
+            progress(done, len(windows))
     from .io import sync_folder, sync_to_disk
 
-    if partial.is_file():
-        sync_to_disk(partial)
-    if final.exists():
-        shutil.rmtree(final) if final.is_dir() else final.unlink()
-    os.replace(partial, final)
-    sync_folder(final.parent)
-    shutil.rmtree(marks, ignore_errors=True)
-    return final
+    for partial, _ in opened:
+        if partial.is_file():
+            sync_to_disk(partial)
+    for final, (partial, marks) in zip(finals, opened):
+        if final.exists():
+            shutil.rmtree(final) if final.is_dir() else final.unlink()
+        os.replace(partial, final)
+    for folder in dict.fromkeys(f.parent for f in finals):
+        sync_folder(folder)
+    for _, marks in opened:
+        shutil.rmtree(marks, ignore_errors=True)
+    return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
 def _default_device_kind() -> str:
@@ -542,17 +608,16 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     from .cli import pick_device
 
     started = time.time()
-    if manifest:
-        task.manifest.unlink(missing_ok=True)
     setup, output = _tiled_setup(task)
     dev = device if client is not None else pick_device(device)
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=dev)
     t0 = time.perf_counter()
     # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
     kind = _workers_device_kind(client) if dev is None else str(dev).split(":")[0]
-    for out in task.outputs:
-        write_tiled(fn, setup["shape"], task.tile, out, client=client, progress=progress,
-                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
+    if manifest:
+        _claim(task)
+    write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
+                key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
     rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
@@ -580,7 +645,8 @@ def _client(scheduler: str, workers: int | None, processes: bool, timeout: float
 
 
 def run_file(path, *, scheduler: str | None = None, device: str | None = None, workers: int | None = None,
-             quiet: bool = False, dry_run: bool = False, processes: bool = True, timeout: float = 10.0) -> int:
+             quiet: bool = False, dry_run: bool = False, processes: bool = True, timeout: float = 10.0,
+             force: bool = False) -> int:
     """Run every task of a job file that is not complete; return the exit code.
 
     0: every task is complete; 2: some tasks were rejected by their presets (values out of
@@ -597,9 +663,12 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         dry_run: only list the tasks and whether each is complete.
         processes: LocalCluster workers as processes (False: threads of this process).
         timeout: seconds to wait for a scheduler at an address.
+        force: overwrite files in the output folder that no manifest of the batch lists
+            (without it they are refused before any task runs).
 
     Raises:
-        UsageError: a bad job file, an unwritable folder, an unreachable scheduler (before any task runs).
+        UsageError: a bad job file, an unwritable folder, files the batch did not make in the
+            way of its outputs (without ``force``), an unreachable scheduler (before any task runs).
     """
     from .cli import check_device_name, pick_device
 
@@ -612,22 +681,35 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     if workers is not None and scheduler != "local":
         raise UsageError("--workers sets the size of a LocalCluster: use it with --scheduler local")
     tasks, settings = load_jobs(path)
+    from_file = device is None and settings["device"] is not None
     device = device or settings["device"]
     # validated here, before any work
-    if scheduler is None:
-        device = pick_device(device)
-    elif device is not None:
-        check_device_name(device)
-        if scheduler == "local":
-            pick_device(device)  # the workers run on this machine: the device must be here
-        # a plain "cuda" stays as it is: each worker takes a GPU of its own (worker_device)
+    try:
+        if scheduler is None:
+            device = pick_device(device)
+        elif device is not None:
+            check_device_name(device)
+            if scheduler == "local":
+                pick_device(device)  # the workers run on this machine: the device must be here
+            # a plain "cuda" stays as it is: each worker takes a GPU of its own (worker_device)
+    except UsageError as exc:
+        if from_file:  # the messages speak of the option; the value came from the file
+            raise UsageError(str(exc).replace("--device", f"job file {str(path)!r}: 'device'", 1)) from None
+        raise
     if dry_run:
         for t in tasks:
-            print(f"{'done' if t.complete() else 'todo'}  {t.name}  -> {', '.join(t.outputs)}")
+            state = "done" if t.complete() else "todo"
+            note = "  (overwrites files the batch did not make: needs --force)" if state == "todo" and t.foreign() else ""
+            print(f"{state}  {t.name}  -> {', '.join(t.outputs)}{note}")
         return 0
+    todo = [t for t in tasks if not t.complete()]
+    foreign = [p for t in todo for p in t.foreign()]
+    if foreign and not force:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise UsageError(f"{foreign[0]!r}{more} exist but no manifest of this batch lists them: the batch "
+                         "did not make them. Move them away, or pass --force to overwrite them")
     created = not settings["out"].exists()
     _prepare_folder(settings["out"])
-    todo = [t for t in tasks if not t.complete()]
     for t in todo:
         _sweep_temporaries(t)
     client = cluster = None

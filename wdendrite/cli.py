@@ -428,6 +428,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--timeout", type=float, default=10.0, metavar="SECONDS",
                    help="how long to wait for a scheduler at an address (default: 10) [s]")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--force", action="store_true",
+                   help="overwrite files in the output folder that an earlier batch did not make")
     b.add_argument("--dry-run", action="store_true", help="list the tasks and whether they are done, run nothing")
     b.set_defaults(_preset=None)
     return p
@@ -473,7 +475,7 @@ def main(argv=None) -> int:
             from .batch import run_file
 
             return run_file(args.jobs, scheduler=args.scheduler, device=args.device, workers=args.workers,
-                            quiet=args.quiet, dry_run=args.dry_run, timeout=args.timeout)
+                            quiet=args.quiet, dry_run=args.dry_run, timeout=args.timeout, force=args.force)
         preset = all_presets()[args._preset]
         values = _values_from(args, preset)
         if getattr(args, "size", None) is not None and isinstance(values[preset.size_param], tuple):
