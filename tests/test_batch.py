@@ -220,6 +220,13 @@ def test_zarr_output(tmp_path):
 
     batch.write_tiled(value, (20, 30), 8, tmp_path / "v.zarr")
     assert np.array_equal(zarr.open_array(str(tmp_path / "v.zarr"), mode="r")[:], value((0, 0, 20, 30)))
+    # both formats of one image, each tile computed once for the two
+    calls = []
+    outs = batch.write_tiled(lambda w: calls.append(w) or value(w), (20, 30), 8, [tmp_path / "w.npy",
+                                                                                  tmp_path / "w.zarr"])
+    assert len(calls) == len(batch.tile_windows((20, 30), 8)) + len(batch.probe_windows((20, 30)))
+    assert np.array_equal(np.load(outs[0]), value((0, 0, 20, 30)))
+    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 30)))
 
 
 def test_batch_on_a_local_cluster_of_processes(tmp_path):
