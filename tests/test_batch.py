@@ -272,6 +272,14 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\nformats = "npy"\nparams = { extent = -1 }\n',
      ["job 1 (terrain)", "'extent'", "-1"]),
     ('out = "o"\n[[job]]\npreset = "lightning"\nsize = 4\n', ["job 1 (lightning)", "'shape'", "(4, 4)"]),
+    ('out = "o"\n[[job]]\npreset = "simple-dendrite"\nsize = 32\ngrid = { endpoints = [3, 0] }\n',
+     ["job 1 (simple-dendrite)", "'endpoints'", "got 0"]),
+    ('out = "o"\n[[job]]\npreset = "coral"\nparams = { refine_n = 2 }\n', ["job 1 (coral)", "'refine_n'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 100000\n', ["job 1 (fractal)", "2**31"]),
+    ('out = "o"\n[[job]]\npreset = ["fractal"]\n', ["job 1", "needs a 'preset' name", "['fractal']"]),
+    ('out = "o"\n[[job]]\npreset = "letters"\nformats = ["json", "png"]\ngrid = { text = ["Hi"] }\n'
+     '[[job]]\npreset = "letters"\nformats = ["json"]\ngrid = { text = ["Hi.manifest"] }\n',
+     ["would both write", "textHi.manifest.json"]),
     ('out = "o"\n[[job]]\nsize = 4\n', ["job 1", "needs a 'preset'"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nname = 5\n', ["job 1 (costs)", "'name'", "got 5"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nname = "' + "n" * 300 + '"\n', ["job 1 (costs)", "shorter 'name'"]),
@@ -351,21 +359,25 @@ def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
         time.sleep(0.005)
     run.send_signal(signal.SIGKILL)
     run.wait()
-    (out / ".costs_size160_seed39.png.left-by-a-kill.png").write_bytes(b"half")  # as a killed write leaves
+    (out / ".costs_size160_seed39.png.k1ll3d_x.png").write_bytes(b"half")  # as a killed write leaves (mkstemp's 8)
+    mine = out / ".costs_size160_seed39.png.orig"  # a file of the user's, named alike
+    mine.write_bytes(b"mine")
     # a task's manifest vouches for its parameters once its outputs are in (before, it only lists them)
     done = sum(json.loads(m.read_text())["params"] is not None for m in out.glob("*.manifest.json"))
     code, stdout, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
     assert code == 0, err
     assert f"{40 - done} run, {done} already complete" in stdout
     assert len(list(out.glob("*.manifest.json"))) == 40 and len(list(out.glob("*.png"))) == 40
-    assert not [p.name for p in out.iterdir() if p.name.startswith(".")]
+    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [mine.name]
 
 
 def test_a_value_out_of_range_fails_its_task_only_with_exit_2(tmp_path):
+    # more endpoints than the lattice has nodes: found only once the lattice is built (a value a
+    # preset refuses outright, such as endpoints = 0, is refused before any task runs)
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "simple-dendrite"\nsize = 32\n'
-                                        'grid = { endpoints = [3, 0] }\n')
+                                        'grid = { endpoints = [3, 5000] }\n')
     code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
-    assert code == 2 and "endpoints" in err and "Traceback" not in err
+    assert code == 2 and "'endpoints' = 5000" in err and "Traceback" not in err
     names = sorted(p.name for p in (tmp_path / "o").iterdir())
     assert names == ["simple-dendrite_shape32x32_seed0_endpoints3.manifest.json",
                      "simple-dendrite_shape32x32_seed0_endpoints3.png"]
@@ -466,3 +478,75 @@ def test_workers_on_one_host_take_different_gpus_whatever_their_names():
     workers = [Worker(a, f"worker-{k % 2}", client) for k, a in enumerate(addresses)]
     ranks = [batch._rank_on_host(w) for w in workers]
     assert ranks == [0, 2, 0, 1]  # per host, in the order of the addresses
+    # the first worker restarts on a higher port: the others' places are asked again, not kept
+    restarted = Worker("tcp://10.0.0.1:41000", "worker-0", client)
+    client.addresses = [restarted.address] + addresses[1:]
+    assert sorted(batch._rank_on_host(w) for w in (restarted, workers[1], workers[3])) == [0, 1, 2]
+
+
+def test_a_batch_killed_before_a_manifest_keeps_its_files_its_own(tmp_path, monkeypatch):
+    # killed after a task's outputs are in place but before its manifest: the next run redoes the
+    # task instead of refusing the files as someone else's
+    (tmp_path / "jobs.toml").write_text('out = "o"\nformats = ["png", "npy"]\n[[job]]\npreset = "costs"\nsize = 16\n')
+    real = batch._manifest
+
+    def killed(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch, "_manifest", killed)
+    with pytest.raises(KeyboardInterrupt):
+        batch.run_file(tmp_path / "jobs.toml", quiet=True)
+    out = tmp_path / "o"
+    assert {p.name for p in out.iterdir()} == {"costs_size16_seed0.png", "costs_size16_seed0.npy",
+                                               "costs_size16_seed0.manifest.json"}
+    monkeypatch.setattr(batch, "_manifest", real)
+    assert batch.run_file(tmp_path / "jobs.toml", quiet=True) == 0
+    assert json.loads((out / "costs_size16_seed0.manifest.json").read_text())["params"]["size"] == 16
+
+
+def test_a_moved_project_keeps_its_files_and_odd_manifests_do_not_crash(tmp_path):
+    first = tmp_path / "proj"
+    first.mkdir()
+    (first / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n')
+    assert wd("batch", "jobs.toml", "--quiet", cwd=first)[0] == 0
+    moved = tmp_path / "moved"
+    first.rename(moved)
+    (moved / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nparams = { generators = 2 }\n')
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=moved)
+    assert code == 0 and "1 run" in out, err
+    # a manifest whose outputs are not file names vouches for nothing: the files count as foreign
+    man = moved / "o" / "costs_size16_seed0.manifest.json"
+    man.write_text(json.dumps({"params": None, "outputs": [["x"], {"y": 1}, 3]}))
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=moved)
+    assert code == 2 and "--force" in err and "Traceback" not in err, err
+    assert wd("batch", "jobs.toml", "--quiet", "--force", cwd=moved)[0] == 0
+
+
+def test_a_folder_in_the_way_of_an_output_is_refused_before_any_task(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nseeds = [1, 2]\n')
+    (tmp_path / "o" / "costs_size16_seed2.png").mkdir(parents=True)
+    for force in ([], ["--force"]):
+        code, out, err = wd("batch", "jobs.toml", "--quiet", *force, cwd=tmp_path)
+        assert code == 2 and "is a folder" in err, err
+        assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["costs_size16_seed2.png"]
+
+
+def test_tiled_outputs_replace_old_stores_and_links(tmp_path):
+    zarr = pytest.importorskip("zarr")
+
+    def value(window, plus=0.0):
+        r0, c0, h, w = window
+        return (np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 0.1) + plus).astype(np.float32)
+
+    outs = [tmp_path / "t.npy", tmp_path / "t.zarr"]
+    batch.write_tiled(value, (20, 17), 8, outs)
+    # the new image replaces an old store (a folder) and, through a link, leaves what it pointed at
+    theirs = tmp_path / "elsewhere.npy"
+    np.save(theirs, np.zeros(3))
+    outs[0].unlink()
+    outs[0].symlink_to(theirs)
+    batch.write_tiled(lambda w: value(w, 1.0), (20, 17), 8, outs)
+    assert not outs[0].is_symlink() and np.array_equal(np.load(outs[0]), value((0, 0, 20, 17), 1.0))
+    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 17), 1.0))
+    assert np.array_equal(np.load(theirs), np.zeros(3))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.npy", "t.npy", "t.zarr"]

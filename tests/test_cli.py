@@ -514,3 +514,10 @@ def test_a_bad_integer_for_a_common_option_is_one_line(value, capsys):
         err = capsys.readouterr().err.strip()
         assert exc.value.code == 2 and len(err.splitlines()) == 1, err
         assert f"argument {option}: invalid int value: '{value}'" in err and "--help" in err
+
+
+def test_a_tiled_output_whose_partial_file_name_would_be_too_long_is_refused(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["terrain", "--size", "32", "--tile", "8", "-o", "a" * 244 + ".npy", "--quiet"]) == 2
+    assert "2 bytes too long" in capsys.readouterr().err and not list(tmp_path.iterdir())
+    assert cli.main(["terrain", "--size", "32", "--tile", "8", "-o", "a" * 240 + ".npy", "--quiet"]) == 0

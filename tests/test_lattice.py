@@ -251,3 +251,18 @@ def test_weights_across_an_axis_of_size_1_must_be_positive_and_the_message_says_
     w3 = np.ones((2, 3, 5), np.float32)
     w3[1, -1] = 0.0  # on a 3 x 5 lattice the outside row is ignored
     wd.Lattice((3, 5), 4, weights=w3)
+
+
+def test_checking_mode_checks_a_lattice_and_stops_before_its_records():
+    from wdendrite import _checks
+
+    with _checks.checking_only():
+        with pytest.raises(ValueError, match="connectivity"):
+            wd.Lattice((16, 16), 5)
+        with pytest.raises(ValueError, match="'r'"):
+            wd.Lattice((16, 16), 8, weights=wd.weights.Uniform(r=-1.0))
+        with pytest.raises(ValueError, match="2\\*\\*31"):
+            wd.Lattice((30_000, 30_000), 8)  # too many record words for int32 indices
+        with pytest.raises(_checks.Checked):
+            wd.Lattice((2000, 2000), 8, weights=wd.weights.Uniform(seed=0))
+    assert wd.Lattice((16, 16), 8).weights.shape == (4, 16, 16)  # outside it, lattices are built

@@ -6,6 +6,8 @@ type or dtype) with a message that names the parameter and what it received.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import os
 
@@ -269,3 +271,31 @@ def rng(seed, name: str = "seed") -> np.random.Generator:
     if seed < 0:
         raise ValueError(f"Expected a non-negative '{name}', but got {seed!r}")
     return np.random.default_rng(int(seed))
+
+
+class Checked(Exception):
+    """Raised by :func:`stop_if_checking` inside :func:`checking_only`: the work was about to begin."""
+
+
+_CHECKING = contextvars.ContextVar("wdendrite_checking_only", default=False)
+
+
+@contextlib.contextmanager
+def checking_only():
+    """Run code only up to its first real work: inside, :func:`stop_if_checking` raises :class:`Checked`.
+
+    A preset's function called in this context checks its arguments (and those of the
+    lattice it builds) and stops when its first :class:`~wdendrite.Lattice` is about to be
+    filled: what a batch does with every task before running any.
+    """
+    token = _CHECKING.set(True)
+    try:
+        yield
+    finally:
+        _CHECKING.reset(token)
+
+
+def stop_if_checking() -> None:
+    """Raise :class:`Checked` inside :func:`checking_only` (called where work begins)."""
+    if _CHECKING.get():
+        raise Checked()

@@ -71,8 +71,8 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
     return Made(img, den, parts={"field": img})
 
 
-def _fractal_params(size, count, d, alpha, beta, epsilon, cheap, **_):
-    """The growth parameters of :func:`fractal` (every value checked; what ``fractal.check`` runs)."""
+def _fractal_params(size, count, d, alpha, beta, epsilon, cheap):
+    """The growth parameters of :func:`fractal` (every value checked)."""
     from . import FractalParams
 
     size = _checks.integer("size", size, low=8)
@@ -103,8 +103,8 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     return Made(rgb, parts={"field": d})
 
 
-def _costs_check(size, generators, **_) -> None:
-    """Check the values of :func:`costs` (what ``costs.check`` runs)."""
+def _costs_check(size, generators) -> None:
+    """Check the values of :func:`costs`."""
     _checks.integer("size", size, low=8)
     _checks.integer("generators", generators, low=1)
 
@@ -208,10 +208,9 @@ def _dendry_check(size, params, extent, control, frequency, drained, seed, **_) 
     dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained, seed=seed)
 
 
-# each model's check takes all its arguments (defaults filled in) and raises what the model would
-# raise for them, without the work: a batch checks every task before it runs any
-fractal.check = _fractal_params
-costs.check = _costs_check
+# a batch checks every task before it runs any: the path-planning models stop at their first
+# lattice in checking mode; the Dendry models build none, so their check takes all their
+# arguments (defaults filled in) and raises what the model would, without the work
 dendry.check = terrain.check = _dendry_check
 
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}

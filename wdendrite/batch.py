@@ -27,14 +27,17 @@ its manifest matches its parameters and every output exists; re-running the file
 skips complete tasks and redoes the rest. Tiled fields record each finished tile,
 so a killed run resumes with the tiles it had not written.
 
-Every task is checked before any runs (values its preset would refuse, file
-names too long). Files in the way of a task's outputs that no manifest of the
+Every task is checked before any runs: values its preset would refuse (each
+preset runs in :func:`wdendrite._checks.checking_only` mode, which stops it where
+its first lattice would be filled, or through its ``check`` attribute), file
+names too long, two tasks writing one file. Files in the way of a task's outputs that no manifest of the
 task lists (files the batch did not make) stop the run before it starts unless
 it is forced.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import inspect
 import itertools
@@ -95,10 +98,14 @@ class Task:
         return self._record().get("params") == self.params and all(Path(p).exists() for p in self.outputs)
 
     def foreign(self) -> list[str]:
-        """Outputs that exist but that no manifest of this task lists: files a batch did not make."""
-        ours = self._record().get("outputs", [])
-        ours = set(ours) if isinstance(ours, list) else set()
-        return [p for p in self.outputs if p not in ours and os.path.lexists(p)]
+        """Outputs that exist but that no manifest of this task lists: files a batch did not make.
+
+        Outputs sit beside the manifest, so they are compared by file name (a project moved or
+        reached through another path keeps its files).
+        """
+        listed = self._record().get("outputs", [])
+        ours = {Path(p).name for p in listed if isinstance(p, str)} if isinstance(listed, list) else set()
+        return [p for p in self.outputs if Path(p).name not in ours and os.path.lexists(p)]
 
 
 # --------------------------------------------------------------------------- job files
@@ -148,8 +155,9 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     where = f"job {k + 1}"
     if not isinstance(job, dict):
         raise UsageError(f"{where}: expected a [[job]] table, but got {job!r}")
-    if "preset" not in job:
-        raise UsageError(f"{where}: needs a 'preset', e.g. preset = \"lightning\"")
+    if not isinstance(job.get("preset"), str):
+        raise UsageError(f"{where}: needs a 'preset' name, e.g. preset = \"lightning\"" +
+                         (f", but got {job['preset']!r}" if "preset" in job else ""))
     name, presets = canonical_name(job["preset"]), all_presets()
     where = f"job {k + 1} ({name})" if name in presets else where
     _keys(job, _JOB_KEYS, where)
@@ -194,6 +202,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         raise UsageError(f"{where}: preset {name!r} makes a 3D dendrite, which SVG cannot draw; drop 'svg'")
     tile = _tile(job.get("tile"), name, fmts, where)
     tasks = []
+    checked = set()  # the values checked already (seeds aside)
     for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
         values = {p: preset.params[p].convert(v, source=f"{where} params {p!r}") for p, v in fixed.items()}
         values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}") for p, v in zip(grid, combo)})
@@ -205,12 +214,8 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
             values[preset.size_param] = sized[size]
         try:
             kwargs, full = resolve(preset, values)
-            check = getattr(preset.func, "check", None)
-            if check is not None:  # the values the preset would refuse, refused before any task runs
-                bound = inspect.signature(preset.func).bind_partial(**kwargs)
-                bound.apply_defaults()
-                check(**bound.arguments)
-        except (ValueError, TypeError) as exc:  # a parameter dataclass refused a value: say which job
+            _check_values(preset, kwargs, checked)
+        except (ValueError, TypeError) as exc:  # the preset refused a value: say which job
             raise UsageError(f"{where}: {exc}") from None
         stem = _task_name(job.get("name", name), preset, full, dict(zip(grid, combo)))
         longest = len(os.fsencode(stem)) + len(".manifest.json")  # as long as ".{stem}.partial.zarr"
@@ -219,6 +224,32 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
                              f"more than the {_NAME_BYTES} file systems allow; give the job a shorter 'name'")
         tasks.append(Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile))
     return tasks
+
+
+def _check_values(preset, kwargs: dict, checked: set) -> None:
+    """Raise what ``preset`` would raise for ``kwargs`` as soon as it ran, without its work.
+
+    A function with a ``check`` attribute gets every argument (defaults filled in); any other
+    runs in :func:`wdendrite._checks.checking_only` mode, which stops it where its first lattice
+    is about to be filled. Values that differ only in their seed are checked once.
+    """
+    from . import _checks
+
+    key = repr(sorted((k, v) for k, v in kwargs.items() if k != "seed"))
+    if key in checked:
+        return
+    check = getattr(preset.func, "check", None)
+    if check is not None:
+        bound = inspect.signature(preset.func).bind_partial(**kwargs)
+        bound.apply_defaults()
+        check(**bound.arguments)
+    else:
+        try:
+            with _checks.checking_only():
+                preset.func(**kwargs)
+        except _checks.Checked:
+            pass
+    checked.add(key)
 
 
 def need_zarr(paths) -> None:
@@ -273,25 +304,47 @@ def load_jobs(path) -> tuple[list[Task], dict]:
     folder = (path.parent / raw["out"]).resolve()
     top_formats = raw.get("formats", ["png"])
     tasks = [t for k, job in enumerate(jobs) for t in _job_tasks(job, k, folder, top_formats)]
-    seen = {}
+    seen, written = {}, {}
     for t in tasks:
         if t.name in seen:
             raise UsageError(f"two tasks would write {t.name!r}; give the jobs different 'name's")
         seen[t.name] = t
+        for p in [*t.outputs, str(t.manifest)]:
+            if p in written:
+                raise UsageError(f"tasks {written[p]!r} and {t.name!r} would both write {p!r}; give the jobs "
+                                 "different 'name's")
+            written[p] = t.name
     return tasks, {"out": folder, "device": raw.get("device")}
 
 
+def _temporaries(path: Path) -> list[Path]:
+    """Temporary files staged for ``path`` (``.NAME.`` + 8 characters + its suffix, NAME shortened as
+    :func:`wdendrite.io.temporary_prefix` does), including an old Zarr store moved aside."""
+    from .io import temporary_prefix
+
+    pattern = glob_escape(temporary_prefix(path)) + "?" * 8 + glob_escape(path.suffix)
+    return sorted(path.parent.glob(pattern))
+
+
+def _aside(path: Path) -> Path:
+    """Where :func:`write_tiled` moves an old output before the new one takes its name."""
+    from .io import temporary_prefix
+
+    return path.with_name(temporary_prefix(path) + "replaced" + path.suffix)
+
+
 def _sweep_temporaries(task: Task) -> None:
-    """Remove temporary files a killed run left behind for ``task`` (``.NAME.*`` beside each file it
-    writes, NAME shortened as :func:`wdendrite.io.temporary_prefix` does).
+    """Remove the temporary files a killed run left behind for ``task`` (see :func:`_temporaries`);
+    other files beside its outputs (a ``.NAME.png.orig`` of the user's) stay.
 
     Tiled partial files and their tile records are named differently and kept: a re-run resumes them.
     """
-    from .io import temporary_prefix
-
     for path in [*map(Path, task.outputs), task.manifest]:
-        for tmp in path.parent.glob(glob_escape(temporary_prefix(path)) + "*"):
-            if tmp.is_file():
+        for tmp in _temporaries(path):
+            if tmp.is_dir() and not tmp.is_symlink():
+                if tmp == _aside(path):
+                    shutil.rmtree(tmp, ignore_errors=True)
+            else:
                 tmp.unlink(missing_ok=True)
 
 
@@ -350,33 +403,40 @@ def worker_device(device: str | None) -> str | None:
 
 
 def _rank_on_host(worker) -> int:
-    """The place of ``worker`` among the scheduler's workers on its host, ordered by address (cached)."""
-    if getattr(worker, "_wdendrite_rank", None) is None:
-        host = worker.address.rsplit(":", 1)[0]
-        try:
-            info = worker.client.scheduler_info(n_workers=-1)["workers"]
-        except TypeError:  # distributed before n_workers=: every worker is listed
-            info = worker.client.scheduler_info()["workers"]
-        port = lambda a: int(a.rsplit(":", 1)[1]) if a.rsplit(":", 1)[1].isdigit() else -1  # noqa: E731
-        peers = sorted((a for a in info if a.rsplit(":", 1)[0] == host), key=lambda a: (port(a), a))
-        rank = peers.index(worker.address) if worker.address in peers else worker.name
-        worker._wdendrite_rank = rank if isinstance(rank, int) else 0
-    return worker._wdendrite_rank
+    """The place of ``worker`` among the scheduler's workers on its host now, ordered by address
+    (asked for each task: workers that restart or join change the order)."""
+    host = worker.address.rsplit(":", 1)[0]
+    try:
+        info = worker.client.scheduler_info(n_workers=-1)["workers"]
+    except TypeError:  # distributed before n_workers=: every worker is listed
+        info = worker.client.scheduler_info()["workers"]
+    port = lambda a: int(a.rsplit(":", 1)[1]) if a.rsplit(":", 1)[1].isdigit() else -1  # noqa: E731
+    peers = sorted((a for a in info if a.rsplit(":", 1)[0] == host), key=lambda a: (port(a), a))
+    if worker.address in peers:
+        return peers.index(worker.address)
+    return worker.name if isinstance(worker.name, int) else 0
 
 
-def _claim(task: Task) -> None:
-    """Before a task runs: an old manifest must not vouch for new outputs. Where outputs exist already
-    it is replaced by one that lists them but vouches for no parameters (the task is not complete
-    until its new manifest is written, and its files stay known as the batch's); else it goes."""
-    if any(os.path.lexists(p) for p in task.outputs):
-        _write_manifest(task, {"name": task.name, "preset": task.preset, "params": None,
-                               "outputs": task.outputs, "running": True})
-    else:
-        task.manifest.unlink(missing_ok=True)
+@contextlib.contextmanager
+def _claimed(task: Task):
+    """While a task runs, its manifest lists its outputs but vouches for no parameters: an old
+    manifest must not vouch for new outputs, and files written before a kill stay known as the
+    batch's (the task is complete once its new manifest is written). A task that fails with
+    none of its outputs in place leaves no manifest."""
+    _write_manifest(task, {"name": task.name, "preset": task.preset, "params": None,
+                           "outputs": task.outputs, "running": True})
+    try:
+        yield
+    except BaseException:
+        if not any(os.path.lexists(p) for p in task.outputs):
+            task.manifest.unlink(missing_ok=True)
+        raise
 
 
-def run_task(task: Task, device: str | None = None) -> dict:
+def run_task(task: Task, device: str | None = None, *, quiet: bool = True) -> dict:
     """Run one (untiled) task, write its outputs and then its manifest; return the manifest.
+
+    ``quiet=False`` shows a bar whose clock runs while a task takes more than half a second.
 
     Outputs that exist are overwritten: :func:`run_file` refuses, before any task runs, files
     that no manifest lists unless it is forced.
@@ -384,8 +444,9 @@ def run_task(task: Task, device: str | None = None) -> dict:
     from .cli import run_preset
 
     started = time.time()
-    _claim(task)  # an old manifest must not vouch for new outputs
-    rec = run_preset(task.preset, task.values, task.outputs, device=worker_device(device), force=True, quiet=True)
+    with _claimed(task):
+        rec = run_preset(task.preset, task.values, task.outputs, device=worker_device(device), force=True,
+                         quiet=quiet)
     man = _manifest(task, rec, started)
     _write_manifest(task, man)
     return man
@@ -525,8 +586,8 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
     ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
-    computed once and written to all of them, and they are renamed into place together
-    once every tile is in. Finished tiles are recorded; calling again after an
+    computed once and written to all of them, and they are renamed into place one after
+    another once every tile is in every file. Finished tiles are recorded; calling again after an
     interruption computes only the missing ones. On a Dask ``client`` each tile is one
     task of the workers, which write it straight into the files (they must share the
     file system). Every finished file replaces its path by a rename.
@@ -575,12 +636,22 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     for partial, _ in opened:
         if partial.is_file():
             sync_to_disk(partial)
-    for final, (partial, marks) in zip(finals, opened):
-        if final.exists():
-            shutil.rmtree(final) if final.is_dir() else final.unlink()
+    # one rename each, one after another, once every tile is in every file: an old Zarr store (a
+    # folder, which a rename cannot replace) or a link in the way is moved aside first, and deleted
+    # after, so a final name never holds a half-deleted store
+    moved = []
+    for final, (partial, _) in zip(finals, opened):
+        if final.is_symlink() or final.is_dir():
+            if os.path.lexists(_aside(final)):  # left by a killed run
+                old = _aside(final)
+                shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
+            os.replace(final, _aside(final))
+            moved.append(_aside(final))
         os.replace(partial, final)
     for folder in dict.fromkeys(f.parent for f in finals):
         sync_folder(folder)
+    for old in moved:
+        shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
     for _, marks in opened:
         shutil.rmtree(marks, ignore_errors=True)
     return finals if isinstance(path, (list, tuple)) else finals[0]
@@ -614,10 +685,9 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     t0 = time.perf_counter()
     # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
     kind = _workers_device_kind(client) if dev is None else str(dev).split(":")[0]
-    if manifest:
-        _claim(task)
-    write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
+    with _claimed(task) if manifest else contextlib.nullcontext():
+        write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
+                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
     rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
     man = _manifest(task, rec, started)
     man.update(tile=task.tile, output=output)
@@ -699,10 +769,17 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     if dry_run:
         for t in tasks:
             state = "done" if t.complete() else "todo"
-            note = "  (overwrites files the batch did not make: needs --force)" if state == "todo" and t.foreign() else ""
+            note = ""
+            if state == "todo" and t.foreign():
+                note = "  (overwrites files the batch did not make)" if force else \
+                    "  (overwrites files the batch did not make: needs --force)"
             print(f"{state}  {t.name}  -> {', '.join(t.outputs)}{note}")
         return 0
     todo = [t for t in tasks if not t.complete()]
+    # a folder where a file goes (not a Zarr store) cannot be overwritten, forced or not
+    folders = [p for t in todo for p in t.outputs if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
+    if folders:
+        raise UsageError(f"{folders[0]!r} is a folder where the batch writes a file; move it away")
     foreign = [p for t in todo for p in t.foreign()]
     if foreign and not force:
         more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
@@ -726,7 +803,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         plain = [t for t in todo if t.tile is None]
         if client is None:
             for t in plain:
-                _attempt(lambda: run_task(t, device), t, failed)
+                _attempt(lambda: run_task(t, device, quiet=quiet), t, failed)
                 bar.update(1)
         else:
             from distributed import as_completed

@@ -532,6 +532,11 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
     # tiles go straight into the field's file: no picture, which would need the whole image
     paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"))
+    for p in paths:  # tiles go to ".{stem}.partial{suffix}" beside it, and their records to ".{stem}.tiles{suffix}"
+        longest = len(os.fsencode(f".{p.stem}.partial{p.suffix}"))
+        if longest > 255:
+            raise UsageError(f"-o/--out {str(p)!r}: the name is {longest - 255} bytes too long for the file the "
+                             "tiles are written to before the rename (255 at most); shorten it")
     need_zarr(paths)
     _, full = resolve(preset, values)
     task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)

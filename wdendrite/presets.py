@@ -15,7 +15,6 @@ light on a night sky); pictures of 3D models are ray-cast previews.
 
 from __future__ import annotations
 
-import inspect
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -692,18 +691,3 @@ def moss(shape=(40, 96, 96), *, endpoints: int | None = None, seed: int = 0) -> 
     mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)
     return Result(_geo.preview(mesh, color=_MOSS, elevation=35), den, mesh, parts={"lattice": lat})
 
-
-def _shape_check(ndim: int):
-    def check(shape, **_) -> None:
-        """Refuse a ``shape`` the preset would refuse, without its work."""
-        _shape(shape, ndim)
-
-    return check
-
-
-# a batch checks every task before it runs any: each preset with a lattice ``shape`` checks it
-for _name in __all__:
-    _default = inspect.signature(globals()[_name]).parameters.get("shape")
-    if _default is not None and isinstance(_default.default, tuple):
-        globals()[_name].check = _shape_check(len(_default.default))
-del _name, _default
