@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -275,6 +276,10 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "simple-dendrite"\nsize = 32\ngrid = { endpoints = [3, 0] }\n',
      ["job 1 (simple-dendrite)", "'endpoints'", "got 0"]),
     ('out = "o"\n[[job]]\npreset = "coral"\nparams = { refine_n = 2 }\n', ["job 1 (coral)", "'refine_n'"]),
+    ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "terrain"\nsize = 256\n'
+     'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'domain' reaches coordinate"]),
+    ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "weight-distributions"\nsize = 32\n'
+     'params = { endpoints = 0 }\n', ["job 2 (weight-distributions)", "'endpoints'"]),
     ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 100000\n', ["job 1 (fractal)", "2**31"]),
     ('out = "o"\n[[job]]\npreset = ["fractal"]\n', ["job 1", "needs a 'preset' name", "['fractal']"]),
     ('out = "o"\n[[job]]\npreset = "letters"\nformats = ["json", "png"]\ngrid = { text = ["Hi"] }\n'
@@ -360,15 +365,17 @@ def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
     run.send_signal(signal.SIGKILL)
     run.wait()
     (out / ".costs_size160_seed39.png.k1ll3d_x.png").write_bytes(b"half")  # as a killed write leaves (mkstemp's 8)
-    mine = out / ".costs_size160_seed39.png.orig"  # a file of the user's, named alike
+    mine = out / ".costs_size160_seed39.png.orig"  # files of the user's, named alike
     mine.write_bytes(b"mine")
+    also_mine = out / ".costs_size160_seed39.png.BACKUP01.png"  # (mkstemp's characters are a-z, 0-9 and _)
+    also_mine.write_bytes(b"mine")
     # a task's manifest vouches for its parameters once its outputs are in (before, it only lists them)
     done = sum(json.loads(m.read_text())["params"] is not None for m in out.glob("*.manifest.json"))
     code, stdout, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
     assert code == 0, err
     assert f"{40 - done} run, {done} already complete" in stdout
-    assert len(list(out.glob("*.manifest.json"))) == 40 and len(list(out.glob("*.png"))) == 40
-    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == [mine.name]
+    assert len(list(out.glob("*.manifest.json"))) == 40 and len(list(out.glob("[!.]*.png"))) == 40
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == sorted([mine.name, also_mine.name])
 
 
 def test_a_value_out_of_range_fails_its_task_only_with_exit_2(tmp_path):
@@ -522,13 +529,26 @@ def test_a_moved_project_keeps_its_files_and_odd_manifests_do_not_crash(tmp_path
     assert wd("batch", "jobs.toml", "--quiet", "--force", cwd=moved)[0] == 0
 
 
-def test_a_folder_in_the_way_of_an_output_is_refused_before_any_task(tmp_path):
+@pytest.mark.parametrize("name", ["costs_size16_seed2.png", "costs_size16_seed2.manifest.json"])
+def test_a_folder_in_the_way_of_an_output_is_refused_before_any_task(tmp_path, name):
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nseeds = [1, 2]\n')
-    (tmp_path / "o" / "costs_size16_seed2.png").mkdir(parents=True)
+    (tmp_path / "o" / name).mkdir(parents=True)
     for force in ([], ["--force"]):
         code, out, err = wd("batch", "jobs.toml", "--quiet", *force, cwd=tmp_path)
         assert code == 2 and "is a folder" in err, err
-        assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["costs_size16_seed2.png"]
+        assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [name]
+
+
+def test_a_file_of_the_users_named_as_a_manifest_is_not_overwritten_unforced(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n')
+    (tmp_path / "o").mkdir()
+    notes = tmp_path / "o" / "costs_size16_seed0.manifest.json"
+    notes.write_text('{"my": "notes"}')
+    code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
+    assert code == 2 and "manifest.json" in err and "--force" in err, err
+    assert notes.read_text() == '{"my": "notes"}'
+    assert wd("batch", "jobs.toml", "--quiet", "--force", cwd=tmp_path)[0] == 0
+    assert json.loads(notes.read_text())["name"] == "costs_size16_seed0"
 
 
 def test_tiled_outputs_replace_old_stores_and_links(tmp_path):
@@ -550,3 +570,35 @@ def test_tiled_outputs_replace_old_stores_and_links(tmp_path):
     assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 17), 1.0))
     assert np.array_equal(np.load(theirs), np.zeros(3))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.npy", "t.npy", "t.zarr"]
+
+
+def test_a_tiled_image_killed_between_its_renames_is_not_computed_again(tmp_path, monkeypatch):
+    def value(window):
+        r0, c0, h, w = window
+        return np.add.outer(np.arange(r0, r0 + h) * 2.0, np.arange(c0, c0 + w)).astype(np.float32)
+
+    outs = [tmp_path / "a.npy", tmp_path / "b.npy"]
+    real = os.replace
+
+    def dies_at_b(src, dst):
+        if Path(dst) == outs[1]:
+            raise KeyboardInterrupt  # killed after a.npy took its name, before b.npy did
+        real(src, dst)
+
+    monkeypatch.setattr(batch.os, "replace", dies_at_b)
+    with pytest.raises(KeyboardInterrupt):
+        batch.write_tiled(value, (21, 19), 8, outs)
+    monkeypatch.setattr(batch.os, "replace", real)
+    assert outs[0].exists() and not outs[1].exists()
+    calls = []
+    batch.write_tiled(lambda w: calls.append(w) or value(w), (21, 19), 8, outs)
+    assert all(w[2:] == (1, 1) for w in calls)  # only the setup's corner probes: no tile again
+    for p in outs:
+        assert np.array_equal(np.load(p), value((0, 0, 21, 19)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
+    # a plain file where a Zarr store goes is replaced like an old store
+    zarr = pytest.importorskip("zarr")
+    store = tmp_path / "c.zarr"
+    store.write_text("not a store")
+    batch.write_tiled(value, (21, 19), 8, store)
+    assert np.array_equal(zarr.open_array(str(store), mode="r")[:], value((0, 0, 21, 19)))

@@ -203,16 +203,6 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
     return Made(picture, parts=parts)
 
 
-def _dendry_check(size, params, extent, control, frequency, drained, seed, **_) -> None:
-    """Check the values of :func:`dendry` and :func:`terrain` (what their ``check`` runs)."""
-    dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained, seed=seed)
-
-
-# a batch checks every task before it runs any: the path-planning models stop at their first
-# lattice in checking mode; the Dendry models build none, so their check takes all their
-# arguments (defaults filled in) and raises what the model would, without the work
-dendry.check = terrain.check = _dendry_check
-
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}
 """The command's own models by name (used when :mod:`wdendrite.presets` has none of that name)."""
 

@@ -27,10 +27,10 @@ its manifest matches its parameters and every output exists; re-running the file
 skips complete tasks and redoes the rest. Tiled fields record each finished tile,
 so a killed run resumes with the tiles it had not written.
 
-Every task is checked before any runs: values its preset would refuse (each
-preset runs in :func:`wdendrite._checks.checking_only` mode, which stops it where
-its first lattice would be filled, or through its ``check`` attribute), file
-names too long, two tasks writing one file. Files in the way of a task's outputs that no manifest of the
+Every task that is not complete is checked before any runs: values its preset
+would refuse (each preset runs in :func:`wdendrite._checks.checking_only` mode,
+which stops it where its first lattice would be filled or its Dendry image
+computed), file names too long, two tasks writing one file. Files in the way of a task's outputs that no manifest of the
 task lists (files the batch did not make) stop the run before it starts unless
 it is forced.
 """
@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import inspect
 import itertools
 import json
 import os
@@ -103,9 +102,13 @@ class Task:
         Outputs sit beside the manifest, so they are compared by file name (a project moved or
         reached through another path keeps its files).
         """
-        listed = self._record().get("outputs", [])
+        rec = self._record()
+        listed = rec.get("outputs", [])
         ours = {Path(p).name for p in listed if isinstance(p, str)} if isinstance(listed, list) else set()
-        return [p for p in self.outputs if Path(p).name not in ours and os.path.lexists(p)]
+        theirs = [p for p in self.outputs if Path(p).name not in ours and os.path.lexists(p)]
+        if os.path.lexists(self.manifest) and rec.get("name") != self.name:  # not a manifest of this task
+            theirs.append(str(self.manifest))
+        return theirs
 
 
 # --------------------------------------------------------------------------- job files
@@ -214,41 +217,40 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
             values[preset.size_param] = sized[size]
         try:
             kwargs, full = resolve(preset, values)
-            _check_values(preset, kwargs, checked)
-        except (ValueError, TypeError) as exc:  # the preset refused a value: say which job
+        except (ValueError, TypeError) as exc:  # a parameter dataclass refused a value: say which job
             raise UsageError(f"{where}: {exc}") from None
         stem = _task_name(job.get("name", name), preset, full, dict(zip(grid, combo)))
         longest = len(os.fsencode(stem)) + len(".manifest.json")  # as long as ".{stem}.partial.zarr"
         if longest > _NAME_BYTES:
             raise UsageError(f"{where}: the task name {stem[:40]!r}... makes file names of {longest} bytes, "
                              f"more than the {_NAME_BYTES} file systems allow; give the job a shorter 'name'")
-        tasks.append(Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile))
+        task = Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile)
+        if not task.complete():  # (a re-run checks only what it will run)
+            try:
+                _check_values(preset, kwargs, checked)
+            except (ValueError, TypeError) as exc:  # the preset refused a value: say which job
+                raise UsageError(f"{where}: {exc}") from None
+        tasks.append(task)
     return tasks
 
 
 def _check_values(preset, kwargs: dict, checked: set) -> None:
     """Raise what ``preset`` would raise for ``kwargs`` as soon as it ran, without its work.
 
-    A function with a ``check`` attribute gets every argument (defaults filled in); any other
-    runs in :func:`wdendrite._checks.checking_only` mode, which stops it where its first lattice
-    is about to be filled. Values that differ only in their seed are checked once.
+    The preset runs in :func:`wdendrite._checks.checking_only` mode, which stops it where its
+    first lattice would be filled or its Dendry image computed. Values that differ only in
+    their seed are checked once.
     """
     from . import _checks
 
     key = repr(sorted((k, v) for k, v in kwargs.items() if k != "seed"))
     if key in checked:
         return
-    check = getattr(preset.func, "check", None)
-    if check is not None:
-        bound = inspect.signature(preset.func).bind_partial(**kwargs)
-        bound.apply_defaults()
-        check(**bound.arguments)
-    else:
-        try:
-            with _checks.checking_only():
-                preset.func(**kwargs)
-        except _checks.Checked:
-            pass
+    try:
+        with _checks.checking_only():
+            preset.func(**kwargs)
+    except _checks.Checked:
+        pass
     checked.add(key)
 
 
@@ -318,11 +320,11 @@ def load_jobs(path) -> tuple[list[Task], dict]:
 
 
 def _temporaries(path: Path) -> list[Path]:
-    """Temporary files staged for ``path`` (``.NAME.`` + 8 characters + its suffix, NAME shortened as
+    """Temporary files staged for ``path`` (``.NAME.`` + mkstemp's 8 characters, from ``a-z0-9_``, + its suffix, NAME shortened as
     :func:`wdendrite.io.temporary_prefix` does), including an old Zarr store moved aside."""
     from .io import temporary_prefix
 
-    pattern = glob_escape(temporary_prefix(path)) + "?" * 8 + glob_escape(path.suffix)
+    pattern = glob_escape(temporary_prefix(path)) + "[a-z0-9_]" * 8 + glob_escape(path.suffix)
     return sorted(path.parent.glob(pattern))
 
 
@@ -543,9 +545,10 @@ def _tile_into(window, tile_fn, targets) -> tuple:
     return window
 
 
-def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
+def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, bool]:
     """The partial file and the folder of tile markers beside it, started afresh unless they hold
-    tiles of the same image (same ``key``, shape and tile size)."""
+    tiles of the same image (same ``key``, shape and tile size); and whether that image, whole,
+    was already renamed to ``final`` by a run killed before it could clear its markers."""
     partial = final.with_name(f".{final.stem}.partial{final.suffix}")  # keeps the suffix that names the format
     marks = final.with_name(f".{final.stem}.tiles{final.suffix}")  # not ".{name}.*": those are temporaries
     ident = json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
@@ -553,6 +556,8 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
         same = (marks / "image.json").read_text() == ident
     except OSError:
         same = False
+    if same and not os.path.lexists(partial) and (marks / "whole").exists() and os.path.lexists(final):
+        return partial, marks, True
     if not partial.exists() or not same:
         shutil.rmtree(marks, ignore_errors=True)
         if partial.is_dir():
@@ -572,7 +577,7 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path]:
             del mm
         marks.mkdir()
         (marks / "image.json").write_text(ident)
-    return partial, marks
+    return partial, marks, False
 
 
 def probe_windows(shape) -> list[tuple[int, int, int, int]]:
@@ -582,7 +587,7 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
     return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
 
 
-def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = ""):
+def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None):
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
     ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
@@ -601,6 +606,8 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         client: a ``distributed.Client`` (None: compute here, one tile after another).
         progress: a callable told ``(done, total)`` after every tile.
         key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
+        placed_all: called with no arguments once every file has its final name, before the
+            tile records and any old stores moved aside are deleted.
 
     Returns:
         The written path (a list of them when ``path`` is a list).
@@ -615,7 +622,8 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)
     opened = [_open_partial(final, shape, tile, key) for final in finals]
-    targets = [_Target(partial, marks) for partial, marks in opened]
+    # (an image a killed run had renamed into place already needs no tile)
+    targets = [_Target(partial, marks) for partial, marks, placed in opened if not placed]
     windows = tile_windows(shape, tile)
     todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
     done = len(windows) - len(todo)
@@ -633,15 +641,19 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
             progress(done, len(windows))
     from .io import sync_folder, sync_to_disk
 
-    for partial, _ in opened:
-        if partial.is_file():
-            sync_to_disk(partial)
+    for partial, marks, placed in opened:
+        if not placed:
+            if partial.is_file():
+                sync_to_disk(partial)
+            (marks / "whole").touch()  # a kill from here on leaves a whole image: a re-run renames it
     # one rename each, one after another, once every tile is in every file: an old Zarr store (a
-    # folder, which a rename cannot replace) or a link in the way is moved aside first, and deleted
-    # after, so a final name never holds a half-deleted store
+    # folder, which a rename cannot replace), a link or a file where a store goes is moved aside
+    # first, and deleted after, so a final name never holds a half-deleted store
     moved = []
-    for final, (partial, _) in zip(finals, opened):
-        if final.is_symlink() or final.is_dir():
+    for final, (partial, _, placed) in zip(finals, opened):
+        if placed:
+            continue
+        if final.is_symlink() or final.is_dir() or (partial.is_dir() and os.path.lexists(final)):
             if os.path.lexists(_aside(final)):  # left by a killed run
                 old = _aside(final)
                 shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
@@ -650,9 +662,11 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         os.replace(partial, final)
     for folder in dict.fromkeys(f.parent for f in finals):
         sync_folder(folder)
+    if placed_all is not None:
+        placed_all()  # (a batch writes its manifest here: a kill during the clean-up below redoes nothing)
     for old in moved:
         shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
-    for _, marks in opened:
+    for _, marks, _ in opened:
         shutil.rmtree(marks, ignore_errors=True)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
@@ -685,15 +699,18 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     t0 = time.perf_counter()
     # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
     kind = _workers_device_kind(client) if dev is None else str(dev).split(":")[0]
+    made = {}
+
+    def placed_all():
+        rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
+        made.update(_manifest(task, rec, started), tile=task.tile, output=output)
+        if manifest:
+            _write_manifest(task, made)
+
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True))
-    rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
-    man = _manifest(task, rec, started)
-    man.update(tile=task.tile, output=output)
-    if manifest:
-        _write_manifest(task, man)
-    return man
+                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True), placed_all=placed_all)
+    return made
 
 
 # --------------------------------------------------------------------------- running a file
@@ -777,7 +794,8 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         return 0
     todo = [t for t in tasks if not t.complete()]
     # a folder where a file goes (not a Zarr store) cannot be overwritten, forced or not
-    folders = [p for t in todo for p in t.outputs if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
+    folders = [p for t in todo for p in [*t.outputs, str(t.manifest)]
+               if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
     if folders:
         raise UsageError(f"{folders[0]!r} is a folder where the batch writes a file; move it away")
     foreign = [p for t in todo for p in t.foreign()]

@@ -42,7 +42,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32
+from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32, stop_if_checking
 from .control import Control, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
 
@@ -716,6 +716,7 @@ def dendry(
                  (x0 + (c0 + w - 0.5) * dx, y0 + (r0 + h - 0.5) * dy), what)
     control = default_control() if control is None else control
     device = _device(device)
+    stop_if_checking()  # (every argument is checked: a check of a whole model stops here)
     # the image on the device, and its copy on the host when the device is a GPU
     fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
     if not device.is_cpu:

@@ -365,11 +365,12 @@ class Lattice:
                 "beyond the kernels' int32 indices (2**31)"
                 + ("; store_weights=False needs fewer" if self._stored else "")
             )
+        # every argument is checked: a check of a whole model stops here (the memory it needs is
+        # for the machine that runs it to judge)
+        _checks.stop_if_checking()
         if self._stored:
             _checks.fits_in_memory(self._records_bytes(wp.get_device("cpu")), "cpu",
                                    f"node records of a lattice of shape {self.shape}")
-        _checks.stop_if_checking()  # (every argument is checked: a check of a whole model stops here)
-        if self._stored:
             # the host records are the lattice's own copy of the weights (see ``weights``)
             arrays = self._make_arrays(wp.get_device("cpu"), None if source is None else np.asarray(source, np.float32))
             self._device_arrays["cpu"] = arrays

@@ -28,7 +28,7 @@ from . import render as _r
 from . import weights as _w
 from .dendrite import Dendrite, trace
 from .growth import FractalParams, grow
-from .lattice import Lattice
+from .lattice import Lattice, half_offsets
 from .refine import _check_n_e, refine
 from .sssp import shortest_paths
 
@@ -238,7 +238,7 @@ def _polynomial(shape, n: float, seed: int, connectivity: int):
     """
     if n <= 4:
         return _w.Polynomial(n=n, seed=seed)
-    lengths = Lattice((2, 2), connectivity).lengths
+    lengths = np.sqrt((half_offsets(2, connectivity) ** 2).sum(axis=1)).astype(np.float32)  # as Lattice.lengths
     v = _checks.rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
     return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
 
@@ -250,11 +250,11 @@ def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 
     (``connectivity=8``) they run straight and at 45 degrees instead. For n > 4, v is drawn from
     (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays 1e8 and float32 path costs
     resolve every edge (with 1e16 cheap edges vanish from the sums)."""
-    shape = _shape(shape, 2)
+    shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     if connectivity not in (4, 8) or isinstance(connectivity, bool):
         raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
-    panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns],
-                                      _checks.integer("endpoints", endpoints, low=1), seed, connectivity=connectivity)
+    panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
+                                      seed, connectivity=connectivity)
     return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
 
 
