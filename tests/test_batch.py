@@ -3,6 +3,7 @@
 import json
 import os
 import subprocess
+import shutil
 import sys
 from pathlib import Path
 
@@ -533,6 +534,8 @@ def test_a_moved_project_keeps_its_files_and_odd_manifests_do_not_crash(tmp_path
 def test_a_folder_in_the_way_of_an_output_is_refused_before_any_task(tmp_path, name):
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\nseeds = [1, 2]\n')
     (tmp_path / "o" / name).mkdir(parents=True)
+    code, out, err = wd("batch", "jobs.toml", "--dry-run", cwd=tmp_path)
+    assert code == 0 and f"a folder is in the way: move '{name}'" in out, out
     for force in ([], ["--force"]):
         code, out, err = wd("batch", "jobs.toml", "--quiet", *force, cwd=tmp_path)
         assert code == 2 and "is a folder" in err, err
@@ -602,3 +605,51 @@ def test_a_tiled_image_killed_between_its_renames_is_not_computed_again(tmp_path
     store.write_text("not a store")
     batch.write_tiled(value, (21, 19), 8, store)
     assert np.array_equal(zarr.open_array(str(store), mode="r")[:], value((0, 0, 21, 19)))
+
+
+def test_records_left_by_a_kill_vouch_only_for_the_file_they_renamed(tmp_path, monkeypatch):
+    # killed while clearing its tile records (after every output took its name): a file put there
+    # since, by the user or an untiled run, is not taken for the tiled image
+    def value(window):
+        r0, c0, h, w = window
+        return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 3.0).astype(np.float32)
+
+    out = tmp_path / "a.npy"
+    real = shutil.rmtree
+
+    def dies(path, *args, **kwargs):
+        if Path(path).name == ".a.tiles.npy" and out.exists():  # (not the fresh start's clearing)
+            raise KeyboardInterrupt
+        real(path, *args, **kwargs)
+
+    monkeypatch.setattr(batch.shutil, "rmtree", dies)
+    with pytest.raises(KeyboardInterrupt):
+        batch.write_tiled(value, (20, 20), 8, out)
+    monkeypatch.setattr(batch.shutil, "rmtree", real)
+    assert np.array_equal(np.load(out), value((0, 0, 20, 20))) and (tmp_path / ".a.tiles.npy").is_dir()
+    np.save(out, np.zeros((3, 3), np.float32))  # the user's own array under that name
+    calls = []
+    batch.write_tiled(lambda w: calls.append(w) or value(w), (20, 20), 8, out)
+    assert len([w for w in calls if w[2:] != (1, 1)]) == len(batch.tile_windows((20, 20), 8))
+    assert np.array_equal(np.load(out), value((0, 0, 20, 20)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
+
+
+def test_a_complete_tiled_task_has_the_records_a_kill_left_cleared(tmp_path, monkeypatch):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\n'
+                                        'formats = "npy"\n')
+    real = shutil.rmtree
+
+    def dies(path, *args, **kwargs):
+        if Path(path).name.endswith(".tiles.npy") and (tmp_path / "o" / "terrain_size40_seed0.npy").exists():
+            raise KeyboardInterrupt  # after the manifest, while clearing the tile records
+        real(path, *args, **kwargs)
+
+    monkeypatch.setattr(batch.shutil, "rmtree", dies)
+    with pytest.raises(KeyboardInterrupt):
+        batch.run_file(tmp_path / "jobs.toml", quiet=True, device="cpu")
+    monkeypatch.setattr(batch.shutil, "rmtree", real)
+    out = tmp_path / "o"
+    assert (out / ".terrain_size40_seed0.tiles.npy").is_dir()
+    assert batch.run_file(tmp_path / "jobs.toml", quiet=True, device="cpu") == 0
+    assert sorted(p.name for p in out.iterdir()) == ["terrain_size40_seed0.manifest.json", "terrain_size40_seed0.npy"]

@@ -320,8 +320,9 @@ def load_jobs(path) -> tuple[list[Task], dict]:
 
 
 def _temporaries(path: Path) -> list[Path]:
-    """Temporary files staged for ``path`` (``.NAME.`` + mkstemp's 8 characters, from ``a-z0-9_``, + its suffix, NAME shortened as
-    :func:`wdendrite.io.temporary_prefix` does), including an old Zarr store moved aside."""
+    """Temporary files staged for ``path``: ``.NAME.``, mkstemp's 8 characters (``a-z0-9_``) and its
+    suffix, NAME shortened as :func:`wdendrite.io.temporary_prefix` does; also an old Zarr store
+    moved aside."""
     from .io import temporary_prefix
 
     pattern = glob_escape(temporary_prefix(path)) + "[a-z0-9_]" * 8 + glob_escape(path.suffix)
@@ -348,6 +349,17 @@ def _sweep_temporaries(task: Task) -> None:
                     shutil.rmtree(tmp, ignore_errors=True)
             else:
                 tmp.unlink(missing_ok=True)
+
+
+def _sweep_leftovers(task: Task) -> None:
+    """Remove what a run killed after a complete task's manifest left behind: its tile records, a
+    partial file and an old store moved aside (a complete task is not run again to clear them)."""
+    for path in map(Path, task.outputs):
+        for old in [*_tile_records(path), _aside(path)]:
+            if old.is_dir() and not old.is_symlink():
+                shutil.rmtree(old, ignore_errors=True)
+            elif os.path.lexists(old):
+                old.unlink()
 
 
 def _prepare_folder(folder: Path) -> None:
@@ -545,19 +557,39 @@ def _tile_into(window, tile_fn, targets) -> tuple:
     return window
 
 
+def _identity(path: Path) -> str:
+    """What tells the file at ``path`` from any other: device and inode (a rename keeps them), and
+    for a file also its size and modification time (a file rewritten in place changes them)."""
+    st = os.lstat(path)
+    if os.path.isdir(path) and not os.path.islink(path):
+        return f"{st.st_dev}:{st.st_ino}"
+    return f"{st.st_dev}:{st.st_ino}:{st.st_size}:{st.st_mtime_ns}"
+
+
+def _tile_records(final: Path) -> list[Path]:
+    """The hidden partial file and tile records of a tiled output (see :func:`_open_partial`)."""
+    return [final.with_name(f".{final.stem}.{what}{final.suffix}") for what in ("partial", "tiles")]
+
+
 def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, bool]:
     """The partial file and the folder of tile markers beside it, started afresh unless they hold
     tiles of the same image (same ``key``, shape and tile size); and whether that image, whole,
     was already renamed to ``final`` by a run killed before it could clear its markers."""
-    partial = final.with_name(f".{final.stem}.partial{final.suffix}")  # keeps the suffix that names the format
-    marks = final.with_name(f".{final.stem}.tiles{final.suffix}")  # not ".{name}.*": those are temporaries
+    # ".{stem}.partial{suffix}" keeps the suffix that names the format; the records are not named
+    # ".{name}.*" (those are temporaries)
+    partial, marks = _tile_records(final)
     ident = json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
     try:
         same = (marks / "image.json").read_text() == ident
     except OSError:
         same = False
-    if same and not os.path.lexists(partial) and (marks / "whole").exists() and os.path.lexists(final):
-        return partial, marks, True
+    if same and not os.path.lexists(partial) and os.path.lexists(final):
+        try:
+            whole = (marks / "whole").read_text()
+        except OSError:
+            whole = None
+        if whole == _identity(final):  # the very file renamed there, untouched since
+            return partial, marks, True
     if not partial.exists() or not same:
         shutil.rmtree(marks, ignore_errors=True)
         if partial.is_dir():
@@ -645,7 +677,8 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         if not placed:
             if partial.is_file():
                 sync_to_disk(partial)
-            (marks / "whole").touch()  # a kill from here on leaves a whole image: a re-run renames it
+            # a kill from here on leaves a whole image: a re-run renames it, or keeps it once renamed
+            (marks / "whole").write_text(_identity(partial))
     # one rename each, one after another, once every tile is in every file: an old Zarr store (a
     # folder, which a rename cannot replace), a link or a file where a store goes is moved aside
     # first, and deleted after, so a final name never holds a half-deleted store
@@ -787,7 +820,11 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         for t in tasks:
             state = "done" if t.complete() else "todo"
             note = ""
-            if state == "todo" and t.foreign():
+            blocked = [p for p in [*t.outputs, str(t.manifest)]
+                       if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
+            if state == "todo" and blocked:
+                note = f"  (a folder is in the way: move {Path(blocked[0]).name!r})"
+            elif state == "todo" and t.foreign():
                 note = "  (overwrites files the batch did not make)" if force else \
                     "  (overwrites files the batch did not make: needs --force)"
             print(f"{state}  {t.name}  -> {', '.join(t.outputs)}{note}")
@@ -807,6 +844,10 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     _prepare_folder(settings["out"])
     for t in todo:
         _sweep_temporaries(t)
+    running = {id(t) for t in todo}
+    for t in tasks:
+        if id(t) not in running:
+            _sweep_leftovers(t)
     client = cluster = None
     if scheduler is not None and todo:
         try:
