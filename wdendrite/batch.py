@@ -30,9 +30,9 @@ so a killed run resumes with the tiles it had not written.
 Every task that is not complete is checked before any runs: values its preset
 would refuse (each preset runs in :func:`wdendrite._checks.checking_only` mode,
 which stops it where its first lattice would be filled or its Dendry image
-computed), file names too long, two tasks writing one file. Files in the way of a task's outputs that no manifest of the
-task lists (files the batch did not make) stop the run before it starts unless
-it is forced.
+computed), file names too long, two tasks writing one file. Files in the way of
+a task's outputs that no manifest of the task lists (files the batch did not
+make) stop the run before it starts unless it is forced.
 """
 
 from __future__ import annotations
