@@ -273,8 +273,11 @@ def rng(seed, name: str = "seed") -> np.random.Generator:
     return np.random.default_rng(int(seed))
 
 
-class Checked(Exception):
-    """Raised by :func:`stop_if_checking` inside :func:`checking_only`: the work was about to begin."""
+class Checked(BaseException):
+    """Raised by :func:`stop_if_checking` inside :func:`checking_only`: the work was about to begin.
+
+    Not an :class:`Exception`, so that no ``except Exception`` on the way up takes it for a failure
+    and carries on with the work."""
 
 
 _CHECKING = contextvars.ContextVar("wdendrite_checking_only", default=False)
