@@ -277,6 +277,8 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "simple-dendrite"\nsize = 32\ngrid = { endpoints = [3, 0] }\n',
      ["job 1 (simple-dendrite)", "'endpoints'", "got 0"]),
     ('out = "o"\n[[job]]\npreset = "coral"\nparams = { refine_n = 2 }\n', ["job 1 (coral)", "'refine_n'"]),
+    ('out = "o"\n[[job]]\npreset = "weight-distributions"\nsize = 32\nparams = { ns = [0, -1] }\n',
+     ["job 1 (weight-distributions)", "'ns'", "-1"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "terrain"\nsize = 256\n'
      'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'domain' reaches coordinate"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "weight-distributions"\nsize = 32\n'
@@ -653,3 +655,15 @@ def test_a_complete_tiled_task_has_the_records_a_kill_left_cleared(tmp_path, mon
     assert (out / ".terrain_size40_seed0.tiles.npy").is_dir()
     assert batch.run_file(tmp_path / "jobs.toml", quiet=True, device="cpu") == 0
     assert sorted(p.name for p in out.iterdir()) == ["terrain_size40_seed0.manifest.json", "terrain_size40_seed0.npy"]
+
+
+def test_checking_a_preset_stops_before_its_weight_arrays(tmp_path, monkeypatch):
+    # weight-distributions draws full-size weight arrays before its first lattice: a check (here a
+    # dry run) must stop before them, and leave memory to the machine that runs the task
+    from wdendrite import presets
+
+    drawn = []
+    monkeypatch.setattr(presets, "_polynomial", lambda *a: drawn.append(a))
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "weight-distributions"\nsizes = [6000]\n')
+    assert batch.run_file(tmp_path / "jobs.toml", dry_run=True) == 0
+    assert drawn == []

@@ -9,7 +9,6 @@ name there takes precedence.
 from __future__ import annotations
 
 import dataclasses
-import math
 import typing
 from dataclasses import dataclass
 from dataclasses import field as dataclass_field
@@ -122,8 +121,7 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
     from . import control as ctl
 
     size = _checks.integer("size", size, low=1)
-    if not extent > 0 or not math.isfinite(extent):
-        raise ValueError(f"Expected 'extent' a positive finite number of domain units, but got {extent!r}")
+    _checks.positive("extent", extent)  # in domain units
     if control in ("perlin", "ridged"):
         c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
     elif control == "radial":

@@ -228,8 +228,10 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if not task.complete():  # (a re-run checks only what it will run)
             try:
                 _check_values(preset, kwargs, checked)
-            except (ValueError, TypeError) as exc:  # the preset refused a value: say which job
+            except (ValueError, TypeError, OverflowError) as exc:  # the preset refused a value: say which job
                 raise UsageError(f"{where}: {exc}") from None
+            except MemoryError as exc:
+                raise UsageError(f"{where}: checking the values ran out of memory ({exc})") from None
         tasks.append(task)
     return tasks
 

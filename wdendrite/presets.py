@@ -253,6 +253,11 @@ def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     if connectivity not in (4, 8) or isinstance(connectivity, bool):
         raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
+    ns = [_checks.finite("ns", n) for n in ns]
+    if any(n < 0 for n in ns):
+        raise ValueError(f"Expected every entry of 'ns' >= 0, but got {min(ns)!r}")
+    _w.Polynomial(seed=seed)  # (checks the seed)
+    _checks.stop_if_checking()  # (a check of the preset stops before the weight arrays are drawn)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
                                       seed, connectivity=connectivity)
     return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
