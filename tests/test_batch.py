@@ -56,6 +56,12 @@ def _whole_dendry(size, **values):
     return setup, dendry(**setup, output="elevation", device="cpu")
 
 
+def _ramp(window, plus=0.0):
+    """The (h, w) window ``(row0, col0, h, w)`` of an image whose every value differs (tiled writers' tests)."""
+    r0, c0, h, w = window
+    return (np.add.outer(np.arange(r0, r0 + h) * 1000.0, np.arange(c0, c0 + w)) + plus).astype(np.float32)
+
+
 def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     (tmp_path / "jobs.toml").write_text(JOBS)
     code, out, err = wd("batch", "jobs.toml", "--quiet", cwd=tmp_path)
@@ -445,10 +451,6 @@ def test_batch_refuses_files_it_did_not_make_unless_forced(tmp_path):
 def test_a_tiled_job_computes_each_tile_once_for_all_its_outputs(tmp_path):
     shape, tile = (30, 26), 8
 
-    def value(window):
-        r0, c0, h, w = window
-        return np.add.outer(np.arange(r0, r0 + h) * 0.5, np.cos(np.arange(c0, c0 + w))).astype(np.float32)
-
     calls = []
 
     def counted(window, die_after=None):
@@ -456,7 +458,7 @@ def test_a_tiled_job_computes_each_tile_once_for_all_its_outputs(tmp_path):
             if die_after is not None and len(calls) == die_after:
                 raise KeyboardInterrupt
             calls.append(window)
-        return value(window)
+        return _ramp(window)
 
     outs = [tmp_path / "a.npy", tmp_path / "b.npy"]
     with pytest.raises(KeyboardInterrupt):
@@ -466,7 +468,7 @@ def test_a_tiled_job_computes_each_tile_once_for_all_its_outputs(tmp_path):
     windows = batch.tile_windows(shape, tile)
     assert sorted(calls) == sorted(windows)  # each tile once over both runs, for both files
     for p in outs:
-        assert np.array_equal(np.load(p), value((0, 0, *shape)))
+        assert np.array_equal(np.load(p), _ramp((0, 0, *shape)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
 
 
@@ -559,29 +561,21 @@ def test_a_file_of_the_users_named_as_a_manifest_is_not_overwritten_unforced(tmp
 def test_tiled_outputs_replace_old_stores_and_links(tmp_path):
     zarr = pytest.importorskip("zarr")
 
-    def value(window, plus=0.0):
-        r0, c0, h, w = window
-        return (np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 0.1) + plus).astype(np.float32)
-
     outs = [tmp_path / "t.npy", tmp_path / "t.zarr"]
-    batch.write_tiled(value, (20, 17), 8, outs)
+    batch.write_tiled(_ramp, (20, 17), 8, outs)
     # the new image replaces an old store (a folder) and, through a link, leaves what it pointed at
     theirs = tmp_path / "elsewhere.npy"
     np.save(theirs, np.zeros(3))
     outs[0].unlink()
     outs[0].symlink_to(theirs)
-    batch.write_tiled(lambda w: value(w, 1.0), (20, 17), 8, outs)
-    assert not outs[0].is_symlink() and np.array_equal(np.load(outs[0]), value((0, 0, 20, 17), 1.0))
-    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 17), 1.0))
+    batch.write_tiled(lambda w: _ramp(w, 1.0), (20, 17), 8, outs)
+    assert not outs[0].is_symlink() and np.array_equal(np.load(outs[0]), _ramp((0, 0, 20, 17), 1.0))
+    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], _ramp((0, 0, 20, 17), 1.0))
     assert np.array_equal(np.load(theirs), np.zeros(3))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.npy", "t.npy", "t.zarr"]
 
 
 def test_a_tiled_image_killed_between_its_renames_is_not_computed_again(tmp_path, monkeypatch):
-    def value(window):
-        r0, c0, h, w = window
-        return np.add.outer(np.arange(r0, r0 + h) * 2.0, np.arange(c0, c0 + w)).astype(np.float32)
-
     outs = [tmp_path / "a.npy", tmp_path / "b.npy"]
     real = os.replace
 
@@ -592,30 +586,26 @@ def test_a_tiled_image_killed_between_its_renames_is_not_computed_again(tmp_path
 
     monkeypatch.setattr(batch.os, "replace", dies_at_b)
     with pytest.raises(KeyboardInterrupt):
-        batch.write_tiled(value, (21, 19), 8, outs)
+        batch.write_tiled(_ramp, (21, 19), 8, outs)
     monkeypatch.setattr(batch.os, "replace", real)
     assert outs[0].exists() and not outs[1].exists()
     calls = []
-    batch.write_tiled(lambda w: calls.append(w) or value(w), (21, 19), 8, outs)
+    batch.write_tiled(lambda w: calls.append(w) or _ramp(w), (21, 19), 8, outs)
     assert all(w[2:] == (1, 1) for w in calls)  # only the setup's corner probes: no tile again
     for p in outs:
-        assert np.array_equal(np.load(p), value((0, 0, 21, 19)))
+        assert np.array_equal(np.load(p), _ramp((0, 0, 21, 19)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
     # a plain file where a Zarr store goes is replaced like an old store
     zarr = pytest.importorskip("zarr")
     store = tmp_path / "c.zarr"
     store.write_text("not a store")
-    batch.write_tiled(value, (21, 19), 8, store)
-    assert np.array_equal(zarr.open_array(str(store), mode="r")[:], value((0, 0, 21, 19)))
+    batch.write_tiled(_ramp, (21, 19), 8, store)
+    assert np.array_equal(zarr.open_array(str(store), mode="r")[:], _ramp((0, 0, 21, 19)))
 
 
 def test_records_left_by_a_kill_vouch_only_for_the_file_they_renamed(tmp_path, monkeypatch):
     # killed while clearing its tile records (after every output took its name): a file put there
     # since, by the user or an untiled run, is not taken for the tiled image
-    def value(window):
-        r0, c0, h, w = window
-        return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 3.0).astype(np.float32)
-
     out = tmp_path / "a.npy"
     real = shutil.rmtree
 
@@ -626,14 +616,14 @@ def test_records_left_by_a_kill_vouch_only_for_the_file_they_renamed(tmp_path, m
 
     monkeypatch.setattr(batch.shutil, "rmtree", dies)
     with pytest.raises(KeyboardInterrupt):
-        batch.write_tiled(value, (20, 20), 8, out)
+        batch.write_tiled(_ramp, (20, 20), 8, out)
     monkeypatch.setattr(batch.shutil, "rmtree", real)
-    assert np.array_equal(np.load(out), value((0, 0, 20, 20))) and (tmp_path / ".a.tiles.npy").is_dir()
+    assert np.array_equal(np.load(out), _ramp((0, 0, 20, 20))) and (tmp_path / ".a.tiles.npy").is_dir()
     np.save(out, np.zeros((3, 3), np.float32))  # the user's own array under that name
     calls = []
-    batch.write_tiled(lambda w: calls.append(w) or value(w), (20, 20), 8, out)
+    batch.write_tiled(lambda w: calls.append(w) or _ramp(w), (20, 20), 8, out)
     assert len([w for w in calls if w[2:] != (1, 1)]) == len(batch.tile_windows((20, 20), 8))
-    assert np.array_equal(np.load(out), value((0, 0, 20, 20)))
+    assert np.array_equal(np.load(out), _ramp((0, 0, 20, 20)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
 
 

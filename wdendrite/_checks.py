@@ -289,7 +289,7 @@ def checking_only():
 
     A preset's function called in this context checks its arguments (and those of the
     lattice it builds) and stops when its first :class:`~wdendrite.Lattice` is about to be
-    filled: what a batch does with every task before running any.
+    filled or its Dendry image computed: what a batch does with every task before running any.
     """
     token = _CHECKING.set(True)
     try:

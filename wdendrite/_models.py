@@ -59,25 +59,18 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
         cheap: weight factor D of the dendrite's edges in later iterations; 0: its nodes become generators.
         seed: seed of the weights and the endpoints.
     """
-    from . import Lattice, grow, weights
+    from . import FractalParams, Lattice, grow, weights
 
-    params = _fractal_params(size, count, d, alpha, beta, epsilon, cheap)
+    size = _checks.integer("size", size, low=8)
+    # defaults: a sparse, readable fractal whose first branches reach most of the way out
+    params = FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
+                           epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
     # brightness grows with the number of endpoints a node carries (thicker trunks)
     img = np.zeros(lat.shape)
     img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
     return Made(img, den, parts={"field": img})
-
-
-def _fractal_params(size, count, d, alpha, beta, epsilon, cheap):
-    """The growth parameters of :func:`fractal` (every value checked)."""
-    from . import FractalParams
-
-    size = _checks.integer("size", size, low=8)
-    # defaults: a sparse, readable fractal whose first branches reach most of the way out
-    return FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
-                         epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
 
 
 def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
@@ -90,7 +83,8 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     """
     from . import Lattice, shortest_paths, weights
 
-    _costs_check(size, generators)
+    _checks.integer("size", size, low=8)
+    _checks.integer("generators", generators, low=1)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     gens = _checks.rng(seed).integers(0, size, size=(generators, 2))
     cf = shortest_paths(lat, gens)
@@ -100,12 +94,6 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     tint = (cf.label * 0.61803) % 1.0
     rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
     return Made(rgb, parts={"field": d})
-
-
-def _costs_check(size, generators) -> None:
-    """Check the values of :func:`costs`."""
-    _checks.integer("size", size, low=8)
-    _checks.integer("generators", generators, low=1)
 
 
 Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]

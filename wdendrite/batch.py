@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from ._spec import UsageError, all_presets, canonical_name, nearest, progress_bar, read_toml, resolve
+from .io import _NAME_BYTES
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
            "run_tiled", "tile_windows", "tiled_array", "worker_device", "write_tiled"]
@@ -61,7 +62,6 @@ _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
 TILED_PRESETS = ("dendry", "terrain")
 _TILED_FORMATS = ("npy", "zarr")
-_NAME_BYTES = 255  # longest file name most file systems take
 
 
 @dataclass
@@ -109,6 +109,11 @@ class Task:
         if os.path.lexists(self.manifest) and rec.get("name") != self.name:  # not a manifest of this task
             theirs.append(str(self.manifest))
         return theirs
+
+    def blocked(self) -> list[str]:
+        """Folders where the task writes a file (an output that is no Zarr store, or its manifest)."""
+        paths = [*self.outputs, str(self.manifest)]
+        return [p for p in paths if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
 
 
 # --------------------------------------------------------------------------- job files
@@ -323,8 +328,7 @@ def load_jobs(path) -> tuple[list[Task], dict]:
 
 def _temporaries(path: Path) -> list[Path]:
     """Temporary files staged for ``path``: ``.NAME.``, mkstemp's 8 characters (``a-z0-9_``) and its
-    suffix, NAME shortened as :func:`wdendrite.io.temporary_prefix` does; also an old Zarr store
-    moved aside."""
+    suffix, NAME shortened as :func:`wdendrite.io.temporary_prefix` does."""
     from .io import temporary_prefix
 
     pattern = glob_escape(temporary_prefix(path)) + "[a-z0-9_]" * 8 + glob_escape(path.suffix)
@@ -338,19 +342,26 @@ def _aside(path: Path) -> Path:
     return path.with_name(temporary_prefix(path) + "replaced" + path.suffix)
 
 
+def _remove(path: Path) -> None:
+    """Delete a file, a link (not what it points at) or a folder, if there is one at ``path``."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    elif os.path.lexists(path):
+        path.unlink()
+
+
 def _sweep_temporaries(task: Task) -> None:
-    """Remove the temporary files a killed run left behind for ``task`` (see :func:`_temporaries`);
-    other files beside its outputs (a ``.NAME.png.orig`` of the user's) stay.
+    """Remove the temporary files a killed run left behind for ``task`` (see :func:`_temporaries`)
+    and an old output a tiled run had moved aside; other files beside its outputs (a
+    ``.NAME.png.orig`` of the user's) stay.
 
     Tiled partial files and their tile records are named differently and kept: a re-run resumes them.
     """
     for path in [*map(Path, task.outputs), task.manifest]:
         for tmp in _temporaries(path):
-            if tmp.is_dir() and not tmp.is_symlink():
-                if tmp == _aside(path):
-                    shutil.rmtree(tmp, ignore_errors=True)
-            else:
+            if not tmp.is_dir() or tmp.is_symlink():  # (mkstemp makes files)
                 tmp.unlink(missing_ok=True)
+        _remove(_aside(path))
 
 
 def _sweep_leftovers(task: Task) -> None:
@@ -358,10 +369,7 @@ def _sweep_leftovers(task: Task) -> None:
     partial file and an old store moved aside (a complete task is not run again to clear them)."""
     for path in map(Path, task.outputs):
         for old in [*_tile_records(path), _aside(path)]:
-            if old.is_dir() and not old.is_symlink():
-                shutil.rmtree(old, ignore_errors=True)
-            elif os.path.lexists(old):
-                old.unlink()
+            _remove(old)
 
 
 def _prepare_folder(folder: Path) -> None:
@@ -593,11 +601,8 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, 
         if whole == _identity(final):  # the very file renamed there, untouched since
             return partial, marks, True
     if not partial.exists() or not same:
-        shutil.rmtree(marks, ignore_errors=True)
-        if partial.is_dir():
-            shutil.rmtree(partial)
-        elif partial.exists():
-            partial.unlink()
+        _remove(marks)
+        _remove(partial)
         if final.suffix == ".zarr":
             import zarr
 
@@ -689,9 +694,7 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         if placed:
             continue
         if final.is_symlink() or final.is_dir() or (partial.is_dir() and os.path.lexists(final)):
-            if os.path.lexists(_aside(final)):  # left by a killed run
-                old = _aside(final)
-                shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
+            _remove(_aside(final))  # (one a killed run left)
             os.replace(final, _aside(final))
             moved.append(_aside(final))
         os.replace(partial, final)
@@ -700,9 +703,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     if placed_all is not None:
         placed_all()  # (a batch writes its manifest here: a kill during the clean-up below redoes nothing)
     for old in moved:
-        shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
+        _remove(old)
     for _, marks, _ in opened:
-        shutil.rmtree(marks, ignore_errors=True)
+        _remove(marks)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
@@ -822,8 +825,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         for t in tasks:
             state = "done" if t.complete() else "todo"
             note = ""
-            blocked = [p for p in [*t.outputs, str(t.manifest)]
-                       if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
+            blocked = t.blocked()
             if state == "todo" and blocked:
                 note = f"  (a folder is in the way: move {Path(blocked[0]).name!r})"
             elif state == "todo" and t.foreign():
@@ -833,8 +835,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         return 0
     todo = [t for t in tasks if not t.complete()]
     # a folder where a file goes (not a Zarr store) cannot be overwritten, forced or not
-    folders = [p for t in todo for p in [*t.outputs, str(t.manifest)]
-               if Path(p).is_dir() and Path(p).suffix.lower() != ".zarr"]
+    folders = [p for t in todo for p in t.blocked()]
     if folders:
         raise UsageError(f"{folders[0]!r} is a folder where the batch writes a file; move it away")
     foreign = [p for t in todo for p in t.foreign()]

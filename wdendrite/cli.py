@@ -526,17 +526,18 @@ def _options_named(exc, preset) -> str:
 
 def _tiled(preset, values: dict, outs: list, args) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
-    from .batch import Task, need_zarr, run_tiled
+    from .batch import Task, _tile_records, need_zarr, run_tiled
+    from .io import _NAME_BYTES
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
     # tiles go straight into the field's file: no picture, which would need the whole image
     paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"))
-    for p in paths:  # tiles go to ".{stem}.partial{suffix}" beside it, and their records to ".{stem}.tiles{suffix}"
-        longest = len(os.fsencode(f".{p.stem}.partial{p.suffix}"))
-        if longest > 255:
-            raise UsageError(f"-o/--out {str(p)!r}: the name is {longest - 255} bytes too long for the file the "
-                             "tiles are written to before the rename (255 at most); shorten it")
+    for p in paths:  # tiles go to a hidden partial file beside it, and their records to a hidden folder
+        longest = max(len(os.fsencode(q.name)) for q in _tile_records(p))
+        if longest > _NAME_BYTES:
+            raise UsageError(f"-o/--out {str(p)!r}: the name is {longest - _NAME_BYTES} bytes too long for the file "
+                             f"the tiles are written to before the rename ({_NAME_BYTES} at most); shorten it")
     need_zarr(paths)
     _, full = resolve(preset, values)
     task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)

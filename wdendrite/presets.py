@@ -28,7 +28,7 @@ from . import render as _r
 from . import weights as _w
 from .dendrite import Dendrite, trace
 from .growth import FractalParams, grow
-from .lattice import Lattice, half_offsets
+from .lattice import Lattice
 from .refine import _check_n_e, refine
 from .sssp import shortest_paths
 
@@ -238,7 +238,7 @@ def _polynomial(shape, n: float, seed: int, connectivity: int):
     """
     if n <= 4:
         return _w.Polynomial(n=n, seed=seed)
-    lengths = np.sqrt((half_offsets(2, connectivity) ** 2).sum(axis=1)).astype(np.float32)  # as Lattice.lengths
+    lengths = Lattice((2, 2), connectivity).lengths
     v = _checks.rng(seed).uniform(0.0, 100.0 ** (4.0 / n), (len(lengths), *shape))
     return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
 
@@ -256,7 +256,7 @@ def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 
     ns = [_checks.finite("ns", n) for n in ns]
     if any(n < 0 for n in ns):
         raise ValueError(f"Expected every entry of 'ns' >= 0, but got {min(ns)!r}")
-    _w.Polynomial(seed=seed)  # (checks the seed)
+    _checks.seed32(seed)
     _checks.stop_if_checking()  # (a check of the preset stops before the weight arrays are drawn)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
                                       seed, connectivity=connectivity)
