@@ -657,3 +657,11 @@ def test_checking_a_preset_stops_before_its_weight_arrays(tmp_path, monkeypatch)
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "weight-distributions"\nsizes = [6000]\n')
     assert batch.run_file(tmp_path / "jobs.toml", dry_run=True) == 0
     assert drawn == []
+
+
+@pytest.mark.parametrize("paths", [[], ["a.npy", "./a.npy"]])
+def test_write_tiled_refuses_no_paths_and_a_path_twice(tmp_path, monkeypatch, paths):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match="distinct output paths for 'path'"):
+        batch.write_tiled(_ramp, (8, 8), 8, paths)
+    assert not list(tmp_path.iterdir())

@@ -652,11 +652,14 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         The written path (a list of them when ``path`` is a list).
 
     Raises:
+        ValueError: an empty list of paths, or one path given twice.
         whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
         pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
         are made.
     """
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
+    if not finals or len({f.resolve() for f in finals}) != len(finals):
+        raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
     if client is None:
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)
