@@ -127,6 +127,27 @@ def test_one_launch_search_equals_buckets_driven_from_the_host(problem, delta, l
 
 
 @pytest.mark.parametrize("store", [True, False])
+@pytest.mark.parametrize("shape, conn", [((9, 11), 4), ((9, 11), 8), ((5, 6, 7), 6), ((5, 6, 7), 26)])
+def test_each_lattice_is_searched_by_the_kernel_compiled_for_its_records(shape, conn, store, monkeypatch):
+    # stored weights: the one-launch kernel whose record layout was fixed at compile time for this
+    # connectivity; hashed weights: the general one. The tests above compare both with the host's
+    # buckets, which run the general relax kernel.
+    from wdendrite.kernels import sssp as ks
+
+    launched = []
+    real_launch = wp.launch
+    monkeypatch.setattr(wp, "launch", lambda kernel, *a, **k: (launched.append(kernel), real_launch(kernel, *a, **k))[1])
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Uniform(r=10, seed=3), store_weights=store)
+    gens = np.zeros((1, len(shape)), np.int64)
+    cf = wd.shortest_paths(lat, gens, device="cpu")
+    k = len(half_offsets(len(shape), conn))
+    assert k in ks.SEARCH_DIRECTIONS
+    searches = [kern for kern in launched if kern in ks.SEARCH_KERNELS.values()]
+    assert searches == [ks.SEARCH_KERNELS[k if store else 0]]
+    _check_against_scipy(lat, gens, cf)
+
+
+@pytest.mark.parametrize("store", [True, False])
 @pytest.mark.parametrize("shape, conn", [((40, 50), 8), ((12, 13, 14), 26)])
 def test_one_launch_search_equals_host_buckets_on_larger_lattices(shape, conn, store):
     # many buckets (a narrow delta) over stored and hashed weights, with a mask and a limit

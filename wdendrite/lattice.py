@@ -11,6 +11,7 @@ import warp as wp
 
 from . import _checks, _memory
 from .kernels import sssp as _ks
+from .kernels.sssp import record_stride
 from .kernels import weights as _kw
 
 __all__ = ["Lattice", "half_offsets"]
@@ -239,12 +240,6 @@ def clear_records(aux: wp.array, stride: int, nw: int, *, with_state: bool) -> N
 def record_words(shape: tuple, nw: int) -> int:
     """int32 words of the padded node records of a lattice of ``shape`` with ``nw`` stored weights."""
     return int(np.prod([n + 2 for n in shape])) * record_stride(nw)
-
-
-def record_stride(nw: int) -> int:
-    """int32 words per node record with ``nw`` stored weights: a 64-bit state, the
-    weights and a stamp, rounded up to an even count so that states stay aligned."""
-    return (nw + 4) // 2 * 2
 
 
 class _Stamps:

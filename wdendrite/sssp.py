@@ -6,7 +6,9 @@ when it runs dry the threshold moves up by ``delta`` and the far pile is
 split. Work stays close to the number of nodes reached, instead of a
 whole-lattice sweep per hop as in plain Bellman-Ford. On a GPU the host drives
 the rounds, one launch each; on the CPU (one thread per launch) a single
-launch runs them all, each bucket emptied as a work queue.
+launch runs them all, each bucket emptied as a work queue, by a kernel
+compiled for the lattice's record layout (stored weights of 2, 3, 4 or 13
+directions) or, for hashed weights, by the general one.
 
 Ties are broken by a fixed rule: among generators at the same least cost a
 node takes the lowest generator row (see :class:`CostField`).
@@ -609,8 +611,10 @@ class _Launches:
         launch, no time: see :func:`_default_delta`.)
         """
         fr, a = self._fr, self._arrays()
+        # stored weights of a known count have a kernel compiled for them; hashed ones the general one
+        kernel = _k.SEARCH_KERNELS[a.nw if a.hashed.use == 0 and a.nw in _k.SEARCH_KERNELS else 0]
         wp.launch(
-            _k.search_kernel,
+            kernel,
             dim=1,
             inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[0], fr.lists[2], self._limit,
                     delta, generation],
