@@ -576,8 +576,10 @@ def record_stride(nw: int) -> int:
 
 def _one_launch_search(fixed_nw: int) -> wp.Kernel:
     """The one-thread search kernel, for records of ``fixed_nw`` stored weights
-    known when it compiles (one of :data:`SEARCH_DIRECTIONS`), or, with
-    ``fixed_nw = 0``, for any records, laid out as the launch says (hashed weights).
+    known when it compiles (one of :data:`SEARCH_DIRECTIONS`, with the stride
+    :func:`record_stride` gives), or, with ``fixed_nw = 0``, for any records,
+    laid out as the launch's ``stride`` and ``nw`` say (hashed weights, or any
+    other layout).
 
     Known at compile time, the record stride and the number of directions let
     the compiler fold the record arithmetic and unroll the directions, and
@@ -616,7 +618,9 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
         the rest stay in order at the pile's front. The queue's and the pile's
         orders are those of the host's schedule, so costs, labels and the counts
         are the same. ``stats`` receives the buckets emptied and the nodes relaxed.
-        With stored weights of a fixed count, ``stride`` and ``nw`` must be theirs.
+        A kernel compiled for a fixed count of stored weights ignores ``stride`` and
+        ``nw`` and uses its own constants. Every array must be contiguous: the kernel
+        reads them through views that assume so (:func:`dense_i32`).
         """
         flat_offsets = dense_i32(flat_offsets)
         queue = dense_i32(queue)

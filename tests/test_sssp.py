@@ -130,8 +130,11 @@ def test_one_launch_search_equals_buckets_driven_from_the_host(problem, delta, l
 @pytest.mark.parametrize("shape, conn", [((9, 11), 4), ((9, 11), 8), ((5, 6, 7), 6), ((5, 6, 7), 26)])
 def test_each_lattice_is_searched_by_the_kernel_compiled_for_its_records(shape, conn, store, monkeypatch):
     # stored weights: the one-launch kernel whose record layout was fixed at compile time for this
-    # connectivity; hashed weights: the general one. The tests above compare both with the host's
-    # buckets, which run the general relax kernel.
+    # connectivity; hashed weights: the general one. Other tests compare their results with the
+    # host's buckets (the general relax kernel): on random stored lattices above, on stored and
+    # hashed ones below.
+    import inspect
+
     from wdendrite.kernels import sssp as ks
 
     launched = []
@@ -144,7 +147,28 @@ def test_each_lattice_is_searched_by_the_kernel_compiled_for_its_records(shape, 
     assert k in ks.SEARCH_DIRECTIONS
     searches = [kern for kern in launched if kern in ks.SEARCH_KERNELS.values()]
     assert searches == [ks.SEARCH_KERNELS[k if store else 0]]
+    # and each kernel is compiled for the count it is filed under
+    assert all(inspect.getclosurevars(kern.func).nonlocals["fixed_nw"] == nw for nw, kern in ks.SEARCH_KERNELS.items())
     _check_against_scipy(lat, gens, cf)
+
+
+def test_records_of_another_stride_are_searched_by_the_general_kernel(monkeypatch):
+    # a compiled layout is only used for the records it was compiled for: with wider records
+    # (a stride the kernels were not compiled for) the search still equals the host's buckets
+    import wdendrite.lattice as lattice_mod
+    from wdendrite.kernels import sssp as ks
+
+    monkeypatch.setattr(lattice_mod, "record_stride", lambda nw: ks.record_stride(nw) + 2)
+    lat = wd.Lattice((20, 20), 8, weights=wd.weights.Uniform(r=10, seed=4))
+    assert lat.device_arrays("cpu").stride == ks.record_stride(4) + 2
+    gens = np.array([[3, 4], [15, 12]])
+    one = wd.shortest_paths(lat, gens, device="cpu")
+    one = (one.dist.copy(), one.label.copy(), one.rounds, one.relaxed)
+    host = wd.shortest_paths(lat, gens, _host_rounds=True, device="cpu")
+    np.testing.assert_array_equal(one[0].view(np.uint32), host.dist.view(np.uint32))
+    np.testing.assert_array_equal(one[1], host.label)
+    assert one[2:] == (host.rounds, host.relaxed)
+    _check_against_scipy(lat, gens, host)
 
 
 @pytest.mark.parametrize("store", [True, False])

@@ -611,8 +611,10 @@ class _Launches:
         launch, no time: see :func:`_default_delta`.)
         """
         fr, a = self._fr, self._arrays()
-        # stored weights of a known count have a kernel compiled for them; hashed ones the general one
-        kernel = _k.SEARCH_KERNELS[a.nw if a.hashed.use == 0 and a.nw in _k.SEARCH_KERNELS else 0]
+        # stored weights of a known count in records of the usual stride have a kernel compiled
+        # for that layout; other records (hashed weights) the general one, which reads the layout
+        fixed = a.hashed.use == 0 and a.nw in _k.SEARCH_KERNELS and a.stride == _k.record_stride(a.nw)
+        kernel = _k.SEARCH_KERNELS[a.nw if fixed else 0]
         wp.launch(
             kernel,
             dim=1,
