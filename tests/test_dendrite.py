@@ -1,5 +1,8 @@
 """trace(): forest invariants, exact steps, shortest-path optimality against SciPy, extension, bad input."""
 
+import os
+import sys
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -449,3 +452,23 @@ def test_trace_refuses_to_extend_a_dendrite_on_masked_nodes(launches):
     with pytest.raises(ValueError, match=r"'extend' row 0 = \(0, 0\) is a masked-out node"):
         wd.trace(cf, [[5, 5]], extend=den)
     assert launches == []
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the resident size from /proc")
+def test_walk_tables_cost_memory_only_where_written():
+    # the walks' node tables span the whole padded lattice and get a few scattered writes (a
+    # dendrite in a large sparse refined lattice). NumPy's own large arrays ask for huge pages,
+    # where each such write makes 2 MiB resident (128 writes: 256 MiB); these cost a page each.
+    from wdendrite import _memory
+
+    def resident():
+        return int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+    before = resident()
+    table = _memory.sparse_table(2**28, np.int32)
+    table[np.arange(0, 2**28, 2**21)] = 7  # 128 writes, 8 MiB apart
+    grown = resident() - before
+    assert table.dtype == np.int32 and table.shape == (2**28,) and table.flags.writeable
+    assert int(table.sum()) == 7 * 128 and grown < 16 * 2**20, grown
+    small = _memory.sparse_table(10, bool)
+    assert small.dtype == bool and not small.any()

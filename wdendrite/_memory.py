@@ -15,9 +15,11 @@ import mmap
 import ctypes.util
 import sys
 
+import numpy as np
 import warp as wp
 
 _MADV_HUGEPAGE = 14
+_MADV_NOHUGEPAGE = 15
 _HUGE = 2 << 20
 _libc = None
 
@@ -83,3 +85,23 @@ def zeros(count: int, dtype, device, *, huge: bool = True) -> wp.array:
     if huge:
         advise_huge_pages(arr)
     return arr
+
+
+def sparse_table(count: int, dtype) -> np.ndarray:
+    """A zero-filled 1D NumPy array of ``count`` elements for scattered writes to a few of them
+    (a table over a lattice's nodes of which a dendrite touches some).
+
+    NumPy asks for huge pages behind its large arrays, so each scattered write into a fresh
+    one zeroes a whole 2 MiB page: a walk table over a 750^3 refined lattice took 3.5 s
+    for 10 000 entries. This one sits on a fresh anonymous mapping whose 4 KiB zero pages
+    cost only where written (small tables, under 4 MiB, are plain NumPy arrays).
+    """
+    dtype = np.dtype(dtype)
+    nbytes = max(1, count * dtype.itemsize)
+    if nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
+        return np.zeros(count, dtype)
+    block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)
+    lib = _madvise()
+    if lib is not None:  # where the system gives huge pages unasked ("always" mode), decline them
+        lib.madvise(ctypes.addressof(ctypes.c_char.from_buffer(block)), nbytes, _MADV_NOHUGEPAGE)
+    return np.frombuffer(block, dtype, count)  # the array keeps the mapping alive

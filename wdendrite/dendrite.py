@@ -9,7 +9,7 @@ from typing import Iterator
 import numpy as np
 import warp as wp
 
-from . import _checks
+from . import _checks, _memory
 from .kernels import dendrite as _kd
 from .lattice import coords_of_padded, edge_slices, padded_index_of
 from .sssp import CostField, load_state, read_states
@@ -377,7 +377,7 @@ def trace(
             if claim_zero:
                 # only first generators on none of the dendrite's nodes are marked roots
                 roots = lattice.padded_indices(gen_rows[: len(gen_rows) - len(old)])
-                on = np.zeros(size, bool)
+                on = _memory.sparse_table(size, bool)
                 on[old] = True
                 marks = ((roots[~on[roots]], root_id),)
             else:
@@ -409,7 +409,7 @@ def trace(
             # keep it for the next trace when small (a fresh one costs a page fault per page its
             # scattered writes touch): first each new node's place in the list, which orders the walks'
             # outputs as a sort of the nodes (cheaper than an argsort) ...
-            rows = arrays.kept("rows", lambda: np.empty(size, np.int32), 4 * size)
+            rows = arrays.kept("rows", lambda: _memory.sparse_table(size, np.int32), 4 * size)
             rows[listed] = np.arange(n_new, dtype=np.int32)
             fresh = np.sort(listed)
             order = rows[fresh]
