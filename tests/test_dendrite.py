@@ -465,10 +465,10 @@ def test_walk_tables_cost_memory_only_where_written():
         return int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
     before = resident()
-    table = _memory.sparse_table(2**28, np.int32)
-    table[np.arange(0, 2**28, 2**21)] = 7  # 128 writes, 8 MiB apart
+    table = _memory.sparse_table(2**26, np.int32)
+    table[np.arange(0, 2**26, 2**19)] = 7  # 128 writes, 2 MiB apart
     grown = resident() - before
-    assert table.dtype == np.int32 and table.shape == (2**28,) and table.flags.writeable
+    assert table.dtype == np.int32 and table.shape == (2**26,) and table.flags.writeable
     assert int(table.sum()) == 7 * 128 and grown < 16 * 2**20, grown
     small = _memory.sparse_table(10, bool)
     assert small.dtype == bool and not small.any()

@@ -5,7 +5,9 @@ Lattice-sized arrays are read at random by the shortest-path kernels; with
 kernel allows it (transparent huge pages in ``madvise`` or ``always`` mode),
 asking for 2 MiB pages before an array is first touched removes most of them
 (and for lattice-sized outputs, most of the page faults of their first touch).
-This is advice only: where it is not available nothing changes.
+This is advice only: where it is not available nothing changes. The other way
+round, tables that get only a few scattered writes (:func:`sparse_table`)
+decline the huge pages NumPy asks for, which each such write would zero whole.
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ import numpy as np
 import warp as wp
 
 _MADV_HUGEPAGE = 14
-_MADV_NOHUGEPAGE = 15
 _HUGE = 2 << 20
 _libc = None
 
@@ -92,16 +93,17 @@ def sparse_table(count: int, dtype) -> np.ndarray:
     (a table over a lattice's nodes of which a dendrite touches some).
 
     NumPy asks for huge pages behind its large arrays, so each scattered write into a fresh
-    one zeroes a whole 2 MiB page: a walk table over a 750^3 refined lattice took 3.5 s
-    for 10 000 entries. This one sits on a fresh anonymous mapping whose 4 KiB zero pages
-    cost only where written (small tables, under 4 MiB, are plain NumPy arrays).
+    one zeroes a whole 2 MiB page: a walk table over the 408 M padded nodes of a refined
+    lattice (n = 15) took 3.5 s for about 10 000 entries. This one sits on a fresh anonymous
+    mapping whose 4 KiB zero pages cost only where written (small tables, under 4 MiB, are
+    plain NumPy arrays). A table written densely pays a page fault per page instead (about
+    1 us per 4 KiB, where huge pages would zero 2 MiB at a time).
     """
     dtype = np.dtype(dtype)
     nbytes = max(1, count * dtype.itemsize)
     if nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
         return np.zeros(count, dtype)
     block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)
-    lib = _madvise()
-    if lib is not None:  # where the system gives huge pages unasked ("always" mode), decline them
-        lib.madvise(ctypes.addressof(ctypes.c_char.from_buffer(block)), nbytes, _MADV_NOHUGEPAGE)
+    if hasattr(mmap, "MADV_NOHUGEPAGE"):  # where the system gives huge pages unasked ("always" mode)
+        block.madvise(mmap.MADV_NOHUGEPAGE)
     return np.frombuffer(block, dtype, count)  # the array keeps the mapping alive
