@@ -421,3 +421,33 @@ def test_fine_weights_by_the_border_do_not_depend_on_the_rest_of_the_dendrite():
     _, la = wd.refine(wd.trace(cf, [[2, 0]]), lat, n=3, seed=5)
     _, lb = wd.refine(wd.trace(cf, [[2, 0], [39, 0]]), lat, n=3, seed=5)
     assert _same_edges_in_both(la, lb) > 100
+
+
+@pytest.mark.parametrize("shape, conn, n", [((20, 24), 8, 5), ((9, 10, 11), 26, 3), ((9, 10, 11), 6, 5)])
+def test_refined_weights_computed_when_relaxed_equal_the_stored_ones(shape, conn, n):
+    # a fine box too big for stored records has its weights computed in the search, edge by edge;
+    # the same lattice with stored records must give the same costs and labels bit for bit
+    from wdendrite.refine import refined_lattice
+
+    lat = wd.Lattice(shape, conn, weights=wd.weights.Uniform(r=10, seed=6))
+    far = tuple(s - 1 for s in shape)
+    den = wd.trace(wd.shortest_paths(lat, [[0] * len(shape)]), [far, (0,) * (len(shape) - 1) + (shape[-1] - 1,)])
+    fine_lat, roots, ends, _ = refined_lattice(den, lat, n=n, e=0.7, seed=2)
+    assert fine_lat.stores_weights
+    hashed = wd.Lattice(fine_lat.shape, conn, weights=fine_lat.distribution, mask=fine_lat.mask, store_weights=False)
+    a = wd.shortest_paths(fine_lat, roots, device="cpu")
+    b = wd.shortest_paths(hashed, roots, device="cpu")
+    assert np.isfinite(a.dist).sum() > len(roots)
+    np.testing.assert_array_equal(a.dist.view(np.uint32), b.dist.view(np.uint32))
+    np.testing.assert_array_equal(a.label, b.label)
+    # the stored records hold, on every edge between usable nodes, what the distribution's own
+    # per-edge formula gives (sample(): one edge at a time, nothing shared between edges)
+    from wdendrite.lattice import edge_slices
+
+    stored = fine_lat.weights
+    reference = fine_lat.distribution.sample(fine_lat.shape, fine_lat.lengths, offsets=fine_lat.offsets)
+    for k, off in enumerate(fine_lat.offsets):
+        head, tail = edge_slices(off, fine_lat.shape)
+        both = fine_lat.mask[head] & fine_lat.mask[tail]
+        assert both.any()
+        np.testing.assert_array_equal(stored[k][head][both].view(np.uint32), reference[k][head][both].view(np.uint32))
