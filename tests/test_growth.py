@@ -192,6 +192,15 @@ def test_competition_keeps_dendrites_apart():
         assert tuple(den.nodes[den.path(row)[-1]]) == roots[int(den.label[row])]
 
 
+def test_progress_true_shows_a_bar_of_the_iterations_and_grows_the_same(capsys):
+    plain = wd.grow(LAT, [[48, 48]], PARAMS, seed=11)
+    shown = wd.grow(LAT, [[48, 48]], PARAMS, seed=11, progress=True)
+    err = capsys.readouterr().err
+    n = len(PARAMS.schedule())
+    assert "growing" in err and f"{n}/{n}" in err  # tqdm's bar, on stderr, completed
+    np.testing.assert_array_equal(plain.nodes, shown.nodes)
+
+
 def test_progress_callback_and_reproducibility():
     seen = []
     a = wd.grow(LAT, [[48, 48]], PARAMS, seed=11, progress=lambda i, n, d: seen.append((i, n, len(d))))
