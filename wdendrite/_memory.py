@@ -64,22 +64,38 @@ def empty(shape, dtype, device) -> wp.array:
     return arr
 
 
+def _fresh_mapping(nbytes: int, huge: bool):
+    """A fresh private anonymous mapping of ``nbytes`` whose zero pages cost nothing until
+    touched, or None for small sizes (under 4 MiB, where a mapping of their own gains nothing)
+    and systems without private anonymous mappings (Windows, through the mmap module).
+
+    Without ``huge`` it declines huge pages, which systems in THP "always" mode would otherwise
+    hand out and zero 2 MiB at a time; with ``huge`` the caller asks for them on the array it
+    lays over the mapping (:func:`advise_huge_pages`).
+    """
+    if nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
+        return None
+    block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)  # private: eligible for huge pages
+    if not huge and hasattr(mmap, "MADV_NOHUGEPAGE"):
+        block.madvise(mmap.MADV_NOHUGEPAGE)
+    return block
+
+
 def zeros(count: int, dtype, device, *, huge: bool = True) -> wp.array:
     """A zero-filled 1D array of ``count`` elements whose zeros cost nothing until touched.
 
     On the CPU the memory is a fresh anonymous mapping: the system hands out
     zero pages on first touch, so a large array of which a kernel touches a
     small part (a sparse lattice's records) costs only the pages it touches.
-    ``huge`` asks for 2 MiB pages (for arrays that will be touched throughout).
-    Small arrays (under 4 MiB, where a mapping of their own gains nothing) and
-    other devices get ``wp.zeros``.
+    ``huge`` asks for 2 MiB pages (for arrays that will be touched throughout);
+    without it they are declined. Small arrays (under 4 MiB) and other devices
+    get ``wp.zeros``.
     """
     device = wp.get_device(device)
     nbytes = max(1, count * wp.types.type_size_in_bytes(dtype))
-    if not device.is_cpu or nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
-        # (Windows has no private anonymous mappings through the mmap module)
+    block = _fresh_mapping(nbytes, huge) if device.is_cpu else None
+    if block is None:
         return wp.zeros(count, dtype=dtype, device=device)
-    block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)  # private: eligible for huge pages
     ptr = ctypes.addressof(ctypes.c_char.from_buffer(block))
     arr = wp.array(ptr=ptr, dtype=dtype, shape=(count,), device=device)
     arr._anonymous_mapping = block  # the array keeps its memory alive
@@ -94,16 +110,13 @@ def sparse_table(count: int, dtype) -> np.ndarray:
 
     NumPy asks for huge pages behind its large arrays, so each scattered write into a fresh
     one zeroes a whole 2 MiB page: a walk table over the 408 M padded nodes of a refined
-    lattice (n = 15) took 3.5 s for about 10 000 entries. This one sits on a fresh anonymous
-    mapping whose 4 KiB zero pages cost only where written (small tables, under 4 MiB, are
-    plain NumPy arrays). A table written densely pays a page fault per page instead (about
-    1 us per 4 KiB, where huge pages would zero 2 MiB at a time).
+    lattice (n = 15) took 3.5 s for about 10 000 entries. This one sits on a fresh mapping
+    without huge pages (:func:`_fresh_mapping`), whose 4 KiB zero pages cost only where
+    written (small tables are plain NumPy arrays). A table written densely pays a page fault
+    per page instead (about 1 us per 4 KiB, where huge pages would zero 2 MiB at a time).
     """
     dtype = np.dtype(dtype)
-    nbytes = max(1, count * dtype.itemsize)
-    if nbytes < 2 * _HUGE or not hasattr(mmap, "MAP_PRIVATE"):
+    block = _fresh_mapping(max(1, count * dtype.itemsize), huge=False)
+    if block is None:
         return np.zeros(count, dtype)
-    block = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE)
-    if hasattr(mmap, "MADV_NOHUGEPAGE"):  # where the system gives huge pages unasked ("always" mode)
-        block.madvise(mmap.MADV_NOHUGEPAGE)
     return np.frombuffer(block, dtype, count)  # the array keeps the mapping alive
