@@ -22,6 +22,9 @@ In the cached mode one slot (0) covers a whole window and each stage is one
 launch over its cells; in the per-pixel mode each thread uses a slot of its own
 (shared in turn on the CPU, which runs a launch's threads one by one), plans
 blocks just around its pixel and fills them itself with the same functions.
+There the finest level is filled last and lazily (:func:`finish`): once the
+pixel's answer is bounded, a finest segment proved to lie beyond that bound is
+not drawn, which changes no value (the finest level links nothing).
 The module is longer than most because both modes must share every function
 that decides a value: that sharing is what makes them agree bit for bit.
 """
@@ -37,12 +40,13 @@ wp.set_module_options(OPTIONS)
 
 NV = wp.constant(7)  # stride of a cell in `verts`: up to 5 polyline vertices, then its bounding box
 PIECES = wp.constant(4)  # pieces searched per cell: shorter polylines are padded with copies of their last vertex
-BOUND = wp.constant(5)  # position of the bounding box in a cell's stride: (x0, y0, x1), then (y1, -, -)
+BOUND = wp.constant(5)  # position of the bounding box in a cell's stride: (x0, y0, x1), then (y1, longest piece, -)
 SLOT = wp.constant(8)  # blocks per slot
 PRIM = wp.constant(7)  # block id of the terrain primitives
 STATE_NONE = wp.constant(0.0)  # no usable key point (outside the domain, or no segment to join)
 STATE_INHERITED = wp.constant(1.0)  # key point of the parent level, already on the tree
 STATE_SEGMENT = wp.constant(2.0)  # key point owning a segment
+STATE_FAR = wp.constant(3.0)  # per-pixel mode: a finest-level segment too far from the pixel to matter, not drawn
 
 OUT_DISTANCE = wp.constant(0)
 OUT_ELEVATION = wp.constant(1)
@@ -84,6 +88,7 @@ class Setup:
     delta: vec6  # sideways displacement per level, times the segment length
     pieces: vec6i  # polyline pieces per level (1..4)
     slope: vec6  # minimum slope per level (elevation per domain unit)
+    reach: vec6  # per level, how many spans a polyline may stray from its key point (see segment_reach)
     smoothing: int
     beta: float
     noise: float
@@ -246,6 +251,8 @@ def write_polyline(
     lo = wp.min(pa, pb)
     hi = wp.max(pa, pb)
     step = 1.0 / float(pieces)
+    prev = pa
+    longest = float(0.0)  # squared
     for j in range(1, pieces):
         t = float(j) * step
         pos = pa + t * d
@@ -255,13 +262,17 @@ def write_polyline(
         verts_out[nonneg(vi * NV + j)] = wp.vec3(pos[0], pos[1], a[2] + t * (b[2] - a[2]))
         lo = wp.min(lo, pos)
         hi = wp.max(hi, pos)
+        longest = wp.max(longest, wp.length_sq(pos - prev))
+        prev = pos
+    longest = wp.max(longest, wp.length_sq(pb - prev))
     for j in range(pieces, PIECES + 1):
         verts_out[nonneg(vi * NV + j)] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
     # the polyline's bounding box, widened against rounding (relative to its size and to the
-    # coordinates), lets searches skip the cell exactly
+    # coordinates), lets searches skip the cell exactly; the longest piece bounds how far a
+    # finer key point's link can land from the point of the piece nearest to it (see segment_reach)
     pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
     verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
-    verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, 0.0, 0.0)
+    verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, wp.sqrt(longest), 0.0)
 
 
 @wp.func
@@ -399,13 +410,12 @@ def no_hit() -> Hit:
 
 
 @wp.func
-def scan(
+def scan_range(
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int,
-    q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
+    k0: int, k1: int, q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
 ) -> Hit:
-    """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
-    for a piece nearer to ``q`` than ``hit``: centre first, then ring by ring, so far cells are
-    mostly skipped by their bounding boxes."""
+    """:func:`scan` over positions ``k0..k1-1`` of the search order only (``k1`` at most
+    ``(2r + 1)^2``): a scan split in two parts updates the hit exactly as one scan does."""
     b = blocks[nonneg(bi)]
     dx = c[0] - b[0]
     dy = c[1] - b[1]
@@ -414,9 +424,8 @@ def scan(
     centre = bases[nonneg(bi)] + dy * b[2] + dx
     # a while loop: Warp's range() with a run-time bound compiled to a slower loop here
     # (per-pixel queries 8-20 % slower)
-    cells = (2 * r + 1) * (2 * r + 1)
-    k = int(0)
-    while k < cells:
+    k = k0
+    while k < k1:
         off = wp.vec2i(ORDER_X[k], ORDER_Y[k])
         k += 1
         o = int(-1)
@@ -442,9 +451,50 @@ def scan(
 
 
 @wp.func
+def scan(
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), bi: int, l: int, c: wp.vec2i, r: int,
+    q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), hit: Hit,
+) -> Hit:
+    """Search the segments owned by the (2r+1)^2 cells of block ``bi`` (level ``l``) around ``c``
+    for a piece nearer to ``q`` than ``hit``: centre first, then ring by ring, so far cells are
+    mostly skipped by their bounding boxes."""
+    return scan_range(blocks, bases, bi, l, c, r, 0, (2 * r + 1) * (2 * r + 1), q, keyp, verts, hit)
+
+
+@wp.func
+def segment_reach(s: Setup, level: int, span: float) -> float:
+    """Bound on how far the polyline a new key point of ``level`` draws to a tree point ``span``
+    away strays from the key point (see :func:`write_polyline`).
+
+    Each scaled tangent of :func:`spline_tangents` is at most one span long: written over the
+    chords, ``t1 = (p1 - p0) L^2 / (d1 (d1 + L)) + (p2 - p1) d1 / (d1 + L)``, whose lengths add up
+    to at most L, and likewise t2. The Hermite basis then puts the vertex at fraction t within
+    ``t + 2 t^2 (1 - t)`` spans of its start (1 at the end; 1.03125 at t = 3/4, the only inner
+    vertex beyond 1), plus the sideways displacement of at most delta spans. The pieces are
+    straight between vertices, so the whole polyline lies within the largest of these. The host
+    computes that factor per level, with a 0.1 % margin against rounding (``Setup.reach``).
+    """
+    return (span + 1.0e-6) * s.reach[level - 1]
+
+
+@wp.func
+def link_span(s: Setup, d: float, longest: float) -> float:
+    """Bound on the distance from a new key point to the tree point it links to, when the piece
+    it joins lies ``d`` from it and no piece is longer than ``longest``.
+
+    Terrain rule: the point joined is the nearest of the piece's ends and midpoint, within a
+    quarter of the piece of the point nearest to the key point. Lichtenberg rule: the point
+    joined lies downstream of that nearest point by at most ``d``.
+    """
+    if s.rule == 0:
+        return d + 0.25 * longest
+    return 2.0 * d
+
+
+@wp.func
 def nearest_on_tree(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
-    q: wp.vec2, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    q: wp.vec2, far: float, longest: float, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ) -> wp.mat33:
     """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
     the (2 rl + 1)^2 cells around the ancestors of ``c`` (finest level first, centre cell first;
@@ -452,13 +502,24 @@ def nearest_on_tree(
 
     Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
-    its polyline, 1 when the vertex exists.
+    its polyline, 1 when the vertex exists. With ``far`` > 0 (the per-pixel mode's lazy
+    finest level, see :func:`finish`), code -2 as soon as the piece of the ancestor's own cell
+    shows that the new polyline stays within less than ``far`` of ``q`` (no piece of the
+    coarser levels being longer than ``longest``).
     """
     hit = no_hit()
+    cells = (2 * s.rl + 1) * (2 * s.rl + 1)
     for i in range(1, level):
         l = level - i
         anc = wp.vec2i(c[0] >> i, c[1] >> i)
-        hit = scan(blocks, bases, slot * SLOT + l, l, anc, s.rl, q, keyp, verts, hit)
+        k0 = int(0)
+        if i == 1 and far > 0.0:
+            # the piece of the parent's cell bounds the link: stop if even that keeps the segment far
+            hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, 0, 1, q, keyp, verts, hit)
+            if hit.o >= 0 and segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
+                return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
+            k0 = 1
+        hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, k0, cells, q, keyp, verts, hit)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
     a = verts[nonneg(hit.o * NV + hit.j)]
@@ -473,10 +534,17 @@ def nearest_on_tree(
 @wp.func
 def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
-    k: int, c: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
 ):
     """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
-    draw one and join the tree."""
+    draw one and join the tree.
+
+    With ``limit`` >= 0 (the per-pixel mode's lazy finest level, see :func:`finish`) a segment
+    whose polyline provably stays farther than ``limit`` from ``u`` is not drawn: the cell is
+    marked ``STATE_FAR``, which every search skips as it skips cells without a segment.
+    ``longest`` bounds the pieces of the coarser levels (see :func:`link_span`).
+    """
     bi = slot * SLOT + level
     vi = bases[nonneg(bi)] + k
     parent = keyp[nonneg(block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
@@ -490,7 +558,14 @@ def fill_levelk(
     if not control_inside(ctl, cp):
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
         return
-    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, keyp, verts)
+    far = float(-1.0)
+    if limit >= 0.0:
+        # the polyline matters only if some point of it comes within limit of u
+        far = wp.length(u - q) - limit - 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, keyp, verts)
+    if m[2, 2] < -1.5:
+        keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
+        return
     if m[2, 2] < 0.0:
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
         return
@@ -516,6 +591,9 @@ def fill_levelk(
             h = wp.length(q - (pa + tp * ab))
             tc = wp.min(tp + h / wp.sqrt(den), 1.0)
     x = pa + tc * ab
+    if far > 0.0 and segment_reach(s, level, wp.length(x - q)) < far:
+        keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
+        return
     zx = m[0, 2] + tc * (m[1, 2] - m[0, 2])
     zq = zx + s.slope[level - 1] * wp.length(q - x) * s.inv_resolution
     if s.need_z != 0:
@@ -715,8 +793,9 @@ def query_short(
 @wp.func
 def elevation(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
-    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int, prims: wp.array(dtype=wp.vec3),
-    sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
+    qlo: wp.vec2i, qhi: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int,
+    prims: wp.array(dtype=wp.vec3), sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
+    overflow_out: wp.array(dtype=int),
 ) -> float:
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
@@ -725,7 +804,9 @@ def elevation(
     is at most D(q), its distance to the polyline through its finest cell's key point (a
     candidate of its query), so its nearest piece lies within |q - u| + D(q) of ``u``; the
     shortlist keeps the pieces within the largest such bound over the primitives that weigh
-    (with a margin against rounding).
+    (with a margin against rounding). The finest cells outside the primitives' ``qlo..qhi``
+    are filled only once that bound is known (:func:`finish`), which leaves undrawn the
+    segments that lie beyond it.
     """
     pl = s.levels + s.steps
     pc = cell_of(u, pl)
@@ -765,9 +846,13 @@ def elevation(
                     bound = wp.inf
                 bound = wp.max(bound, wp.sqrt(d2) + wp.length(q - u))
     n = int(-1)
-    if cached == 0 and bound < wp.inf:
-        limit = bound * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
-        n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
+    if cached == 0:
+        limit = float(-1.0)
+        if bound < wp.inf:
+            limit = bound * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+        finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
+        if limit >= 0.0:
+            n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
     total = float(0.0)
     wsum = float(0.0)
     for dy in range(5):
@@ -884,9 +969,12 @@ def fill_links1(
 @wp.func
 def build(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
 ):
-    """Fill all blocks of ``slot`` in order: level-1 points, level-1 segments, levels 2..n.
+    """Per-pixel mode: fill the blocks of ``slot`` in order: level-1 points, level-1 segments,
+    levels 2..n, except that of the finest level (from 2 levels on) only the query's cells
+    ``qlo..qhi`` are filled; :func:`finish` fills the others.
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
@@ -895,11 +983,59 @@ def build(
         for i in range(b[2]):
             fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
     fill_links1(s, blocks, bases, slot, pts1, keyp, verts)
+    nowhere = wp.vec2(0.0, 0.0)
     for level in range(2, s.levels + 1):
         b = blocks[nonneg(slot * SLOT + level)]
-        for j in range(b[3]):
-            for i in range(b[2]):
-                fill_levelk(s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), keyp, verts)
+        i0 = int(0)
+        j0 = int(0)
+        i1 = b[2]
+        j1 = b[3]
+        if level == s.levels:
+            i0 = qlo[0] - b[0]
+            j0 = qlo[1] - b[1]
+            i1 = qhi[0] - b[0] + 1
+            j1 = qhi[1] - b[1] + 1
+        for j in range(j0, j1):
+            for i in range(i0, i1):
+                fill_levelk(
+                    s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
+                    keyp, verts,
+                )
+
+
+@wp.func
+def finish(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
+):
+    """Per-pixel mode, after :func:`build`: the finest level's cells outside ``qlo..qhi``.
+
+    Only pieces within ``limit`` of ``u`` can answer the pixel (``limit`` < 0: all can), and
+    most of these cells' segments lie farther: :func:`fill_levelk` marks those ``STATE_FAR``
+    without drawing them, after as little of their link search as proves it. The finest level
+    links nothing, so no other cell depends on them; the cells that stay have exactly the
+    values the cached mode gives them.
+    """
+    n = s.levels
+    if n < 2:
+        return
+    longest = float(0.0)
+    if limit >= 0.0 and s.rule == 0:
+        for level in range(1, n):
+            b = blocks[nonneg(slot * SLOT + level)]
+            o = bases[nonneg(slot * SLOT + level)]
+            last = o + b[2] * b[3]
+            while o < last:
+                if keyp[nonneg(o)][3] == STATE_SEGMENT:
+                    longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
+                o += 1
+    b = blocks[nonneg(slot * SLOT + n)]
+    for j in range(b[3]):
+        for i in range(b[2]):
+            c = wp.vec2i(b[0] + i, b[1] + j)
+            if c[0] < qlo[0] or c[1] < qlo[1] or c[0] > qhi[0] or c[1] > qhi[1]:
+                fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp, verts)
 
 
 @wp.func
@@ -910,10 +1046,10 @@ def evaluate(
     nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float), overflow_out: wp.array(dtype=int),
 ) -> float:
     """The requested output at ``u``; in the per-pixel mode first plan and build the slot."""
+    pc = cell_of(u, s.levels)
+    qlo = pc
+    qhi = pc
     if cached == 0:
-        pc = cell_of(u, s.levels)
-        qlo = pc
-        qhi = pc
         if output == OUT_ELEVATION:
             # the primitives that weigh lie within two primitive cells of u: their queries start
             # in the finest cells of that square (1 % wider against rounding)
@@ -924,10 +1060,18 @@ def evaluate(
         if over != 0:
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
-        build(s, ctl, blocks, bases, slot, pts1, keyp, verts)
+        build(s, ctl, blocks, bases, slot, qlo, qhi, pts1, keyp, verts)
+        if output != OUT_ELEVATION and s.levels >= 2:
+            # the polyline through the key point of u's finest cell is a candidate of u's query
+            limit = float(-1.0)
+            d2 = owner_near(s, blocks, bases, slot, pc, u, keyp, verts)
+            if d2 >= 0.0:
+                limit = wp.sqrt(d2) * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+            finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
     if output == OUT_ELEVATION:
         return elevation(
-            s, ctl, blocks, bases, slot, u, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps, overflow_out
+            s, ctl, blocks, bases, slot, u, qlo, qhi, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps,
+            overflow_out,
         )
     r = query(s, blocks, bases, slot, u, keyp, verts)
     if output == OUT_LEVEL:
@@ -975,7 +1119,10 @@ def levelk_kernel(
 ):
     """Cached mode: key points and segments of ``level`` >= 2 (reads the coarser levels)."""
     k = wp.tid()
-    fill_levelk(s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), keyp_inout, verts_inout)
+    fill_levelk(
+        s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), wp.vec2(0.0, 0.0), -1.0, 0.0, keyp_inout,
+        verts_inout,
+    )
 
 
 @wp.kernel

@@ -16,7 +16,7 @@ import pytest
 import warp as wp
 
 from wdendrite import control
-from wdendrite.dendry import DendryParams, _cached_tree, dendry, dendry_points
+from wdendrite.dendry import DendryParams, _cached_tree, _setup, dendry, dendry_points
 from wdendrite.kernels import dendry as _kd
 
 # ------------------------------------------------------------------ NumPy reference
@@ -646,6 +646,115 @@ def test_cached_equals_per_pixel_in_adversarial_setups(device, levels):
             b = dendry((18, 18), mode="pixel", **kw)
             assert np.array_equal(a, b, equal_nan=True), (eps, delta, rule, output)
             assert np.array_equal(dendry((18, 18), window=(5, 9, 7, 6), mode="pixel", **kw), a[5:12, 9:15])
+
+
+@wp.kernel
+def _reach_kernel(s: _kd.Setup, level: int, spans: wp.array(dtype=float), reach_out: wp.array(dtype=float)):
+    i = wp.tid()
+    reach_out[i] = _kd.segment_reach(s, level, spans[i])
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [dict(eps=0.0, delta=1.0), dict(eps=0.5, delta=0.0), dict(eps=0.25, delta=0.3, rule="lichtenberg"),
+     dict(eps=0.1, delta=0.5, smoothing=False), dict(eps=0.0, delta=0.3, subdivision=False)],
+)
+def test_segment_reach_bounds_every_drawn_polyline(kw):
+    # the per-pixel mode leaves a finest-level segment undrawn when segment_reach shows it stays
+    # away from the pixel: every vertex of every drawn polyline must lie within that reach of its
+    # key point, and the longest piece each cell records must be its longest piece
+    p = DendryParams(levels=3, seed=5, **kw)
+    s = _setup(p, DOMAIN, DOMAIN, "distance")
+    ratios = []
+    for level, (cells, keyp, verts) in enumerate(_region_tree(p, 6), start=1):
+        seg = keyp[:, 3] == float(_kd.STATE_SEGMENT)
+        v = verts[seg, :5, :2].astype(np.float64)
+        span = np.linalg.norm(v[:, 4] - v[:, 0], axis=1)
+        reach = wp.zeros(len(span), dtype=float, device="cpu")
+        wp.launch(_reach_kernel, dim=len(span), inputs=[s, level, wp.array(span, dtype=float, device="cpu")],
+                  outputs=[reach], device="cpu")
+        reach = reach.numpy()
+        far = np.linalg.norm(v - v[:, :1], axis=2).max(axis=1)
+        assert (far <= reach).all(), (level, (far - reach).max())
+        ratios += list(far[span > 0] / span[span > 0])
+        longest = np.linalg.norm(np.diff(v, axis=1), axis=2).max(axis=1)
+        np.testing.assert_allclose(verts[seg, int(_kd.BOUND) + 1, 1], longest, rtol=1e-5, atol=1e-6)
+    assert len(ratios) > 100
+    if p.rule == "terrain" and p.smoothing and p.subdivision and p.delta > 0:
+        assert max(ratios) > 1.0  # splines and displacements do carry vertices beyond the segment's span
+
+
+@wp.kernel
+def _polyline_kernel(
+    s: _kd.Setup, level: int, a: wp.array(dtype=wp.vec3), b: wp.array(dtype=wp.vec3), p0: wp.array(dtype=wp.vec2),
+    p3: wp.array(dtype=wp.vec2), verts_out: wp.array(dtype=wp.vec3),
+):
+    i = wp.tid()
+    _kd.write_polyline(s, level, wp.vec2i(i, 7), a[i], b[i], p0[i], p3[i], i, verts_out)
+
+
+@pytest.mark.parametrize("delta", [0.0, 0.5])
+def test_segment_reach_holds_for_the_most_bent_splines(delta):
+    # the same bound on splines bent as far as their neighbours can bend them: the far tangent
+    # turned back along the segment by a short next segment, or thrown sideways by long ones
+    rng = np.random.default_rng(3)
+    n = 4000
+    a = np.zeros((n, 3), np.float32)
+    a[:, :2] = rng.uniform(0.0, 1.0, (n, 2))
+    span = rng.uniform(0.01, 1.0, n)
+    ang = rng.uniform(0.0, 2.0 * np.pi, n)
+    e = np.stack([np.cos(ang), np.sin(ang)], 1) * span[:, None]
+    b = a.copy()
+    b[:, :2] += e
+    back = rng.uniform(0.0, 2.0 * np.pi, n)
+    # next segments from 1e-3 to 10 spans long, a third of them turned straight back
+    w = np.stack([np.cos(back), np.sin(back)], 1) * (span * 10.0 ** rng.uniform(-3, 1, n))[:, None]
+    w[: n // 3] = -e[: n // 3] * rng.uniform(1e-3, 0.05, (n // 3, 1))
+    p3 = (b[:, :2] + w).astype(np.float32)
+    p0 = np.where(rng.uniform(size=(n, 1)) < 0.5, 2 * a[:, :2] - b[:, :2],
+                  a[:, :2] - rng.uniform(-2, 2, (n, 2)) * span[:, None]).astype(np.float32)
+    p = DendryParams(levels=3, delta=delta, seed=2)
+    s = _setup(p, DOMAIN, DOMAIN, "distance")
+    for level, pieces in ((1, 4), (2, 3), (3, 2)):
+        verts = wp.zeros(n * int(_kd.NV), dtype=wp.vec3, device="cpu")
+        arrays = [wp.array(x, dtype=t, device="cpu")
+                  for x, t in ((a, wp.vec3), (b, wp.vec3), (p0, wp.vec2), (p3, wp.vec2))]
+        wp.launch(_polyline_kernel, dim=n, inputs=[s, level, *arrays], outputs=[verts], device="cpu")
+        v = verts.numpy().reshape(n, int(_kd.NV), 3)[:, :5, :2].astype(np.float64)
+        length = np.linalg.norm(v[:, 4] - v[:, 0], axis=1)
+        reach = wp.zeros(n, dtype=float, device="cpu")
+        wp.launch(_reach_kernel, dim=n, inputs=[s, level, wp.array(length, dtype=float, device="cpu")],
+                  outputs=[reach], device="cpu")
+        ratio = np.linalg.norm(v - v[:, :1], axis=2).max(axis=1) / length
+        assert (ratio * length <= reach.numpy()).all(), (level, ratio.max())
+        if pieces == 4 and delta == 0.0:
+            # a vertex does go beyond the span (the bound's 1.03125 at t = 3/4 is nearly reached)
+            assert ratio.max() > 1.02, ratio.max()
+
+
+@pytest.mark.parametrize("trial", range(6))
+def test_per_pixel_cells_left_undrawn_never_change_a_value(device, trial):
+    # random setups over the whole parameter space: the per-pixel mode, which skips drawing the
+    # finest segments it proves too far from its pixel, must still equal the cached mode, which
+    # draws them all (both rules, with and without smoothing and subdivision, extreme jitter
+    # and displacements, 2-6 levels, every primitive step)
+    rng = np.random.default_rng(1000 + trial)
+    for _ in range(4):
+        p = DendryParams(
+            levels=int(rng.integers(2, 7)), eps=float(rng.choice([0.0, 0.1, 0.25, 0.5])),
+            delta=float(rng.choice([0.0, 0.1, 0.5, 1.0])), rule=str(rng.choice(["terrain", "lichtenberg"])),
+            smoothing=bool(rng.integers(2)), subdivision=bool(rng.integers(2)), beta=0.5, noise=0.05,
+            primitive_steps=int(rng.integers(1, 5)), resolution=float(rng.choice([1.0, 2.0, 3.0])),
+            seed=int(rng.integers(2**31)),
+        )
+        x0, y0 = rng.uniform(-1.0, 1.0, 2)
+        dom = ((x0, y0), (x0 + rng.uniform(0.5, 2.0), y0 + rng.uniform(0.5, 2.0)))
+        for output in ("distance", "elevation", "level"):
+            kw = dict(domain=dom, control_domain=((-1.0, -1.0), (3.0, 3.0)), params=p, control=CTL, output=output,
+                      device=device)
+            a = dendry((14, 14), **kw)
+            b = dendry((14, 14), mode="pixel", **kw)
+            assert np.array_equal(a, b, equal_nan=True), (p, output, np.nanmax(np.abs(a - b)))
 
 
 def test_cached_equals_per_pixel_where_cells_have_no_segment(device):

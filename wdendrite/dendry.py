@@ -256,6 +256,21 @@ class DendryParams:
         return tuple((2.0 * 3.0 ** max(5 - k, 0) - 1.0) ** -0.6 for k in range(1, 7))
 
 
+def _reach_factors(p: DendryParams) -> tuple[float, ...]:
+    """Per level, how many spans a drawn polyline may stray from its key point, with a 0.1 % margin.
+
+    A vertex at fraction t of a smoothed segment lies within ``t + 2 t^2 (1 - t)`` spans of
+    the key point, a straight one within t, and displacements add delta (see
+    ``kernels.dendry.segment_reach`` for the derivation).
+    """
+    pieces = _PIECES if p.subdivision else (1,) * 6
+    out = []
+    for n, delta in zip(pieces, p.deltas()):
+        f = max([1.0] + [j / n + 2.0 * (j / n) ** 2 * (1.0 - j / n) for j in range(1, n)]) if p.smoothing else 1.0
+        out.append((f + delta) * 1.001)
+    return tuple(out)
+
+
 def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s = _kd.Setup()
     s.need_z = int(output == "elevation")
@@ -267,6 +282,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.delta = _kd.vec6(*p.deltas())
     s.pieces = _kd.vec6i(*(_PIECES if p.subdivision else (1,) * 6))
     s.slope = _kd.vec6(*p.min_slopes())
+    s.reach = _kd.vec6(*_reach_factors(p))
     s.smoothing = int(p.smoothing)
     s.beta = p.beta
     s.noise = p.noise
