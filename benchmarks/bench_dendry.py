@@ -5,8 +5,8 @@ beta 0.5, noise 0.05, Perlin control on (-0.2, -0.4)-(1.4, 0.7)) at levels 1-6,
 distance and elevation, and a 1024^2 Lichtenberg figure with 6 levels. The
 cached mode computes whole images; the per-pixel mode, whose cost per pixel
 does not depend on the image size, is timed on a ``--pixel-window`` square
-window of the image. Each case is run once after a warm-up that compiles the
-kernels. Peer: the authors' C++ (-O3) on a machine like ours, one core.
+window of the image. Each image case is run ``--repeat`` times after a warm-up that
+compiles the kernels; the median and the best rate are printed. Peer: the authors' C++ (-O3) on a machine like ours, one core.
 ``--search`` picks the neighbourhoods (DendryParams.search): ``exact``, our
 default, searches as wide as measured to miss no link; ``paper`` searches the
 paper's 3 x 3 cells for links, as the peer does. Then ``dendry_points`` in its three
@@ -14,7 +14,7 @@ modes (``--points`` random points: uniform over the image's domain, in 40 tight
 clusters over a domain 500 times wider, and in 1000 small clusters over it).
 
 Usage: python benchmarks/bench_dendry.py [--sizes 512 1024] [--levels 1 2 3 4 5 6] [--pixel-window 96]
-       [--lichtenberg-size 1024] [--search exact paper] [--points 20000] [--device cpu]
+       [--lichtenberg-size 1024] [--search exact paper] [--points 20000] [--repeat 3] [--device cpu]
 """
 
 from __future__ import annotations
@@ -62,8 +62,12 @@ def main() -> None:
     ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
     ap.add_argument("--points", type=int, default=20000,
                     help="random points per dendry_points case, in each mode (0: skip the point cases)")
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="times each image case is run; the median and the best rate are printed")
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error(f"--repeat must be at least 1, got {args.repeat}")
     wp.config.quiet = True
     wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
@@ -74,20 +78,23 @@ def main() -> None:
             for search in args.search:
                 dendry((16, 16), output=out, mode=mode, device=device, **_case("table1", 2, search))
     print(f"# Dendry throughput on {device} ({device.name}), one launch stream, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
-    print("| workload | size | levels | output | search | mode | px/s | peer px/s | ratio |")
-    print("| --- | ---: | ---: | --- | --- | --- | ---: | ---: | ---: |")
+    print(f"# px/s: median and best of {args.repeat} runs; ratios against the peer's px/s")
+    print("| workload | size | levels | output | search | mode | px/s median | px/s best | peer px/s | ratio median | ratio best |")
+    print("| --- | ---: | ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |")
     cases = [("table1", size, lv, out) for size in args.sizes for lv in args.levels for out in ("distance", "elevation")]
     if args.lichtenberg_size > 0:
         cases.append(("lichtenberg", args.lichtenberg_size, 6, "distance"))
     for (kind, size, levels, out), search in itertools.product(cases, args.search):
         kw = _case(kind, levels, search)
         for mode in ("cached", "pixel"):
-            rate = _rate(size, mode, args.pixel_window, device, output=out, **kw)
+            rates = [_rate(size, mode, args.pixel_window, device, output=out, **kw) for _ in range(args.repeat)]
+            mid, best = float(np.median(rates)), max(rates)
             peer = PEER.get((kind, levels, out, size))
             peer_rate = size * size / peer if peer else None
-            ratio = f"{rate / peer_rate:.1f}x" if peer_rate else "-"
+            ratios = f"{mid / peer_rate:.1f}x | {best / peer_rate:.1f}x" if peer_rate else "- | -"
             peer_txt = f"{peer_rate:,.0f}" if peer_rate else "-"
-            print(f"| {kind} | {size}^2 | {levels} | {out} | {search} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
+            print(f"| {kind} | {size}^2 | {levels} | {out} | {search} | {mode} | {mid:,.0f} | {best:,.0f} | {peer_txt} "
+                  f"| {ratios} |", flush=True)
     if args.points > 0:
         _point_rates(args.points, device)
 

@@ -10,7 +10,8 @@ Storage. A *block* is a rectangle of cells of one level, ``vec4i(i0, j0, ni, nj)
 ``blocks[slot * 8 + L]`` describes block L of a slot and ``bases[slot * 8 + L]``
 where its cells start in the flat arrays:
 
-- L = 0: level-1 key points (``pts1``: x, y, z, valid), two cells wider than L = 1;
+- L = 0: level-1 key points (``pts1``: x, y, z, valid; valid -1 marks a point the per-pixel
+  mode has not drawn yet, see :func:`build`), two cells wider than L = 1;
 - L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: per cell, up
   to 5 polyline vertices x, y, z, upstream first, then their bounding box);
 - L = 7: terrain primitives (``prims``: x, y, h).
@@ -931,14 +932,16 @@ def plan(
 
 @wp.func
 def fill_links1(
-    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
     pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
 ):
     """Per-pixel mode: every level-1 segment of ``slot``, as :func:`fill_segment1` makes them.
 
     A link needs its target's lowest neighbour too, mostly that of another cell of the block:
     each cell's is found once and kept as ``(x - x0 + 1) + 256 (y - y0 + 1)`` relative to the
-    block's corner (blocks of up to 64 cells; larger ones search twice).
+    block's corner (blocks of up to 64 cells; larger ones search twice). For those blocks
+    :func:`build` leaves the outer ring of level-1 points undrawn: only a target outside the
+    block looks there, and its 3 x 3 is drawn here when one does.
     """
     b = blocks[nonneg(slot * SLOT + 1)]
     if b[2] * b[3] > 64:
@@ -962,6 +965,12 @@ def fill_links1(
                     ct = low[(ry - 1) * b[2] + rx - 1]
                     tt = wp.vec2i(b[0] + (ct & 255) - 1, b[1] + (ct >> 8) - 1)
                 else:
+                    # the target lies outside the block: draw the points around it still missing
+                    for dy in range(-1, 2):
+                        for dx in range(-1, 2):
+                            o = block_index(blocks, bases, slot * SLOT, wp.vec2i(t[0] + dx, t[1] + dy))
+                            if pts1[nonneg(o)][3] < 0.0:
+                                pts1[nonneg(o)] = point1(s, ctl, wp.vec2i(t[0] + dx, t[1] + dy))
                     tt = lowest1(pts1, blocks, bases, slot * SLOT, t)
                 link1(s, blocks, bases, slot, k, wp.vec2i(b[0] + i, b[1] + j), t, tt, pts1, keyp_out, verts_out)
 
@@ -979,10 +988,16 @@ def build(
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
     b = blocks[nonneg(slot * SLOT)]
+    b1 = blocks[nonneg(slot * SLOT + 1)]
+    lazy = b1[2] * b1[3] <= 64  # fill_links1 then draws the outer ring's points it needs
+    base = bases[nonneg(slot * SLOT)]
     for j in range(b[3]):
         for i in range(b[2]):
-            fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
-    fill_links1(s, blocks, bases, slot, pts1, keyp, verts)
+            if lazy and (i == 0 or j == 0 or i == b[2] - 1 or j == b[3] - 1):
+                pts1[nonneg(base + j * b[2] + i)] = wp.vec4(0.0, 0.0, 0.0, -1.0)  # not drawn yet
+            else:
+                fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
+    fill_links1(s, ctl, blocks, bases, slot, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
     for level in range(2, s.levels + 1):
         b = blocks[nonneg(slot * SLOT + level)]

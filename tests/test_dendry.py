@@ -16,7 +16,7 @@ import pytest
 import warp as wp
 
 from wdendrite import control
-from wdendrite.dendry import DendryParams, _cached_tree, _setup, dendry, dendry_points
+from wdendrite.dendry import DendryParams, _cached_tree, _setup, _slots_for_pixels, dendry, dendry_points
 from wdendrite.kernels import dendry as _kd
 
 # ------------------------------------------------------------------ NumPy reference
@@ -730,6 +730,52 @@ def test_segment_reach_holds_for_the_most_bent_splines(delta):
         if pieces == 4 and delta == 0.0:
             # a vertex does go beyond the span (the bound's 1.03125 at t = 3/4 is nearly reached)
             assert ratio.max() > 1.02, ratio.max()
+
+
+@pytest.mark.parametrize("kw", [dict(eps=0.25, delta=0.1), dict(eps=0.0, delta=0.5, rule="lichtenberg"),
+                                dict(eps=0.5, delta=0.0, search="paper")])
+def test_a_pixels_own_cells_equal_the_cached_modes(kw):
+    # every cell a pixel draws for itself equals the cached mode's cell bit for bit, down to the
+    # level-1 segments at the edge of its blocks, whose far tangents read level-1 points the
+    # per-pixel mode draws only on demand; finest cells it leaves undrawn are ones with a segment
+    p = DendryParams(levels=2, beta=0.5, noise=0.05, seed=9, **kw)
+    dom = ((0.0, 0.0), (6.0, 6.0))
+    tree = _cached_tree((16, 16), domain=dom, control_domain=dom, params=p, control=CTL)
+    known = [{tuple(c): (k, v) for c, k, v in zip(cells.tolist(), keyp, verts)} for cells, keyp, verts in tree]
+    s = _setup(p, dom, dom, "elevation")
+    ctl = CTL.struct("cpu")
+    rng = np.random.default_rng(4)
+    far = drawn = 0
+    for u in rng.uniform(2.0, 4.0, (40, 2)).astype(np.float32):
+        slots = _slots_for_pixels(p, "elevation", 1, "cpu")
+        out = wp.zeros(1, dtype=float, device="cpu")
+        wp.launch(_kd.points_kernel, dim=1, inputs=[s, ctl, int(_kd.OUT_ELEVATION), 0, slots.cap, 1, 0,
+                                                    wp.array(u[None], dtype=wp.vec2, device="cpu"), *slots.arrays()],
+                  outputs=[out, slots.overflow], device="cpu")
+        blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
+        keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, int(_kd.NV), 3)
+        gaps = {"far": [np.inf], "drawn": [np.inf]}  # distances from u to the pieces of each kind of cell
+        for level in (1, 2):
+            i0, j0, ni, nj = (int(v) for v in blocks[level])
+            for j in range(nj):
+                for i in range(ni):
+                    o = int(bases[level]) + j * ni + i
+                    want_k, want_v = known[level - 1][(i0 + i, j0 + j)]
+                    if keyp[o, 3] == float(_kd.STATE_FAR):
+                        assert level == 2 and want_k[3] == float(_kd.STATE_SEGMENT)
+                        far += 1
+                    else:
+                        assert np.array_equal(keyp[o], want_k), (u, level, (i0 + i, j0 + j))
+                        if keyp[o, 3] != float(_kd.STATE_SEGMENT):
+                            continue
+                        assert np.array_equal(verts[o], want_v), (u, level, (i0 + i, j0 + j))
+                        drawn += 1
+                    v = want_v[:5, :2].astype(np.float64)
+                    d = _piece_distance(u[None].astype(np.float64), v[:-1], v[1:])[0].min()
+                    gaps["far" if keyp[o, 3] == float(_kd.STATE_FAR) else "drawn"].append(d)
+        # a segment left undrawn never holds the piece nearest to the pixel
+        assert min(gaps["far"]) > min(gaps["drawn"]), u
+    assert far > 100 and drawn > 1000
 
 
 @pytest.mark.parametrize("trial", range(6))
