@@ -60,6 +60,7 @@ vec6i = wp.types.vector(length=6, dtype=int)
 vec49i = wp.types.vector(length=49, dtype=int)
 vec64i = wp.types.vector(length=64, dtype=int)
 vec25 = wp.types.vector(length=25, dtype=float)
+vec16 = wp.types.vector(length=16, dtype=float)
 
 
 def _search_order(r: int) -> list[tuple[int, int]]:
@@ -801,13 +802,14 @@ def elevation(
     """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
 
     The radius is two primitive cells, so every primitive that can weigh lies in the 5 x 5 block.
-    In the per-pixel mode the primitives' queries read a shortlist: the answer at a primitive q
-    is at most D(q), its distance to the polyline through its finest cell's key point (a
-    candidate of its query), so its nearest piece lies within |q - u| + D(q) of ``u``; the
-    shortlist keeps the pieces within the largest such bound over the primitives that weigh
-    (with a margin against rounding). The finest cells outside the primitives' ``qlo..qhi``
-    are filled only once that bound is known (:func:`finish`), which leaves undrawn the
-    segments that lie beyond it.
+    In the per-pixel mode the primitives' queries read a shortlist. The answer at a primitive q
+    is at most ``D + |q - u|``, where D is the distance from ``u`` to the polyline through the
+    key point of one of the query's finest cells ``qlo..qhi`` that lies in q's neighbourhood
+    (a candidate of q's query), so q's nearest piece lies within ``D + 2 |q - u|`` of ``u``.
+    The shortlist keeps the pieces within the largest such bound over the primitives that weigh
+    (each taking its least D, with a margin against rounding). The finest cells outside
+    ``qlo..qhi`` are filled only once that bound is known (:func:`finish`), which leaves undrawn
+    the segments that lie beyond it.
     """
     pl = s.levels + s.steps
     pc = cell_of(u, pl)
@@ -827,6 +829,19 @@ def elevation(
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
         width = blocks[nonneg(slot * SLOT + PRIM)][2]
+    # per-pixel mode: the distances from u to the polylines through the key points of the
+    # query's finest cells qlo..qhi (inf where a cell has none); at least one primitive step
+    # keeps that square within 2.02 finest cells, so at most 4 x 4 cells
+    reach_u = vec16()
+    nx = qhi[0] - qlo[0] + 1
+    ncells = int(0)
+    if cached == 0:
+        ncells = nx * (qhi[1] - qlo[1] + 1)
+        for k in range(ncells):
+            d2 = owner_near(s, blocks, bases, slot, wp.vec2i(qlo[0] + k % nx, qlo[1] + k / nx), u, keyp, verts)
+            reach_u[k] = wp.inf
+            if d2 >= 0.0:
+                reach_u[k] = wp.sqrt(d2)
     bound = float(0.0)
     for dy in range(5):
         for dx in range(5):
@@ -842,10 +857,16 @@ def elevation(
             r2 = wp.length_sq(q - u) * inv_r2
             pr2[k] = r2
             if cached == 0 and r2 < 1.0:
-                d2 = owner_near(s, blocks, bases, slot, cell_of(q, s.levels), q, keyp, verts)
-                if d2 < 0.0:
-                    bound = wp.inf
-                bound = wp.max(bound, wp.sqrt(d2) + wp.length(q - u))
+                # any of those polylines within q's query neighbourhood bounds q's answer
+                qc = cell_of(q, s.levels)
+                gap = wp.length(q - u)
+                best = float(wp.inf)
+                for f in range(ncells):
+                    fx = qlo[0] + f % nx - qc[0]
+                    fy = qlo[1] + f / nx - qc[1]
+                    if wp.abs(fx) <= s.rq and wp.abs(fy) <= s.rq:
+                        best = wp.min(best, reach_u[f] + gap)
+                bound = wp.max(bound, best + gap)
     n = int(-1)
     if cached == 0:
         limit = float(-1.0)
