@@ -16,8 +16,9 @@ import pytest
 import warp as wp
 
 from wdendrite import control
-from wdendrite.dendry import DendryParams, _cached_tree, _setup, _slots_for_pixels, dendry, dendry_points
+from wdendrite.dendry import _OUTPUTS, DendryParams, _cached_tree, _setup, _slots_for_pixels, dendry, dendry_points
 from wdendrite.kernels import dendry as _kd
+from wdendrite.kernels import dendry_pixels as _kp
 
 # ------------------------------------------------------------------ NumPy reference
 
@@ -1049,6 +1050,34 @@ def test_params_are_stored_as_plain_python_values():
     assert p == DendryParams(levels=2, seed=7, eps=0.25, delta=(0.1, 0.0), resolution=2.0, smoothing=False,
                              primitive_steps=2, rule="lichtenberg", search="paper")
     assert type(DendryParams(delta=np.float32(0.5)).delta) is float
+
+
+@pytest.mark.parametrize("output", ["distance", "elevation"])
+def test_the_cpus_rolled_per_pixel_kernels_equal_the_general_ones(output, monkeypatch):
+    # on the CPU the per-pixel mode runs kernels compiled with rolled loops; CUDA runs the
+    # general kernels with cached = 0: both must give the same values bit for bit
+    p = DendryParams(levels=3, eps=0.1, delta=0.3, beta=0.5, noise=0.05, seed=2)
+    pts = np.random.default_rng(0).uniform(0.0, 2.0, (300, 2))
+    seen = []
+    real = wp.launch
+
+    def recording(kernel, *args, **kwargs):
+        seen.append(kernel)
+        return real(kernel, *args, **kwargs)
+
+    monkeypatch.setattr(wp, "launch", recording)
+    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output=output, mode="pixel", device="cpu")
+    img = dendry((8, 8), domain=DOMAIN, params=p, control=CTL, output=output, mode="pixel", device="cpu")
+    assert _kp.points_kernel in seen and _kp.image_kernel in seen
+    assert _kd.points_kernel not in seen and _kd.image_kernel not in seen
+    s = _setup(p, DOMAIN, DOMAIN, output)
+    slots = _slots_for_pixels(p, output, len(pts), "cpu")
+    out = wp.zeros(len(pts), dtype=float, device="cpu")
+    u = wp.array((pts * p.resolution).astype(np.float32), dtype=wp.vec2, device="cpu")
+    real(_kd.points_kernel, dim=len(pts), inputs=[s, CTL.struct("cpu"), _OUTPUTS[output], 0, slots.cap, 1, 0, u,
+                                                  *slots.arrays()], outputs=[out, slots.overflow], device="cpu")
+    assert np.array_equal(out.numpy(), got)
+    assert np.array_equal(img, dendry((8, 8), domain=DOMAIN, params=p, control=CTL, output=output, device="cpu"))
 
 
 def test_the_launch_recorder_sees_dendry_kernels(launches):

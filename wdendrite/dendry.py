@@ -45,6 +45,7 @@ import warp as wp
 from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32, stop_if_checking
 from .control import Control, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
+from .kernels import dendry_pixels as _kp
 
 __all__ = ["DendryParams", "default_control", "dendry", "dendry_points"]
 
@@ -747,6 +748,11 @@ def dendry(
     origin = wp.vec2i(r0, c0)
 
     def launch(slots, cached, nslots, first, size):
+        if cached == 0 and device.is_cpu:  # the per-pixel kernel compiled for the CPU's caches
+            wp.launch(_kp.image_kernel, dim=size,
+                      inputs=[s, ctl, code, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
+                      outputs=[out, slots.overflow], device=device)
+            return
         wp.launch(_kd.image_kernel, dim=size,
                   inputs=[s, ctl, code, cached, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
                   outputs=[out, slots.overflow], device=device)
@@ -849,6 +855,11 @@ def dendry_points(
         out = wp.zeros(len(idx), dtype=float, device=device)
 
         def launch(slots, nslots, first, size):
+            if device.is_cpu:  # the per-pixel kernel compiled for the CPU's caches
+                wp.launch(_kp.points_kernel, dim=size,
+                          inputs=[s, ctl, code, slots.cap, nslots, first, u_dev, *slots.arrays()],
+                          outputs=[out, slots.overflow], device=device)
+                return
             wp.launch(_kd.points_kernel, dim=size,
                       inputs=[s, ctl, code, 0, slots.cap, nslots, first, u_dev, *slots.arrays()],
                       outputs=[out, slots.overflow], device=device)
