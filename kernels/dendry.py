@@ -1115,6 +1115,23 @@ def evaluate(
     return r[0]
 
 
+@wp.func
+def pixel_of(i: int, width: int) -> wp.vec2i:
+    """(row, col) of pixel ``i`` of a window ``width`` pixels wide, row-major."""
+    row = i / width
+    return wp.vec2i(row, i - row * width)
+
+
+@wp.func
+def pixel_centre(rc: wp.vec2i, origin: wp.vec2i, x0: wp.vec2, step: wp.vec2) -> wp.vec2:
+    """Grid units of the centre of window pixel ``rc``, the window's first pixel being ``origin``
+    of an image whose pixel (0, 0) has its corner at ``x0`` (``step`` per pixel, x then y)."""
+    return wp.vec2(
+        x0[0] + (float(origin[1] + rc[1]) + 0.5) * step[0],
+        x0[1] + (float(origin[0] + rc[0]) + 0.5) * step[1],
+    )
+
+
 # ---------------------------------------------------------------------------- kernels
 
 
@@ -1193,18 +1210,13 @@ def image_kernel(
     domain units; ``x0`` and ``step`` are already in grid units.
     """
     t = wp.tid()
-    i = first + t
-    row = i / width
-    col = i - row * width
-    u = wp.vec2(
-        x0[0] + (float(origin[1] + col) + 0.5) * step[0],
-        x0[1] + (float(origin[0] + row) + 0.5) * step[1],
-    )
+    rc = pixel_of(first + t, width)
     slot = 0
     if cached == 0:
         slot = t % nslots
-    image_out[row, col] = evaluate(
-        s, ctl, u, output, cached, slot, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
+    image_out[rc[0], rc[1]] = evaluate(
+        s, ctl, pixel_centre(rc, origin, x0, step), output, cached, slot, cap, blocks, bases, pts1, keyp, verts,
+        prims, nearby, gaps, overflow_out,
     )
 
 

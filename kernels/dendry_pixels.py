@@ -14,7 +14,7 @@ to local memory.
 import warp as wp
 
 from . import OPTIONS
-from .dendry import Setup, evaluate
+from .dendry import Setup, evaluate, pixel_centre, pixel_of
 from .noise import Control
 
 wp.set_module_options(OPTIONS)
@@ -32,15 +32,10 @@ def image_kernel(
 ):
     """Per-pixel mode of :func:`wdendrite.kernels.dendry.image_kernel` (same arguments but ``cached``)."""
     t = wp.tid()
-    i = first + t
-    row = i / width
-    col = i - row * width
-    u = wp.vec2(
-        x0[0] + (float(origin[1] + col) + 0.5) * step[0],
-        x0[1] + (float(origin[0] + row) + 0.5) * step[1],
-    )
-    image_out[row, col] = evaluate(
-        s, ctl, u, output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts, prims, nearby, gaps, overflow_out
+    rc = pixel_of(first + t, width)
+    image_out[rc[0], rc[1]] = evaluate(
+        s, ctl, pixel_centre(rc, origin, x0, step), output, 0, t % nslots, cap, blocks, bases, pts1, keyp, verts,
+        prims, nearby, gaps, overflow_out,
     )
 
 
