@@ -271,7 +271,7 @@ def write_polyline(
         verts_out[nonneg(vi * NV + j)] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
     # the polyline's bounding box, widened against rounding (relative to its size and to the
     # coordinates), lets searches skip the cell exactly; the longest piece bounds how far a
-    # finer key point's link can land from the point of the piece nearest to it (see segment_reach)
+    # finer key point's link can land from the point of the piece nearest to it (see link_span)
     pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
     verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
     verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, wp.sqrt(longest), 0.0)
@@ -505,7 +505,7 @@ def nearest_on_tree(
     Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
     its polyline, 1 when the vertex exists. With ``far`` > 0 (the per-pixel mode's lazy
-    finest level, see :func:`finish`), code -2 as soon as the piece of the ancestor's own cell
+    finest level, see :func:`finish`), code -2 as soon as the nearest of the parent cell's pieces
     shows that the new polyline stays within less than ``far`` of ``q`` (no piece of the
     coarser levels being longer than ``longest``).
     """
@@ -857,7 +857,9 @@ def elevation(
             r2 = wp.length_sq(q - u) * inv_r2
             pr2[k] = r2
             if cached == 0 and r2 < 1.0:
-                # any of those polylines within q's query neighbourhood bounds q's answer
+                # any of those polylines within q's query neighbourhood bounds q's answer (an
+                # inherited one is within it at its coarser level too: DendryParams.radii keeps
+                # r1 >= rq)
                 qc = cell_of(q, s.levels)
                 gap = wp.length(q - u)
                 best = float(wp.inf)
@@ -1203,8 +1205,9 @@ def image_kernel(
     """Pixels ``first + tid`` of a window (row-major, ``width`` wide) at global pixel ``origin``.
 
     In the per-pixel mode thread ``tid`` works in slot ``tid % nslots``: one slot per thread
-    where threads run concurrently (CUDA), a single reused slot on the CPU, which runs the
-    threads of a launch one after the other and so keeps the slot in cache.
+    where threads run concurrently (CUDA). On the CPU the library runs the per-pixel mode with
+    :mod:`wdendrite.kernels.dendry_pixels` instead, in a single reused slot (a launch's threads
+    run one after the other, so the slot stays in cache).
 
     Pixel (row, col) of the whole image sits at ``x0 + (col + 0.5, row + 0.5) * step`` in
     domain units; ``x0`` and ``step`` are already in grid units.

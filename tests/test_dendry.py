@@ -747,12 +747,17 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
     ctl = CTL.struct("cpu")
     rng = np.random.default_rng(4)
     far = drawn = 0
-    for u in rng.uniform(2.0, 4.0, (40, 2)).astype(np.float32):
+    for n, u in enumerate(rng.uniform(2.0, 4.0, (40, 2)).astype(np.float32)):
         slots = _slots_for_pixels(p, "elevation", 1, "cpu")
         out = wp.zeros(1, dtype=float, device="cpu")
-        wp.launch(_kd.points_kernel, dim=1, inputs=[s, ctl, int(_kd.OUT_ELEVATION), 0, slots.cap, 1, 0,
-                                                    wp.array(u[None], dtype=wp.vec2, device="cpu"), *slots.arrays()],
-                  outputs=[out, slots.overflow], device="cpu")
+        point = wp.array(u[None], dtype=wp.vec2, device="cpu")
+        # every other pixel through the CPU's rolled kernel, the others through the general one
+        if n % 2:
+            wp.launch(_kp.points_kernel, dim=1, inputs=[s, ctl, int(_kd.OUT_ELEVATION), slots.cap, 1, 0, point,
+                                                        *slots.arrays()], outputs=[out, slots.overflow], device="cpu")
+        else:
+            wp.launch(_kd.points_kernel, dim=1, inputs=[s, ctl, int(_kd.OUT_ELEVATION), 0, slots.cap, 1, 0, point,
+                                                        *slots.arrays()], outputs=[out, slots.overflow], device="cpu")
         blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
         keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, int(_kd.NV), 3)
         gaps = {"far": [np.inf], "drawn": [np.inf]}  # distances from u to the pieces of each kind of cell
