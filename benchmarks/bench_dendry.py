@@ -6,7 +6,8 @@ distance and elevation, and a 1024^2 Lichtenberg figure with 6 levels. The
 cached mode computes whole images; the per-pixel mode, whose cost per pixel
 does not depend on the image size, is timed on a ``--pixel-window`` square
 window of the image. Each image case is run ``--repeat`` times after a warm-up that
-compiles the kernels; the median and the best rate are printed. Peer: the authors' C++ (-O3) on a machine like ours, one core.
+compiles the kernels; the median and the best rate are printed. Peer: the authors' C++
+(-O3) on a machine like ours, one core.
 ``--search`` picks the neighbourhoods (DendryParams.search): ``exact``, our
 default, searches as wide as measured to miss no link; ``paper`` searches the
 paper's 3 x 3 cells for links, as the peer does. Then ``dendry_points`` in its three
@@ -79,7 +80,8 @@ def main() -> None:
                 dendry((16, 16), output=out, mode=mode, device=device, **_case("table1", 2, search))
     print(f"# Dendry throughput on {device} ({device.name}), one launch stream, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print(f"# px/s: median and best of {args.repeat} runs; ratios against the peer's px/s")
-    print("| workload | size | levels | output | search | mode | px/s median | px/s best | peer px/s | ratio median | ratio best |")
+    print("| workload | size | levels | output | search | mode | px/s median | px/s best | peer px/s "
+          "| ratio median | ratio best |")
     print("| --- | ---: | ---: | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |")
     cases = [("table1", size, lv, out) for size in args.sizes for lv in args.levels for out in ("distance", "elevation")]
     if args.lichtenberg_size > 0:

@@ -359,6 +359,20 @@ def fill_segment1(
 
 
 @wp.func
+def coord_margin(u: wp.vec2) -> float:
+    """An absolute margin against float32 rounding for distances measured at coordinates the size
+    of ``u``'s (grid units), used wherever a bound decides which pieces can be left out."""
+    return 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+
+
+@wp.func
+def widened(d: float, u: wp.vec2) -> float:
+    """Distance bound ``d`` at ``u`` widened by 0.1 % and :func:`coord_margin`, so that no piece
+    within ``d`` falls outside it by rounding."""
+    return d * 1.001 + coord_margin(u)
+
+
+@wp.func
 def piece_near(q: wp.vec2, a: wp.vec3, b: wp.vec3) -> wp.vec2:
     """(squared distance, fraction along the piece) of the point of piece a -> b nearest to ``q``."""
     pa = wp.vec2(a[0], a[1])
@@ -563,7 +577,7 @@ def fill_levelk(
     far = float(-1.0)
     if limit >= 0.0:
         # the polyline matters only if some point of it comes within limit of u
-        far = wp.length(u - q) - limit - 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+        far = wp.length(u - q) - limit - coord_margin(u)
     m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, keyp, verts)
     if m[2, 2] < -1.5:
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
@@ -761,7 +775,7 @@ def query_short(
     distance, no later piece can be nearer.
     """
     top = cell_of(q, s.levels)
-    off = wp.length(q - u) + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+    off = wp.length(q - u) + coord_margin(u)
     best = float(1.0e30)
     brank = int(0)
     bz = float(0.0)
@@ -873,7 +887,7 @@ def elevation(
     if cached == 0:
         limit = float(-1.0)
         if bound < wp.inf:
-            limit = bound * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+            limit = widened(bound, u)
         finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
         if limit >= 0.0:
             n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
@@ -1104,7 +1118,7 @@ def evaluate(
             limit = float(-1.0)
             d2 = owner_near(s, blocks, bases, slot, pc, u, keyp, verts)
             if d2 >= 0.0:
-                limit = wp.sqrt(d2) * 1.001 + 1.0e-5 * (1.0 + wp.abs(u[0]) + wp.abs(u[1]))
+                limit = widened(wp.sqrt(d2), u)
             finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
     if output == OUT_ELEVATION:
         return elevation(

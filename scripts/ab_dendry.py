@@ -70,7 +70,8 @@ def main() -> None:
     wp.config.quiet = True
     with tempfile.TemporaryDirectory() as tmp:
         sys.path.insert(0, tmp)
-        sides = {"old": _load(args.old.resolve(), "wd_a", Path(tmp)), "new": _load(args.new.resolve(), "wd_b", Path(tmp))}
+        sides = {"old": _load(args.old.resolve(), "wd_a", Path(tmp)),
+                 "new": _load(args.new.resolve(), "wd_b", Path(tmp))}
         rates: dict[str, list[float]] = {"old": [], "new": []}
         images = {}
         for name, (dmod, cmod) in sides.items():  # compile and warm up

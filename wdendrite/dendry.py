@@ -124,9 +124,9 @@ class DendryParams:
     levels 1 pixel in 10 000. Wider searches cost the cached mode up to about half its rate
     at 4-6 levels; the per-pixel mode builds more cells per pixel: 5 x 5 links take about 1.4x
     (elevation) to 1.9x (distance) the time of 3 x 3 at 2 levels and 2.3-3.8x at 4-6, 7 x 7
-    about 3x that of 5 x 5, and 7 x 7 queries 1.3-1.4x those of 5 x 5 at 4-5 levels. ``search="paper"`` keeps the authors' 3 x 3
-    links (and 5 x 5 queries, 7 x 7 at one level) everywhere: faster per pixel, at the miss
-    rates above.
+    about 3x that of 5 x 5, and 7 x 7 queries 1.3-1.4x those of 5 x 5 at 4-5 levels.
+    ``search="paper"`` keeps the authors' 3 x 3 links (and 5 x 5 queries, 7 x 7 at one level)
+    everywhere: faster per pixel, at the miss rates above.
     """
 
     levels: int = 1
@@ -257,6 +257,11 @@ class DendryParams:
         return tuple((2.0 * 3.0 ** max(5 - k, 0) - 1.0) ** -0.6 for k in range(1, 7))
 
 
+def _pieces(p: DendryParams) -> tuple[int, ...]:
+    """Polyline pieces per level: the authors' subdivisions, or one piece without subdivision."""
+    return _PIECES if p.subdivision else (1,) * 6
+
+
 def _reach_factors(p: DendryParams) -> tuple[float, ...]:
     """Per level, how many spans a drawn polyline may stray from its key point, with a 0.1 % margin.
 
@@ -264,9 +269,8 @@ def _reach_factors(p: DendryParams) -> tuple[float, ...]:
     the key point, a straight one within t, and displacements add delta (see
     ``kernels.dendry.segment_reach`` for the derivation).
     """
-    pieces = _PIECES if p.subdivision else (1,) * 6
     out = []
-    for n, delta in zip(pieces, p.deltas()):
+    for n, delta in zip(_pieces(p), p.deltas()):
         f = max([1.0] + [j / n + 2.0 * (j / n) ** 2 * (1.0 - j / n) for j in range(1, n)]) if p.smoothing else 1.0
         out.append((f + delta) * 1.001)
     return tuple(out)
@@ -281,7 +285,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.resolution = p.resolution
     s.inv_resolution = 1.0 / p.resolution
     s.delta = _kd.vec6(*p.deltas())
-    s.pieces = _kd.vec6i(*(_PIECES if p.subdivision else (1,) * 6))
+    s.pieces = _kd.vec6i(*_pieces(p))
     s.slope = _kd.vec6(*p.min_slopes())
     s.reach = _kd.vec6(*_reach_factors(p))
     s.smoothing = int(p.smoothing)
