@@ -25,7 +25,10 @@ launch over its cells; in the per-pixel mode each thread uses a slot of its own
 blocks just around its pixel and fills them itself with the same functions.
 There the finest level is filled last and lazily (:func:`finish`): once the
 pixel's answer is bounded, a finest segment proved to lie beyond that bound is
-not drawn, which changes no value (the finest level links nothing).
+not drawn, which changes no value (the finest level links nothing). With two
+levels, the level-1 segments that only the finest level's links can read are
+left pending, as boxes that hold them (:func:`defer1`), and drawn only when a
+link search comes near one (:func:`nearest_on_tree`).
 The module is longer than most because both modes must share every function
 that decides a value: that sharing is what makes them agree bit for bit.
 """
@@ -48,6 +51,9 @@ STATE_NONE = wp.constant(0.0)  # no usable key point (outside the domain, or no 
 STATE_INHERITED = wp.constant(1.0)  # key point of the parent level, already on the tree
 STATE_SEGMENT = wp.constant(2.0)  # key point owning a segment
 STATE_FAR = wp.constant(3.0)  # per-pixel mode: a finest-level segment too far from the pixel to matter, not drawn
+# per-pixel mode, 2 levels: a level-1 segment no query of the pixel reads, drawn only if a link
+# search comes near the box that bounds it (see fill_links1); keyp holds its key point as for a segment
+STATE_PENDING = wp.constant(4.0)
 
 OUT_DISTANCE = wp.constant(0)
 OUT_ELEVATION = wp.constant(1)
@@ -359,6 +365,91 @@ def fill_segment1(
 
 
 @wp.func
+def draw_around1(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, t: wp.vec2i,
+    pts1: wp.array(dtype=wp.vec4),
+):
+    """Per-pixel mode: draw the level-1 points of the 3 x 3 around ``t`` that :func:`build` left undrawn."""
+    for dy in range(-1, 2):
+        for dx in range(-1, 2):
+            o = block_index(blocks, bases, slot * SLOT, wp.vec2i(t[0] + dx, t[1] + dy))
+            if pts1[nonneg(o)][3] < 0.0:
+                pts1[nonneg(o)] = point1(s, ctl, wp.vec2i(t[0] + dx, t[1] + dy))
+
+
+@wp.func
+def pending_bounds(s: Setup, pa: wp.vec2, pb: wp.vec2) -> wp.vec2:
+    """(side, piece) for the level-1 segment from ``pa`` to ``pb`` that :func:`link1` draws:
+    its polyline lies within ``side`` of the chord and no piece of it is longer than ``piece``.
+
+    :func:`link1` starts the spline with ``p0 = 2 pa - pb``, which makes its first tangent
+    the chord itself; the second is at most a span long (see :func:`segment_reach`). A vertex
+    at fraction t then lies at ``pa + (t + t^2 - t^3) (pb - pa) - t^2 (1 - t) m2``, within
+    ``t^2 (1 - t) <= 0.140625`` spans of the chord at t = 1/4, 1/2, 3/4, and two vertices a
+    quarter apart lie at most 0.40625 spans apart (between t = 1/4 and 1/2), plus the sideways
+    displacements of at most delta spans each. A straight segment's pieces obey both bounds too.
+    """
+    span = wp.length(pb - pa) + 1.0e-6
+    d = s.delta[0]
+    piece = span
+    if s.pieces[0] > 1:
+        piece = (0.40625 + 2.0 * d) * span
+    return wp.vec2(widened((0.140625 + d) * span, pa), widened(piece, pa))
+
+
+@wp.func
+def defer1(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
+    t: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+):
+    """Per-pixel mode: leave the segment of level-1 cell ``c`` (position ``k`` of its block) to
+    ``t`` undrawn, as ``STATE_PENDING`` (``STATE_NONE`` where :func:`link1` stores that), with
+    only what searches and :func:`finish` read of it: its key point, a box holding the polyline
+    :func:`link1` would draw, and a bound on that polyline's longest piece (:func:`pending_bounds`).
+    """
+    bp = slot * SLOT
+    vi = bases[nonneg(bp + 1)] + k
+    p = pts1[nonneg(block_index(blocks, bases, bp, c))]
+    pt = pts1[nonneg(block_index(blocks, bases, bp, t))]
+    state = STATE_NONE
+    if p[3] > 0.0 and pt[3] > 0.0:
+        state = STATE_PENDING
+    keyp_out[nonneg(vi)] = wp.vec4(p[0], p[1], p[2], state)
+    pa = wp.vec2(p[0], p[1])
+    pb = wp.vec2(pt[0], pt[1])
+    bound = pending_bounds(s, pa, pb)
+    lo = wp.min(pa, pb) - wp.vec2(bound[0], bound[0])
+    hi = wp.max(pa, pb) + wp.vec2(bound[0], bound[0])
+    verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0], lo[1], hi[0])
+    verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1], bound[1], 0.0)
+
+
+@wp.func
+def draw_pending1(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    anc: wp.vec2i, q: wp.vec2, sb: float, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
+) -> int:
+    """Draw the ``STATE_PENDING`` level-1 cells among the (2 rl + 1)^2 around ``anc`` whose boxes
+    lie within ``sb`` of ``q`` (see :func:`defer1`), as :func:`fill_links1` would have; return
+    how many."""
+    bp = slot * SLOT
+    drawn = int(0)
+    for dy in range(-s.rl, s.rl + 1):
+        for dx in range(-s.rl, s.rl + 1):
+            c = wp.vec2i(anc[0] + dx, anc[1] + dy)
+            o = block_index(blocks, bases, bp + 1, c)
+            if o >= 0:
+                if keyp[nonneg(o)][3] == STATE_PENDING and not cell_far(q, verts, o, sb):
+                    t = lowest1(pts1, blocks, bases, bp, c)
+                    draw_around1(s, ctl, blocks, bases, slot, t, pts1)
+                    link1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, t, lowest1(pts1, blocks, bases, bp, t),
+                          pts1, keyp, verts)
+                    drawn += 1
+    return drawn
+
+
+@wp.func
 def coord_margin(u: wp.vec2) -> float:
     """An absolute margin against float32 rounding for distances measured at coordinates the size
     of ``u``'s (grid units), used wherever a bound decides which pieces can be left out."""
@@ -391,13 +482,19 @@ def reach_of(best: float) -> float:
 
 
 @wp.func
-def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
-    """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
+def box_gap2(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int) -> float:
+    """Squared distance from ``q`` to cell ``o``'s bounding box (0 inside)."""
     lo = verts[nonneg(o * NV + BOUND)]
     hi = verts[nonneg(o * NV + BOUND + 1)]
     dx = wp.max(wp.max(lo[0] - q[0], q[0] - lo[2]), 0.0)
     dy = wp.max(wp.max(lo[1] - q[1], q[1] - hi[0]), 0.0)
-    return dx * dx + dy * dy >= sb * sb
+    return dx * dx + dy * dy
+
+
+@wp.func
+def cell_far(q: wp.vec2, verts: wp.array(dtype=wp.vec3), o: int, sb: float) -> bool:
+    """True when cell ``o``'s bounding box lies at least ``sb`` away from ``q``."""
+    return box_gap2(q, verts, o) >= sb * sb
 
 
 @wp.struct
@@ -410,6 +507,7 @@ class Hit:
     j: int  # piece
     t: float  # fraction along the piece
     l: int  # level
+    pend: float  # squared distance to the nearest box of a STATE_PENDING cell passed (1e30: none)
 
 
 @wp.func
@@ -422,6 +520,7 @@ def no_hit() -> Hit:
     h.j = 0
     h.t = 0.0
     h.l = 0
+    h.pend = 1.0e30
     return h
 
 
@@ -450,7 +549,8 @@ def scan_range(
         else:
             o = block_index(blocks, bases, bi, c + off)
         if o >= 0:
-            if keyp[nonneg(o)][3] == STATE_SEGMENT:
+            state = keyp[nonneg(o)][3]
+            if state == STATE_SEGMENT:
                 # the pieces update the hit in place: returning them as one vector assembled lane
                 # by lane and read back whole stalled the CPU's store forwarding on every cell
                 if not cell_far(q, verts, o, hit.sb):
@@ -463,6 +563,8 @@ def scan_range(
                             hit.j = j
                             hit.t = pr[1]
                             hit.l = l
+            elif state == STATE_PENDING:
+                hit.pend = wp.min(hit.pend, box_gap2(q, verts, o))
     return hit
 
 
@@ -522,6 +624,12 @@ def nearest_on_tree(
     finest level, see :func:`finish`), code -2 as soon as the nearest of the parent cell's pieces
     shows that the new polyline stays within less than ``far`` of ``q`` (no piece of the
     coarser levels being longer than ``longest``).
+
+    Code -3, with the search's reach ``sb`` in the first entry, when the box of a level-1 cell
+    left ``STATE_PENDING`` (see :func:`defer1`) lies within that reach: the caller draws those
+    (:func:`draw_pending1`) and searches again. Pending cells beyond the reach of the search
+    over the others cannot hold the nearest piece, so the answer, the first piece in the
+    search's order at the least distance, is the one a search over every segment gives.
     """
     hit = no_hit()
     cells = (2 * s.rl + 1) * (2 * s.rl + 1)
@@ -535,7 +643,15 @@ def nearest_on_tree(
             if hit.o >= 0 and segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
                 return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
             k0 = 1
+            if cells > 9:
+                # and again after the parent's 3 x 3, before the wider rings
+                hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, 1, 9, q, keyp, verts, hit)
+                if hit.o >= 0 and segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
+                    return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
+                k0 = 9
         hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, k0, cells, q, keyp, verts, hit)
+        if hit.pend < hit.sb * hit.sb:
+            return wp.mat33(hit.sb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -3.0)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
     a = verts[nonneg(hit.o * NV + hit.j)]
@@ -552,7 +668,7 @@ def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
     k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3),
-):
+) -> float:
     """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
     draw one and join the tree.
 
@@ -560,6 +676,10 @@ def fill_levelk(
     whose polyline provably stays farther than ``limit`` from ``u`` is not drawn: the cell is
     marked ``STATE_FAR``, which every search skips as it skips cells without a segment.
     ``longest`` bounds the pieces of the coarser levels (see :func:`link_span`).
+
+    Returns -1, or (leaving the cell untouched) the reach of its link search when that search
+    must first see pending level-1 segments drawn (see :func:`nearest_on_tree`; only
+    :func:`finish`'s cells can meet them).
     """
     bi = slot * SLOT + level
     vi = bases[nonneg(bi)] + k
@@ -568,23 +688,25 @@ def fill_levelk(
         pc = cell_of(wp.vec2(parent[0], parent[1]), level)
         if pc[0] == c[0] and pc[1] == c[1]:
             keyp[nonneg(vi)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
-            return
+            return -1.0
     q = jitter(s, level, c)
     cp = to_control(s, q)
     if not control_inside(ctl, cp):
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
-        return
+        return -1.0
     far = float(-1.0)
     if limit >= 0.0:
         # the polyline matters only if some point of it comes within limit of u
         far = wp.length(u - q) - limit - coord_margin(u)
     m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, keyp, verts)
+    if m[2, 2] < -2.5:
+        return m[0, 0]
     if m[2, 2] < -1.5:
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
-        return
+        return -1.0
     if m[2, 2] < 0.0:
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
-        return
+        return -1.0
     pa = wp.vec2(m[0, 0], m[0, 1])
     pb = wp.vec2(m[1, 0], m[1, 1])
     ab = pb - pa
@@ -609,7 +731,7 @@ def fill_levelk(
     x = pa + tc * ab
     if far > 0.0 and segment_reach(s, level, wp.length(x - q)) < far:
         keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
-        return
+        return -1.0
     zx = m[0, 2] + tc * (m[1, 2] - m[0, 2])
     zq = zx + s.slope[level - 1] * wp.length(q - x) * s.inv_resolution
     if s.need_z != 0:
@@ -621,6 +743,7 @@ def fill_levelk(
     elif m[2, 2] > 0.5:
         p3 = wp.vec2(m[2, 0], m[2, 1])
     write_polyline(s, level, c, wp.vec3(q[0], q[1], zq), wp.vec3(x[0], x[1], zx), 2.0 * q - x, p3, vi, verts)
+    return -1.0
 
 
 @wp.func
@@ -726,6 +849,7 @@ def shortlist(
         for cy in range(b[3]):
             for cx in range(b[2]):
                 o = bases[nonneg(bi)] + cy * b[2] + cx
+                # (pending level-1 cells lie outside every primitive's query neighbourhood)
                 if keyp[nonneg(o)][3] == STATE_SEGMENT:
                     if not cell_far(u, verts, o, limit):
                         for j in range(PIECES):
@@ -809,7 +933,8 @@ def query_short(
 @wp.func
 def elevation(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
-    qlo: wp.vec2i, qhi: wp.vec2i, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int,
+    qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3), cached: int,
     prims: wp.array(dtype=wp.vec3), sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
     overflow_out: wp.array(dtype=int),
 ) -> float:
@@ -888,7 +1013,7 @@ def elevation(
         limit = float(-1.0)
         if bound < wp.inf:
             limit = widened(bound, u)
-        finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
+        finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, pts1, keyp, verts)
         if limit >= 0.0:
             n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
     total = float(0.0)
@@ -970,7 +1095,8 @@ def plan(
 @wp.func
 def fill_links1(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
+    clo: wp.vec2i, chi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
+    verts_out: wp.array(dtype=wp.vec3),
 ):
     """Per-pixel mode: every level-1 segment of ``slot``, as :func:`fill_segment1` makes them.
 
@@ -978,7 +1104,9 @@ def fill_links1(
     each cell's is found once and kept as ``(x - x0 + 1) + 256 (y - y0 + 1)`` relative to the
     block's corner (blocks of up to 64 cells; larger ones search twice). For those blocks
     :func:`build` leaves the outer ring of level-1 points undrawn: only a target outside the
-    block looks there, and its 3 x 3 is drawn here when one does.
+    block looks there, and its 3 x 3 is drawn here when one does. In those blocks too, the
+    segments of cells outside ``clo..chi`` are left ``STATE_PENDING`` (:func:`defer1`), for
+    link searches to draw if they come near (:func:`nearest_on_tree`).
     """
     b = blocks[nonneg(slot * SLOT + 1)]
     if b[2] * b[3] > 64:
@@ -997,19 +1125,19 @@ def fill_links1(
                 rx = low[k] & 255
                 ry = low[k] >> 8
                 t = wp.vec2i(b[0] + rx - 1, b[1] + ry - 1)
+                c = wp.vec2i(b[0] + i, b[1] + j)
+                if c[0] < clo[0] or c[1] < clo[1] or c[0] > chi[0] or c[1] > chi[1]:
+                    defer1(s, blocks, bases, slot, k, c, t, pts1, keyp_out, verts_out)
+                    continue
                 tt = wp.vec2i(0, 0)
                 if rx >= 1 and ry >= 1 and rx <= b[2] and ry <= b[3]:
                     ct = low[(ry - 1) * b[2] + rx - 1]
                     tt = wp.vec2i(b[0] + (ct & 255) - 1, b[1] + (ct >> 8) - 1)
                 else:
                     # the target lies outside the block: draw the points around it still missing
-                    for dy in range(-1, 2):
-                        for dx in range(-1, 2):
-                            o = block_index(blocks, bases, slot * SLOT, wp.vec2i(t[0] + dx, t[1] + dy))
-                            if pts1[nonneg(o)][3] < 0.0:
-                                pts1[nonneg(o)] = point1(s, ctl, wp.vec2i(t[0] + dx, t[1] + dy))
+                    draw_around1(s, ctl, blocks, bases, slot, t, pts1)
                     tt = lowest1(pts1, blocks, bases, slot * SLOT, t)
-                link1(s, blocks, bases, slot, k, wp.vec2i(b[0] + i, b[1] + j), t, tt, pts1, keyp_out, verts_out)
+                link1(s, blocks, bases, slot, k, c, t, tt, pts1, keyp_out, verts_out)
 
 
 @wp.func
@@ -1034,7 +1162,15 @@ def build(
                 pts1[nonneg(base + j * b[2] + i)] = wp.vec4(0.0, 0.0, 0.0, -1.0)  # not drawn yet
             else:
                 fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
-    fill_links1(s, ctl, blocks, bases, slot, pts1, keyp, verts)
+    # with 2 levels, only the finest level's links read the level-1 segments beyond the query
+    # neighbourhoods of the query's cells (at most rl <= r1 cells from their ancestors): those
+    # are deferred (see fill_links1)
+    clo = wp.vec2i(b1[0], b1[1])
+    chi = wp.vec2i(b1[0] + b1[2] - 1, b1[1] + b1[3] - 1)
+    if s.levels == 2:
+        clo = wp.vec2i((qlo[0] >> 1) - s.r1, (qlo[1] >> 1) - s.r1)
+        chi = wp.vec2i((qhi[0] >> 1) + s.r1, (qhi[1] >> 1) + s.r1)
+    fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
     for level in range(2, s.levels + 1):
         b = blocks[nonneg(slot * SLOT + level)]
@@ -1049,6 +1185,7 @@ def build(
             j1 = qhi[1] - b[1] + 1
         for j in range(j0, j1):
             for i in range(i0, i1):
+                # (no pending level-1 cell lies within reach of these: their parents are the query's)
                 fill_levelk(
                     s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
                     keyp, verts,
@@ -1058,8 +1195,8 @@ def build(
 @wp.func
 def finish(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, keyp: wp.array(dtype=wp.vec4),
-    verts: wp.array(dtype=wp.vec3),
+    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ):
     """Per-pixel mode, after :func:`build`: the finest level's cells outside ``qlo..qhi``.
 
@@ -1079,7 +1216,8 @@ def finish(
             o = bases[nonneg(slot * SLOT + level)]
             last = o + b[2] * b[3]
             while o < last:
-                if keyp[nonneg(o)][3] == STATE_SEGMENT:
+                state = keyp[nonneg(o)][3]
+                if state == STATE_SEGMENT or state == STATE_PENDING:  # (a bound for those pending)
                     longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
                 o += 1
     b = blocks[nonneg(slot * SLOT + n)]
@@ -1087,7 +1225,17 @@ def finish(
         for i in range(b[2]):
             c = wp.vec2i(b[0] + i, b[1] + j)
             if c[0] < qlo[0] or c[1] < qlo[1] or c[0] > qhi[0] or c[1] > qhi[1]:
-                fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp, verts)
+                sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp, verts)
+                while sb >= 0.0:
+                    # its link search needs pending level-1 segments (2 levels: its parent's
+                    # neighbours): draw those within its reach (at least the one that asked),
+                    # then search again; the new search reaches no farther, so it asks no more
+                    reach = sb
+                    sb = -1.0
+                    if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1), jitter(s, n, c),
+                                     reach, pts1, keyp, verts) > 0:
+                        sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp,
+                                         verts)
 
 
 @wp.func
@@ -1119,11 +1267,11 @@ def evaluate(
             d2 = owner_near(s, blocks, bases, slot, pc, u, keyp, verts)
             if d2 >= 0.0:
                 limit = widened(wp.sqrt(d2), u)
-            finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
+            finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, pts1, keyp, verts)
     if output == OUT_ELEVATION:
         return elevation(
-            s, ctl, blocks, bases, slot, u, qlo, qhi, keyp, verts, cached, prims, slot * cap[1] * 4, nearby, gaps,
-            overflow_out,
+            s, ctl, blocks, bases, slot, u, qlo, qhi, pts1, keyp, verts, cached, prims, slot * cap[1] * 4, nearby,
+            gaps, overflow_out,
         )
     r = query(s, blocks, bases, slot, u, keyp, verts)
     if output == OUT_LEVEL:

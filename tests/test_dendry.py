@@ -733,6 +733,60 @@ def test_segment_reach_holds_for_the_most_bent_splines(delta):
             assert ratio.max() > 1.02, ratio.max()
 
 
+@wp.kernel
+def _pending_kernel(s: _kd.Setup, a: wp.array(dtype=wp.vec3), b: wp.array(dtype=wp.vec3),
+                    bounds_out: wp.array(dtype=wp.vec2)):
+    i = wp.tid()
+    bounds_out[i] = _kd.pending_bounds(s, wp.vec2(a[i][0], a[i][1]), wp.vec2(b[i][0], b[i][1]))
+
+
+def _chord_gap(v, a, b):
+    """Distance from each vertex v[i, k] to the chord a[i] -> b[i] (float64)."""
+    ab = (b - a)[:, None, :]
+    den = np.maximum((ab ** 2).sum(axis=2), 1e-300)
+    t = np.clip(((v - a[:, None, :]) * ab).sum(axis=2) / den, 0.0, 1.0)
+    return np.linalg.norm(v - (a[:, None, :] + t[..., None] * ab), axis=2)
+
+
+@pytest.mark.parametrize("kw", [dict(delta=0.0), dict(delta=0.1), dict(delta=1.0), dict(delta=0.5, smoothing=False),
+                                dict(delta=0.5, subdivision=False)])
+def test_pending_bounds_hold_for_the_most_bent_level1_polylines(kw):
+    # a level-1 segment the per-pixel mode leaves pending stands in searches as a box around its
+    # chord and in finish() as a bound on its longest piece: the polyline link1 draws must lie
+    # in that box and have no longer piece, however its far neighbour bends it (the start
+    # tangent is the chord: link1 passes p0 = 2 a - b)
+    rng = np.random.default_rng(11)
+    n = 6000
+    a = np.zeros((n, 3), np.float32)
+    a[:, :2] = rng.uniform(-50.0, 50.0, (n, 2))
+    span = 10.0 ** rng.uniform(-4, 0.5, n)
+    ang = rng.uniform(0.0, 2.0 * np.pi, n)
+    b = a.copy()
+    b[:, :2] += np.stack([np.cos(ang), np.sin(ang)], 1) * span[:, None]
+    e = b[:, :2] - a[:, :2]
+    back = rng.uniform(0.0, 2.0 * np.pi, n)
+    w = np.stack([np.cos(back), np.sin(back)], 1) * (span * 10.0 ** rng.uniform(-3, 1, n))[:, None]
+    w[: n // 3] = -e[: n // 3] * rng.uniform(1e-3, 0.05, (n // 3, 1))
+    p3 = (b[:, :2] + w).astype(np.float32)
+    p0 = (2.0 * a[:, :2] - b[:, :2]).astype(np.float32)
+    p = DendryParams(levels=2, seed=5, **kw)
+    s = _setup(p, DOMAIN, DOMAIN, "distance")
+    verts = wp.zeros(n * int(_kd.NV), dtype=wp.vec3, device="cpu")
+    arrays = [wp.array(x, dtype=d, device="cpu") for x, d in ((a, wp.vec3), (b, wp.vec3), (p0, wp.vec2), (p3, wp.vec2))]
+    wp.launch(_polyline_kernel, dim=n, inputs=[s, 1, *arrays], outputs=[verts], device="cpu")
+    bounds = wp.zeros(n, dtype=wp.vec2, device="cpu")
+    wp.launch(_pending_kernel, dim=n, inputs=[s, arrays[0], arrays[1]], outputs=[bounds], device="cpu")
+    side, piece = bounds.numpy().astype(np.float64).T
+    v = verts.numpy().reshape(n, int(_kd.NV), 3)[:, :5, :2].astype(np.float64)
+    gap = _chord_gap(v, a[:, :2].astype(np.float64), b[:, :2].astype(np.float64)).max(axis=1)
+    longest = np.linalg.norm(np.diff(v, axis=1), axis=2).max(axis=1)
+    assert (gap <= side).all(), (gap / side).max()
+    assert (longest <= piece).all(), (longest / piece).max()
+    if p.smoothing and p.subdivision:
+        # and neither bound is slack by more than the vertices' spread allows
+        assert (gap / side).max() > 0.5 and (longest / piece).max() > 0.6, ((gap / side).max(), (longest / piece).max())
+
+
 @pytest.mark.parametrize("kw", [dict(eps=0.25, delta=0.1), dict(eps=0.0, delta=0.5, rule="lichtenberg"),
                                 dict(eps=0.5, delta=0.0, search="paper")])
 def test_a_pixels_own_cells_equal_the_cached_modes(kw):
@@ -746,7 +800,7 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
     s = _setup(p, dom, dom, "elevation")
     ctl = CTL.struct("cpu")
     rng = np.random.default_rng(4)
-    far = drawn = 0
+    far = drawn = pending = 0
     for n, u in enumerate(rng.uniform(2.0, 4.0, (40, 2)).astype(np.float32)):
         slots = _slots_for_pixels(p, "elevation", 1, "cpu")
         out = wp.zeros(1, dtype=float, device="cpu")
@@ -770,6 +824,18 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
                     if keyp[o, 3] == float(_kd.STATE_FAR):
                         assert level == 2 and want_k[3] == float(_kd.STATE_SEGMENT)
                         far += 1
+                    elif keyp[o, 3] == float(_kd.STATE_PENDING):
+                        # a level-1 segment left pending: its key point as drawn, its polyline
+                        # within the box it stands in for, its pieces within the bound
+                        assert level == 1 and want_k[3] == float(_kd.STATE_SEGMENT)
+                        assert np.array_equal(keyp[o, :3], want_k[:3])
+                        box, top = verts[o, int(_kd.BOUND)], verts[o, int(_kd.BOUND) + 1]
+                        wv = want_v[:5, :2]
+                        assert (wv[:, 0] >= box[0]).all() and (wv[:, 1] >= box[1]).all(), (u, (i0 + i, j0 + j))
+                        assert (wv[:, 0] <= box[2]).all() and (wv[:, 1] <= top[0]).all(), (u, (i0 + i, j0 + j))
+                        assert want_v[int(_kd.BOUND) + 1, 1] <= top[1]
+                        pending += 1
+                        continue
                     else:
                         assert np.array_equal(keyp[o], want_k), (u, level, (i0 + i, j0 + j))
                         if keyp[o, 3] != float(_kd.STATE_SEGMENT):
@@ -782,6 +848,10 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
         # a segment left undrawn never holds the piece nearest to the pixel
         assert min(gaps["far"]) > min(gaps["drawn"]), u
     assert far > 100 and drawn > 1000
+    if p.rule == "terrain" and p.search == "exact":
+        # 5 x 5 links: the level-1 segments beyond the queries' reach are left pending (the
+        # Lichtenberg case's 7 x 7 links make blocks too large for that, the paper's 3 x 3 none)
+        assert pending > 100
 
 
 @pytest.mark.parametrize("trial", range(6))
