@@ -326,6 +326,24 @@ def fill_point1(
 
 
 @wp.func
+def store_point1(
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, vi: int, c: wp.vec2i, t: wp.vec2i,
+    segment: float, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
+) -> wp.mat33:
+    """Store at ``vi`` the key point of level-1 cell ``c``, whose segment joins ``t``, with state
+    ``segment`` (``STATE_NONE`` when either point lies outside the control's domain); return
+    rows (x, y, z) of the two points."""
+    bp = slot * SLOT
+    p = pts1[nonneg(block_index(blocks, bases, bp, c))]
+    pt = pts1[nonneg(block_index(blocks, bases, bp, t))]
+    state = STATE_NONE
+    if p[3] > 0.0 and pt[3] > 0.0:
+        state = segment
+    keyp_out[nonneg(vi)] = wp.vec4(p[0], p[1], p[2], state)
+    return wp.mat33(p[0], p[1], p[2], pt[0], pt[1], pt[2], 0.0, 0.0, 0.0)
+
+
+@wp.func
 def link1(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, k: int, c: wp.vec2i,
     t: wp.vec2i, tt: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
@@ -335,16 +353,11 @@ def link1(
     neighbours, whose own lowest neighbour is ``tt``."""
     bp = slot * SLOT
     vi = bases[nonneg(bp + 1)] + k
-    p = pts1[nonneg(block_index(blocks, bases, bp, c))]
-    pt = pts1[nonneg(block_index(blocks, bases, bp, t))]
-    state = STATE_NONE
-    if p[3] > 0.0 and pt[3] > 0.0:
-        state = STATE_SEGMENT
-    keyp_out[nonneg(vi)] = wp.vec4(p[0], p[1], p[2], state)
-    a = wp.vec3(p[0], p[1], p[2])
-    b = wp.vec3(pt[0], pt[1], pt[2])
-    pa = wp.vec2(p[0], p[1])
-    pb = wp.vec2(pt[0], pt[1])
+    ends = store_point1(blocks, bases, slot, vi, c, t, STATE_SEGMENT, pts1, keyp_out)
+    a = wp.vec3(ends[0, 0], ends[0, 1], ends[0, 2])
+    b = wp.vec3(ends[1, 0], ends[1, 1], ends[1, 2])
+    pa = wp.vec2(a[0], a[1])
+    pb = wp.vec2(b[0], b[1])
     # the tangent at the far end follows the target's own segment, else continues straight
     ptt = pts1[nonneg(block_index(blocks, bases, bp, tt))]
     p3 = 2.0 * pb - pa
@@ -407,16 +420,10 @@ def defer1(
     only what searches and :func:`finish` read of it: its key point, a box holding the polyline
     :func:`link1` would draw, and a bound on that polyline's longest piece (:func:`pending_bounds`).
     """
-    bp = slot * SLOT
-    vi = bases[nonneg(bp + 1)] + k
-    p = pts1[nonneg(block_index(blocks, bases, bp, c))]
-    pt = pts1[nonneg(block_index(blocks, bases, bp, t))]
-    state = STATE_NONE
-    if p[3] > 0.0 and pt[3] > 0.0:
-        state = STATE_PENDING
-    keyp_out[nonneg(vi)] = wp.vec4(p[0], p[1], p[2], state)
-    pa = wp.vec2(p[0], p[1])
-    pb = wp.vec2(pt[0], pt[1])
+    vi = bases[nonneg(slot * SLOT + 1)] + k
+    ends = store_point1(blocks, bases, slot, vi, c, t, STATE_PENDING, pts1, keyp_out)
+    pa = wp.vec2(ends[0, 0], ends[0, 1])
+    pb = wp.vec2(ends[1, 0], ends[1, 1])
     bound = pending_bounds(s, pa, pb)
     lo = wp.min(pa, pb) - wp.vec2(bound[0], bound[0])
     hi = wp.max(pa, pb) + wp.vec2(bound[0], bound[0])
