@@ -378,6 +378,16 @@ def fill_segment1(
 
 
 @wp.func
+def defers1(s: Setup, blocks: wp.array(dtype=wp.vec4i), slot: int) -> int:
+    """1 when the per-pixel mode leaves some level-1 segments of ``slot`` pending: with 2 levels,
+    in level-1 blocks of up to 64 cells (see :func:`fill_links1`)."""
+    b = blocks[nonneg(slot * SLOT + 1)]
+    if s.levels == 2 and b[2] * b[3] <= 64:
+        return 1
+    return 0
+
+
+@wp.func
 def draw_around1(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, t: wp.vec2i,
     pts1: wp.array(dtype=wp.vec4),
@@ -429,6 +439,40 @@ def defer1(
     hi = wp.max(pa, pb) + wp.vec2(bound[0], bound[0])
     verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0], lo[1], hi[0])
     verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1], bound[1], 0.0)
+
+
+@wp.func
+def pending_gap(
+    blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, anc: wp.vec2i, r: int, q: wp.vec2,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> float:
+    """Squared distance from ``q`` to the nearest box of a ``STATE_PENDING`` level-1 cell among
+    the (2r + 1)^2 around ``anc`` (1e30: none). Pending cells form the outer ring of the level-1
+    block (see :func:`build`), so only the ring's rows and columns within reach are read."""
+    bi = slot * SLOT + 1
+    b = blocks[nonneg(bi)]
+    g = float(1.0e30)
+    for side in range(4):
+        # the block's left and right columns, then its top and bottom rows
+        edge = b[0]
+        lo = anc[0] - r
+        if side == 1:
+            edge = b[0] + b[2] - 1
+        elif side >= 2:
+            edge = b[1]
+            lo = anc[1] - r
+            if side == 3:
+                edge = b[1] + b[3] - 1
+        if edge >= lo and edge <= lo + 2 * r:
+            for m in range(2 * r + 1):
+                c = wp.vec2i(edge, anc[1] - r + m)
+                if side >= 2:
+                    c = wp.vec2i(anc[0] - r + m, edge)
+                o = block_index(blocks, bases, bi, c)
+                if o >= 0:
+                    if keyp[nonneg(o)][3] == STATE_PENDING:
+                        g = wp.min(g, box_gap2(q, verts, o))
+    return g
 
 
 @wp.func
@@ -514,7 +558,6 @@ class Hit:
     j: int  # piece
     t: float  # fraction along the piece
     l: int  # level
-    pend: float  # squared distance to the nearest box of a STATE_PENDING cell passed (1e30: none)
 
 
 @wp.func
@@ -527,7 +570,6 @@ def no_hit() -> Hit:
     h.j = 0
     h.t = 0.0
     h.l = 0
-    h.pend = 1.0e30
     return h
 
 
@@ -556,8 +598,7 @@ def scan_range(
         else:
             o = block_index(blocks, bases, bi, c + off)
         if o >= 0:
-            state = keyp[nonneg(o)][3]
-            if state == STATE_SEGMENT:
+            if keyp[nonneg(o)][3] == STATE_SEGMENT:
                 # the pieces update the hit in place: returning them as one vector assembled lane
                 # by lane and read back whole stalled the CPU's store forwarding on every cell
                 if not cell_far(q, verts, o, hit.sb):
@@ -570,8 +611,6 @@ def scan_range(
                             hit.j = j
                             hit.t = pr[1]
                             hit.l = l
-            elif state == STATE_PENDING:
-                hit.pend = wp.min(hit.pend, box_gap2(q, verts, o))
     return hit
 
 
@@ -607,19 +646,22 @@ def link_span(s: Setup, d: float, longest: float) -> float:
     """Bound on the distance from a new key point to the tree point it links to, when the piece
     it joins lies ``d`` from it and no piece is longer than ``longest``.
 
-    Terrain rule: the point joined is the nearest of the piece's ends and midpoint, within a
-    quarter of the piece of the point nearest to the key point. Lichtenberg rule: the point
+    Terrain rule: the point joined is the nearest of the piece's ends and midpoint. When the
+    point of the piece nearest to the key point is an end, that is the point joined; otherwise
+    the key point lies square to the piece from it, and the end or midpoint within a quarter of
+    the piece along it lies within ``sqrt(d^2 + (longest / 4)^2)``. Lichtenberg rule: the point
     joined lies downstream of that nearest point by at most ``d``.
     """
     if s.rule == 0:
-        return d + 0.25 * longest
+        return wp.sqrt(d * d + 0.0625 * longest * longest)
     return 2.0 * d
 
 
 @wp.func
 def nearest_on_tree(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
-    q: wp.vec2, far: float, longest: float, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+    q: wp.vec2, far: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
 ) -> wp.mat33:
     """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
     the (2 rl + 1)^2 cells around the ancestors of ``c`` (finest level first, centre cell first;
@@ -632,8 +674,9 @@ def nearest_on_tree(
     shows that the new polyline stays within less than ``far`` of ``q`` (no piece of the
     coarser levels being longer than ``longest``).
 
-    Code -3, with the search's reach ``sb`` in the first entry, when the box of a level-1 cell
-    left ``STATE_PENDING`` (see :func:`defer1`) lies within that reach: the caller draws those
+    With ``pending`` 1 (level-1 cells may be pending, see :func:`defer1`): code -3, with the
+    search's reach ``sb`` in the first entry, when the box of a pending cell lies within that
+    reach: the caller draws those
     (:func:`draw_pending1`) and searches again. Pending cells beyond the reach of the search
     over the others cannot hold the nearest piece, so the answer, the first piece in the
     search's order at the least distance, is the one a search over every segment gives.
@@ -643,22 +686,25 @@ def nearest_on_tree(
     for i in range(1, level):
         l = level - i
         anc = wp.vec2i(c[0] >> i, c[1] >> i)
+        # one scan in parts (one call site keeps the inlined code small): with ``far`` > 0, the
+        # parent cell's pieces first, then the rest of its 3 x 3, then the wider rings; each
+        # part bounds the link, and the search stops as soon as that keeps the segment far
         k0 = int(0)
+        k1 = cells
         if i == 1 and far > 0.0:
-            # the piece of the parent's cell bounds the link: stop if even that keeps the segment far
-            hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, 0, 1, q, keyp, verts, hit)
-            if hit.o >= 0 and segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
-                return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
-            k0 = 1
-            if cells > 9:
-                # and again after the parent's 3 x 3, before the wider rings
-                hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, 1, 9, q, keyp, verts, hit)
-                if hit.o >= 0 and segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
+            k1 = 1
+        while k0 < cells:
+            hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, k0, k1, q, keyp, verts, hit)
+            if k1 < cells and hit.o >= 0:
+                if segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
                     return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
-                k0 = 9
-        hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, k0, cells, q, keyp, verts, hit)
-        if hit.pend < hit.sb * hit.sb:
-            return wp.mat33(hit.sb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -3.0)
+            k0 = k1
+            k1 = cells
+            if k0 == 1:
+                k1 = wp.min(9, cells)
+        if pending != 0 and l == 1:
+            if pending_gap(blocks, bases, slot, anc, s.rl, q, keyp, verts) < hit.sb * hit.sb:
+                return wp.mat33(hit.sb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -3.0)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
     a = verts[nonneg(hit.o * NV + hit.j)]
@@ -673,7 +719,7 @@ def nearest_on_tree(
 @wp.func
 def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
-    k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, keyp: wp.array(dtype=wp.vec4),
+    k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3),
 ) -> float:
     """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
@@ -685,8 +731,8 @@ def fill_levelk(
     ``longest`` bounds the pieces of the coarser levels (see :func:`link_span`).
 
     Returns -1, or (leaving the cell untouched) the reach of its link search when that search
-    must first see pending level-1 segments drawn (see :func:`nearest_on_tree`; only
-    :func:`finish`'s cells can meet them).
+    must first see pending level-1 segments drawn (``pending`` 1: some may be, see
+    :func:`nearest_on_tree`; only :func:`finish`'s cells can reach them).
     """
     bi = slot * SLOT + level
     vi = bases[nonneg(bi)] + k
@@ -705,7 +751,7 @@ def fill_levelk(
     if limit >= 0.0:
         # the polyline matters only if some point of it comes within limit of u
         far = wp.length(u - q) - limit - coord_margin(u)
-    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, keyp, verts)
+    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, pending, keyp, verts)
     if m[2, 2] < -2.5:
         return m[0, 0]
     if m[2, 2] < -1.5:
@@ -1171,12 +1217,13 @@ def build(
                 fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
     # with 2 levels, only the finest level's links read the level-1 segments beyond the query
     # neighbourhoods of the query's cells (at most rl <= r1 cells from their ancestors): those
-    # are deferred (see fill_links1)
+    # are deferred (see fill_links1). They make the block's outer ring (with rl = r1 = 2), and
+    # only that ring is ever deferred (pending_gap reads no other cell)
     clo = wp.vec2i(b1[0], b1[1])
     chi = wp.vec2i(b1[0] + b1[2] - 1, b1[1] + b1[3] - 1)
-    if s.levels == 2:
-        clo = wp.vec2i((qlo[0] >> 1) - s.r1, (qlo[1] >> 1) - s.r1)
-        chi = wp.vec2i((qhi[0] >> 1) + s.r1, (qhi[1] >> 1) + s.r1)
+    if defers1(s, blocks, slot) != 0:
+        clo = wp.vec2i(wp.min((qlo[0] >> 1) - s.r1, b1[0] + 1), wp.min((qlo[1] >> 1) - s.r1, b1[1] + 1))
+        chi = wp.vec2i(wp.max((qhi[0] >> 1) + s.r1, chi[0] - 1), wp.max((qhi[1] >> 1) + s.r1, chi[1] - 1))
     fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
     for level in range(2, s.levels + 1):
@@ -1195,7 +1242,7 @@ def build(
                 # (no pending level-1 cell lies within reach of these: their parents are the query's)
                 fill_levelk(
                     s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
-                    keyp, verts,
+                    0, keyp, verts,
                 )
 
 
@@ -1216,6 +1263,7 @@ def finish(
     n = s.levels
     if n < 2:
         return
+    pending = defers1(s, blocks, slot)
     longest = float(0.0)
     if limit >= 0.0 and s.rule == 0:
         for level in range(1, n):
@@ -1232,7 +1280,8 @@ def finish(
         for i in range(b[2]):
             c = wp.vec2i(b[0] + i, b[1] + j)
             if c[0] < qlo[0] or c[1] < qlo[1] or c[0] > qhi[0] or c[1] > qhi[1]:
-                sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp, verts)
+                sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, pending, keyp,
+                                 verts)
                 while sb >= 0.0:
                     # its link search needs pending level-1 segments (2 levels: its parent's
                     # neighbours): draw those within its reach (at least the one that asked),
@@ -1241,8 +1290,8 @@ def finish(
                     sb = -1.0
                     if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1), jitter(s, n, c),
                                      reach, pts1, keyp, verts) > 0:
-                        sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, keyp,
-                                         verts)
+                        sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest,
+                                         pending, keyp, verts)
 
 
 @wp.func
@@ -1344,8 +1393,8 @@ def levelk_kernel(
     """Cached mode: key points and segments of ``level`` >= 2 (reads the coarser levels)."""
     k = wp.tid()
     fill_levelk(
-        s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), wp.vec2(0.0, 0.0), -1.0, 0.0, keyp_inout,
-        verts_inout,
+        s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), wp.vec2(0.0, 0.0), -1.0, 0.0, 0,
+        keyp_inout, verts_inout,
     )
 
 
