@@ -17,7 +17,7 @@ where its cells start in the flat arrays:
 - L = 7: terrain primitives (``prims``: x, y, h).
 
 Per-pixel elevation also keeps, per slot, a shortlist of the polyline pieces near
-its pixel (``nearby``, see :func:`elevation`), read by the queries of its primitives.
+its pixel (``nearby``, see :func:`answer`), read by the queries of its primitives.
 
 In the cached mode one slot (0) covers a whole window and each stage is one
 launch over its cells; in the per-pixel mode each thread uses a slot of its own
@@ -380,9 +380,10 @@ def fill_segment1(
 @wp.func
 def defers1(s: Setup, blocks: wp.array(dtype=wp.vec4i), slot: int) -> int:
     """1 when the per-pixel mode leaves some level-1 segments of ``slot`` pending: with 2 levels,
-    in level-1 blocks of up to 64 cells (see :func:`fill_links1`)."""
+    in level-1 blocks of up to 64 cells (see :func:`fill_links1`), where links reach farther
+    than queries (the ancestors of the finest block lie a cell beyond the query's level-1 cells)."""
     b = blocks[nonneg(slot * SLOT + 1)]
-    if s.levels == 2 and b[2] * b[3] <= 64:
+    if s.levels == 2 and s.rl + 1 > s.r1 and b[2] * b[3] <= 64:
         return 1
     return 0
 
@@ -942,7 +943,7 @@ def query_short(
     s: Setup, q: wp.vec2, u: wp.vec2, verts: wp.array(dtype=wp.vec3), nearby: wp.array(dtype=wp.vec4i),
     gaps: wp.array(dtype=float), first: int, n: int,
 ) -> wp.vec3:
-    """:func:`query` at ``q`` from the shortlist of the pieces near ``u`` (see :func:`elevation`).
+    """:func:`query` at ``q`` from the shortlist of the pieces near ``u`` (see :func:`answer`).
 
     The query's answer is the first piece in its search order (finest level first, then ring
     order, then piece) with the least squared distance. Here the pieces of ``q``'s
@@ -984,14 +985,21 @@ def query_short(
 
 
 @wp.func
-def elevation(
+def answer(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
-    qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    output: int, qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3), cached: int,
     prims: wp.array(dtype=wp.vec3), sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
     overflow_out: wp.array(dtype=int),
 ) -> float:
-    """Blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3 (eq. 5-6).
+    """The requested output at ``u`` once the slot is built (per-pixel mode: but for the finest
+    level's cells outside ``qlo..qhi``, which :func:`finish` fills here, at its only call site).
+
+    Distance and level: the query at ``u``. The polyline through the key point of u's finest
+    cell is a candidate of that query, so its distance bounds the answer for :func:`finish`.
+
+    Elevation: the blend of the 5 x 5 primitives around ``u`` weighted by g(r) = (1 - r^2)^3
+    (eq. 5-6).
 
     The radius is two primitive cells, so every primitive that can weigh lies in the 5 x 5 block.
     In the per-pixel mode the primitives' queries read a shortlist. The answer at a primitive q
@@ -1013,7 +1021,8 @@ def elevation(
     pr2 = vec25()
     corner = int(0)
     width = int(0)
-    if cached != 0:
+    elev = output == OUT_ELEVATION
+    if cached != 0 and elev:
         corner = block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] - 2, pc[1] - 2))
         if corner < 0 or block_index(blocks, bases, slot * SLOT + PRIM, wp.vec2i(pc[0] + 2, pc[1] + 2)) < 0:
             # the window's primitive block was planned too small (never expected within the coordinate
@@ -1027,7 +1036,7 @@ def elevation(
     reach_u = vec16()
     nx = qhi[0] - qlo[0] + 1
     ncells = int(0)
-    if cached == 0:
+    if cached == 0 and elev:
         ncells = nx * (qhi[1] - qlo[1] + 1)
         for k in range(ncells):
             d2 = owner_near(s, blocks, bases, slot, wp.vec2i(qlo[0] + k % nx, qlo[1] + k / nx), u, keyp, verts)
@@ -1035,40 +1044,51 @@ def elevation(
             if d2 >= 0.0:
                 reach_u[k] = wp.sqrt(d2)
     bound = float(0.0)
-    for dy in range(5):
-        for dx in range(5):
-            k = dy * 5 + dx
-            q = wp.vec2(0.0, 0.0)
-            if cached != 0:
-                pq = prims[nonneg(corner + dy * width + dx)]
-                q = wp.vec2(pq[0], pq[1])
-            else:
-                q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
-            px[k] = q[0]
-            py[k] = q[1]
-            r2 = wp.length_sq(q - u) * inv_r2
-            pr2[k] = r2
-            if cached == 0 and r2 < 1.0:
-                # any of those polylines within q's query neighbourhood bounds q's answer (an
-                # inherited one is within it at its coarser level too: DendryParams.radii keeps
-                # r1 >= rq)
-                qc = cell_of(q, s.levels)
-                gap = wp.length(q - u)
-                best = float(wp.inf)
-                for f in range(ncells):
-                    fx = qlo[0] + f % nx - qc[0]
-                    fy = qlo[1] + f / nx - qc[1]
-                    if wp.abs(fx) <= s.rq and wp.abs(fy) <= s.rq:
-                        best = wp.min(best, reach_u[f] + gap)
-                bound = wp.max(bound, best + gap)
+    if elev:
+        for dy in range(5):
+            for dx in range(5):
+                k = dy * 5 + dx
+                q = wp.vec2(0.0, 0.0)
+                if cached != 0:
+                    pq = prims[nonneg(corner + dy * width + dx)]
+                    q = wp.vec2(pq[0], pq[1])
+                else:
+                    q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
+                px[k] = q[0]
+                py[k] = q[1]
+                r2 = wp.length_sq(q - u) * inv_r2
+                pr2[k] = r2
+                if cached == 0 and r2 < 1.0:
+                    # any of those polylines within q's query neighbourhood bounds q's answer (an
+                    # inherited one is within it at its coarser level too: DendryParams.radii keeps
+                    # r1 >= rq)
+                    qc = cell_of(q, s.levels)
+                    gap = wp.length(q - u)
+                    best = float(wp.inf)
+                    for f in range(ncells):
+                        fx = qlo[0] + f % nx - qc[0]
+                        fy = qlo[1] + f / nx - qc[1]
+                        if wp.abs(fx) <= s.rq and wp.abs(fy) <= s.rq:
+                            best = wp.min(best, reach_u[f] + gap)
+                    bound = wp.max(bound, best + gap)
     n = int(-1)
     if cached == 0:
         limit = float(-1.0)
-        if bound < wp.inf:
-            limit = widened(bound, u)
+        if elev:
+            if bound < wp.inf:
+                limit = widened(bound, u)
+        elif s.levels >= 2:
+            d2 = owner_near(s, blocks, bases, slot, cell_of(u, s.levels), u, keyp, verts)
+            if d2 >= 0.0:
+                limit = widened(wp.sqrt(d2), u)
         finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, pts1, keyp, verts)
-        if limit >= 0.0:
+        if limit >= 0.0 and elev:
             n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
+    if not elev:
+        r = query(s, blocks, bases, slot, u, keyp, verts)
+        if output == OUT_LEVEL:
+            return r[2]
+        return r[0]
     total = float(0.0)
     wsum = float(0.0)
     for dy in range(5):
@@ -1317,22 +1337,10 @@ def evaluate(
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
         build(s, ctl, blocks, bases, slot, qlo, qhi, pts1, keyp, verts)
-        if output != OUT_ELEVATION and s.levels >= 2:
-            # the polyline through the key point of u's finest cell is a candidate of u's query
-            limit = float(-1.0)
-            d2 = owner_near(s, blocks, bases, slot, pc, u, keyp, verts)
-            if d2 >= 0.0:
-                limit = widened(wp.sqrt(d2), u)
-            finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, pts1, keyp, verts)
-    if output == OUT_ELEVATION:
-        return elevation(
-            s, ctl, blocks, bases, slot, u, qlo, qhi, pts1, keyp, verts, cached, prims, slot * cap[1] * 4, nearby,
-            gaps, overflow_out,
-        )
-    r = query(s, blocks, bases, slot, u, keyp, verts)
-    if output == OUT_LEVEL:
-        return r[2]
-    return r[0]
+    return answer(
+        s, ctl, blocks, bases, slot, u, output, qlo, qhi, pts1, keyp, verts, cached, prims, slot * cap[1] * 4, nearby,
+        gaps, overflow_out,
+    )
 
 
 @wp.func
