@@ -380,10 +380,12 @@ def fill_segment1(
 @wp.func
 def defers1(s: Setup, blocks: wp.array(dtype=wp.vec4i), slot: int) -> int:
     """1 when the per-pixel mode leaves some level-1 segments of ``slot`` pending: with 2 levels,
-    in level-1 blocks of up to 64 cells (see :func:`fill_links1`), where links reach farther
-    than queries (the ancestors of the finest block lie a cell beyond the query's level-1 cells)."""
+    in level-1 blocks of up to 64 cells (see :func:`fill_links1`), where links reach as far as
+    queries (``rl == r1``), so a cell farther out: the ancestors of the finest block lie a cell
+    beyond the query's level-1 cells. :func:`build`'s own links (those of the query's cells)
+    then stay within the queries' reach, which needs ``rl <= r1`` (DendryParams.radii)."""
     b = blocks[nonneg(slot * SLOT + 1)]
-    if s.levels == 2 and s.rl + 1 > s.r1 and b[2] * b[3] <= 64:
+    if s.levels == 2 and s.rl == s.r1 and b[2] * b[3] <= 64:
         return 1
     return 0
 
@@ -412,13 +414,20 @@ def pending_bounds(s: Setup, pa: wp.vec2, pb: wp.vec2) -> wp.vec2:
     ``t^2 (1 - t) <= 0.140625`` spans of the chord at t = 1/4, 1/2, 3/4, and two vertices a
     quarter apart lie at most 0.40625 spans apart (between t = 1/4 and 1/2), plus the sideways
     displacements of at most delta spans each. A straight segment's pieces obey both bounds too.
+    Level 1 has 4 pieces, or 1 without subdivision; for any other count the bounds fall back to
+    ``4/27`` spans from the chord and ``1 + 4/27`` spans a piece (``t + t^2 - t^3`` rises from
+    0 to 1).
     """
     span = wp.length(pb - pa) + 1.0e-6
     d = s.delta[0]
-    piece = span
-    if s.pieces[0] > 1:
+    side = 0.14815 + d
+    piece = (1.14815 + 2.0 * d) * span
+    if s.pieces[0] == 4:
+        side = 0.140625 + d
         piece = (0.40625 + 2.0 * d) * span
-    return wp.vec2(widened((0.140625 + d) * span, pa), widened(piece, pa))
+    elif s.pieces[0] == 1:
+        piece = span
+    return wp.vec2(widened(side * span, pa), widened(piece, pa))
 
 
 @wp.func
@@ -483,8 +492,8 @@ def draw_pending1(
     verts: wp.array(dtype=wp.vec3),
 ) -> int:
     """Draw the ``STATE_PENDING`` level-1 cells among the (2 rl + 1)^2 around ``anc`` whose boxes
-    lie within ``sb`` of ``q`` (see :func:`defer1`), as :func:`fill_links1` would have; return
-    how many."""
+    lie within ``sb`` of ``q`` (see :func:`defer1`; ``<=``, as :func:`nearest_on_tree` asks), as
+    :func:`fill_links1` would have; return how many."""
     bp = slot * SLOT
     drawn = int(0)
     for dy in range(-s.rl, s.rl + 1):
@@ -492,7 +501,7 @@ def draw_pending1(
             c = wp.vec2i(anc[0] + dx, anc[1] + dy)
             o = block_index(blocks, bases, bp + 1, c)
             if o >= 0:
-                if keyp[nonneg(o)][3] == STATE_PENDING and not cell_far(q, verts, o, sb):
+                if keyp[nonneg(o)][3] == STATE_PENDING and box_gap2(q, verts, o) <= sb * sb:
                     t = lowest1(pts1, blocks, bases, bp, c)
                     draw_around1(s, ctl, blocks, bases, slot, t, pts1)
                     link1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, t, lowest1(pts1, blocks, bases, bp, t),
@@ -671,16 +680,16 @@ def nearest_on_tree(
     Returns rows a = (x, y, z), b = (x, y, z) of the piece (upstream first) and
     (x, y, code) of the vertex after b: code -1 when nothing was found, 0 when b ends
     its polyline, 1 when the vertex exists. With ``far`` > 0 (the per-pixel mode's lazy
-    finest level, see :func:`finish`), code -2 as soon as the nearest of the parent cell's pieces
-    shows that the new polyline stays within less than ``far`` of ``q`` (no piece of the
-    coarser levels being longer than ``longest``).
+    finest level, see :func:`finish`), code -2 as soon as the nearest of the pieces searched so
+    far (the parent cell's, then its 3 x 3's) shows that the new polyline stays within less than
+    ``far`` of ``q`` (no piece of the coarser levels being longer than ``longest``).
 
     With ``pending`` 1 (level-1 cells may be pending, see :func:`defer1`): code -3, with the
     search's reach ``sb`` in the first entry, when the box of a pending cell lies within that
-    reach: the caller draws those
-    (:func:`draw_pending1`) and searches again. Pending cells beyond the reach of the search
-    over the others cannot hold the nearest piece, so the answer, the first piece in the
-    search's order at the least distance, is the one a search over every segment gives.
+    reach: the caller draws those (:func:`draw_pending1`) and searches again. Pending cells
+    beyond the reach of the search over the others cannot hold the nearest piece, so the
+    answer, the first piece in the search's order at the least distance, is the one a search
+    over every segment gives.
     """
     hit = no_hit()
     cells = (2 * s.rl + 1) * (2 * s.rl + 1)
@@ -704,7 +713,8 @@ def nearest_on_tree(
             if k0 == 1:
                 k1 = wp.min(9, cells)
         if pending != 0 and l == 1:
-            if pending_gap(blocks, bases, slot, anc, s.rl, q, keyp, verts) < hit.sb * hit.sb:
+            # (<=: a pending piece at distance 0 earlier in the search's order would win a tie)
+            if pending_gap(blocks, bases, slot, anc, s.rl, q, keyp, verts) <= hit.sb * hit.sb:
                 return wp.mat33(hit.sb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -3.0)
     if hit.o < 0:
         return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0)
@@ -1300,18 +1310,19 @@ def finish(
         for i in range(b[2]):
             c = wp.vec2i(b[0] + i, b[1] + j)
             if c[0] < qlo[0] or c[1] < qlo[1] or c[0] > qhi[0] or c[1] > qhi[1]:
-                sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, pending, keyp,
-                                 verts)
+                # (one call site of fill_levelk: its code is inlined)
+                pend = pending
+                sb = float(0.0)
                 while sb >= 0.0:
-                    # its link search needs pending level-1 segments (2 levels: its parent's
-                    # neighbours): draw those within its reach (at least the one that asked),
-                    # then search again; the new search reaches no farther, so it asks no more
-                    reach = sb
-                    sb = -1.0
-                    if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1), jitter(s, n, c),
-                                     reach, pts1, keyp, verts) > 0:
-                        sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest,
-                                         pending, keyp, verts)
+                    sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, pend, keyp,
+                                     verts)
+                    if sb >= 0.0:
+                        # its link search needs pending level-1 segments (2 levels: its parent's
+                        # neighbours): draw those within its reach (at least the one that asked),
+                        # then search again; the new search reaches no farther, so it asks no more
+                        if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1),
+                                         jitter(s, n, c), sb, pts1, keyp, verts) == 0:
+                            pend = 0  # (never expected) search without asking rather than leave the cell unwritten
 
 
 @wp.func
