@@ -492,8 +492,8 @@ def draw_pending1(
     verts: wp.array(dtype=wp.vec3),
 ) -> int:
     """Draw the ``STATE_PENDING`` level-1 cells among the (2 rl + 1)^2 around ``anc`` whose boxes
-    lie within ``sb`` of ``q`` (see :func:`defer1`; ``<=``, as :func:`nearest_on_tree` asks), as
-    :func:`fill_links1` would have; return how many."""
+    lie within ``sb`` of ``q`` (see :func:`defer1`; ``<=``, as :func:`nearest_on_tree` asks), with
+    :func:`fill_segment1`, as :func:`fill_links1` would have; return how many."""
     bp = slot * SLOT
     drawn = int(0)
     for dy in range(-s.rl, s.rl + 1):
@@ -502,10 +502,9 @@ def draw_pending1(
             o = block_index(blocks, bases, bp + 1, c)
             if o >= 0:
                 if keyp[nonneg(o)][3] == STATE_PENDING and box_gap2(q, verts, o) <= sb * sb:
-                    t = lowest1(pts1, blocks, bases, bp, c)
-                    draw_around1(s, ctl, blocks, bases, slot, t, pts1)
-                    link1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, t, lowest1(pts1, blocks, bases, bp, t),
-                          pts1, keyp, verts)
+                    # the points around its target first (the block's outer ring may be undrawn)
+                    draw_around1(s, ctl, blocks, bases, slot, lowest1(pts1, blocks, bases, bp, c), pts1)
+                    fill_segment1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, pts1, keyp, verts)
                     drawn += 1
     return drawn
 
