@@ -10,8 +10,8 @@ pixel of one or more checkouts.
 Warp compiles a module's kernels into one object and loads it without symbols, and at the
 default inlining thresholds the per-pixel kernel becomes one function of about 60 KB, so a
 sampling profiler only sees anonymous addresses. The default mode compiles the per-pixel
-module with Warp's default CPU flags plus line tables (the same machine code: the inlining
-does not change), samples a window under Linux ``perf``, maps each sample into the object
+module with Warp's default CPU flags plus line tables (the same machine code: checked on the
+Table 1 kernel, whose disassembly is identical), samples a window under Linux ``perf``, maps each sample into the object
 through the kernel's entry address, and names it with ``addr2line``: the share of samples
 under each Warp function (inclusive, along the chain of inlined calls) and the hottest
 lines, each given by its function and the line of the Python source that Warp's generated
