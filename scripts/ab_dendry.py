@@ -28,6 +28,11 @@ from pathlib import Path
 import numpy as np
 
 
+def _is_checkout(root) -> bool:
+    """True when ``root`` holds a wdendrite checkout (its wdendrite/ and kernels/ folders)."""
+    return (Path(root) / "wdendrite").is_dir() and (Path(root) / "kernels").is_dir()
+
+
 def _load(root: Path, name: str, into: Path):
     """The checkout at ``root`` as package ``name`` (its ``wdendrite`` with ``kernels`` inside)."""
     pkg = into / name
@@ -58,7 +63,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=10, help="runs of each side, in turns")
     args = ap.parse_args()
     for side in (args.old, args.new):
-        if not (side / "wdendrite").is_dir() or not (side / "kernels").is_dir():
+        if not _is_checkout(side):
             ap.error(f"{str(side)!r} is not a wdendrite checkout (no wdendrite/ and kernels/ in it)")
     if args.runs < 1 or args.window < 1:
         ap.error(f"--runs and --window must be at least 1, got {args.runs} and {args.window}")

@@ -40,7 +40,7 @@ from pathlib import Path
 
 SCRIPTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(SCRIPTS))
-from ab_dendry import _case, _load  # noqa: E402  (the same workloads as the A/B timings)
+from ab_dendry import _case, _is_checkout, _load  # noqa: E402  (the same workloads as the A/B timings)
 
 LINE_TABLES = " -debug-info-kind=line-tables-only -dwarf-version=4"
 
@@ -111,8 +111,6 @@ def _symbols(obj: str) -> list[tuple[int, int, str]]:
 
 
 def _profile(args) -> None:
-    if not (Path(args.root) / "wdendrite").is_dir() or not (Path(args.root) / "kernels").is_dir():
-        sys.exit(f"profile_dendry: {args.root!r} is not a wdendrite checkout (no wdendrite/ and kernels/ in it)")
     for tool in ("perf", "objdump", "addr2line"):
         if shutil.which(tool) is None:
             sys.exit(f"profile_dendry: '{tool}' is not installed (the default mode needs perf, objdump, addr2line)")
@@ -204,8 +202,6 @@ def _count(args) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for i, root in enumerate(args.count):
-            if not (Path(root) / "wdendrite").is_dir() or not (Path(root) / "kernels").is_dir():
-                sys.exit(f"profile_dendry: {root!r} is not a wdendrite checkout (no wdendrite/ and kernels/ in it)")
             package = f"wd_c{i}"
             report = tmp / f"{package}.json"
             grind = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=ffi_call*",
@@ -253,6 +249,9 @@ def main() -> None:
     if not args.child and (args.window < 2 or args.runs < 0 or args.frequency < 1 or args.top < 1):
         ap.error(f"--window must be at least 2 and --runs, --frequency, --top positive, got "
                  f"{args.window}, {args.runs}, {args.frequency}, {args.top}")
+    for root in args.count or [args.root]:
+        if not _is_checkout(root):
+            ap.error(f"{root!r} is not a wdendrite checkout (no wdendrite/ and kernels/ in it)")
     if args.child:
         _child(args)
     elif args.count:
