@@ -845,7 +845,9 @@ def primitive(s: Setup, ctl: Control, c: wp.vec2i, q: wp.vec2, r: wp.vec3) -> wp
     query ``r`` = (distance, tree elevation, level) there: (x, y, height), eq. 4 and 7."""
     pl = s.levels + s.steps
     if r[2] == 0.0:
-        return wp.vec3(q[0], q[1], control_value(ctl, to_control(s, q)))
+        # no branch near (outside a bounded control's domain): the control, within the range it
+        # takes on its domain (the Lichtenberg bowl's 16 * scale outside its square is not counted)
+        return wp.vec3(q[0], q[1], wp.clamp(control_value(ctl, to_control(s, q)), ctl.vmin, ctl.vmax))
     # eq. 7: a smooth step from the control's minimum to its maximum, evaluated at h^beta
     # (the paper's control takes values in [0, 1]; lower values count as 0)
     t = float(0.0)

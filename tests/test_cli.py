@@ -521,3 +521,26 @@ def test_a_tiled_output_whose_partial_file_name_would_be_too_long_is_refused(tmp
     assert cli.main(["terrain", "--size", "32", "--tile", "8", "-o", "a" * 244 + ".npy", "--quiet"]) == 2
     assert "2 bytes too long" in capsys.readouterr().err and not list(tmp_path.iterdir())
     assert cli.main(["terrain", "--size", "32", "--tile", "8", "-o", "a" * 240 + ".npy", "--quiet"]) == 0
+
+
+@pytest.mark.parametrize(
+    "model, kw, exc, match",
+    [
+        # each was refused only after the noise control's range had been sampled with kernels, or not at all
+        ("dendry", dict(extent=1e7), ValueError, "'domain' reaches coordinate"),
+        ("dendry", dict(params={}), TypeError, "DendryParams for 'params', but got dict"),
+        ("dendry", dict(output="height"), ValueError, "'output'"),
+        ("dendry", dict(control="radial", frequency=-1), ValueError, "'frequency', but got -1"),
+        ("dendry", dict(control="cone"), ValueError, "'control'"),
+        ("dendry", dict(drained="no"), TypeError, "'drained', but got 'no'"),
+        ("dendry", dict(seed=-1), ValueError, "'seed'"),
+        ("terrain", dict(rivers="no"), TypeError, "'rivers', but got 'no'"),
+        ("terrain", dict(extent=1e6), ValueError, "'domain' reaches coordinate"),
+    ],
+)
+def test_dendry_models_check_everything_before_any_kernel(model, kw, exc, match, launches):
+    from wdendrite import _models
+
+    with pytest.raises(exc, match=match):
+        getattr(_models, model)(16, **kw)
+    assert launches == []

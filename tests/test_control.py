@@ -203,6 +203,15 @@ def test_grid_equals_evaluate_at_pixel_centres(device):
         (lambda: control.perlin(octaves=0), "octaves"),
         (lambda: control.radial(radius=-1.0), "radius"),
         (lambda: control.plane((np.inf, 0.0)), "gradient"),
+        (lambda: control.image([[0.0, 1.0], [1.0]]), "'values', but got rows of different lengths"),
+        (lambda: control.image(np.array([[1e39, 1.0]])), r"'values'.*1e\+39 \(too large for float32\)"),
+        # ranges that float32 cannot hold: the kernels would give inf or NaN everywhere
+        (lambda: control.perlin(gain=1e6, octaves=8), "'gain' or 'octaves'"),
+        (lambda: control.ridged(gain=1e10), "'gain' or 'octaves' or 'offset'"),
+        (lambda: control.ridged(offset=1e30), "'offset'"),
+        (lambda: control.plane((1e200, 0.0)), "'gradient'"),
+        (lambda: control.radial(radius=1e-44), "'radius'"),
+        (lambda: control.lichtenberg(1e300), "'scale'"),
     ],
 )
 def test_bad_input_raises(make, match):

@@ -1096,6 +1096,8 @@ def test_lichtenberg_tree_stays_in_its_bowl(device):
         (dict(delta=(0.1, 0.1, 0.1), levels=2), "delta"),
         (dict(resolution=-1.0), "resolution"),
         (dict(resolution=0.0), "resolution"),
+        # 1 / resolution must stay finite in float32 (it overflowed: inf distances, NaN terrains)
+        (dict(resolution=1e-39), r"'resolution' in \[1e-30, 1000000.0\], but got 1e-39"),
         (dict(beta=-1.0), "beta"),
         (dict(noise=float("nan")), "noise"),
         (dict(primitive_steps=0), "primitive_steps"),
@@ -1183,7 +1185,14 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(window=(0, 0, 0, 4)), "window"),
         (dict(window=(0, 0, 4)), "window"),
         (dict(output="height"), "output"),
+        (dict(output=["distance"]), r"'output' in .*, but got \['distance'\]"),
         (dict(mode="lazy"), "mode"),
+        (dict(mode=["pixel"]), r"'mode' in .*, but got \['pixel'\]"),
+        # pixels float32 cannot place apart (the image was one value)
+        (dict(domain=((1.0, 1.0), (1.0 + 1e-12, 1.0 + 1e-12))), "too narrow for 16 columns in float32: columns 0 and 1"),
+        # a control whose range is not a number (no constructor makes one any more) is no terrain control
+        (dict(control=control.Control("plane", ((0.0, 0.0), (1.0, 1.0)), float("nan"), float("nan")),
+              output="elevation"), r"values in \[0, 1\].*spans \[nan, nan\]"),
         (dict(params=None), "params"),
         (dict(control=np.zeros((4, 4))), "control"),
         (dict(shape=(0, 16)), "shape"),
@@ -1303,6 +1312,29 @@ def test_bad_point_mode_raises_before_any_kernel(launches):
     with pytest.raises(ValueError, match="'mode'.*'tiled'"):
         dendry_points([[0.1, 0.2]], domain=DOMAIN, params=DendryParams(), control=CTL, mode="tiled")
     assert launches == []
+
+
+def test_no_points_are_checked_like_some(launches):
+    # an empty point set returned before its device and mapping were checked
+    with pytest.raises(ValueError, match="'device'.*'bogus'"):
+        dendry_points(np.zeros((0, 2)), domain=DOMAIN, params=DendryParams(), control=CTL, device="bogus")
+    with pytest.raises(ValueError, match="mapping of 'domain'"):
+        dendry_points(np.zeros((0, 2)), domain=((0.0, 0.0), (1e-300, 1e-300)), params=DendryParams(), control=CTL)
+    assert launches == []
+    assert dendry_points(np.zeros((0, 2)), domain=DOMAIN, params=DendryParams(), control=CTL).shape == (0,)
+
+
+@pytest.mark.parametrize("mode", ["cached", "pixel"])
+def test_terrain_beyond_a_bounded_control_stays_in_its_range(device, mode):
+    # primitives with no branch near take the control; outside the Lichtenberg bowl's square that
+    # was its 16 * scale (3.2 here, 3.2 times the range the terrain check promises), now its maximum
+    c = control.lichtenberg(0.2)
+    z = dendry((48, 48), domain=((0.0, 0.0), (12.0, 12.0)), params=DendryParams(levels=2), control=c,
+               control_domain=((-6.0, -6.0), (6.0, 6.0)), output="elevation", mode=mode, device=device)
+    assert np.isfinite(z).all()
+    far = z[:8, :8]  # control coordinates below (-4, -4): no branch within reach of any primitive
+    np.testing.assert_array_equal(far, np.float32(c.maximum))
+    assert z.min() >= 0.0 and (z <= c.maximum).mean() > 0.5
 
 
 def test_an_image_too_big_for_memory_raises_before_any_kernel(monkeypatch, launches):

@@ -359,6 +359,17 @@ def test_bad_elevation_raises(bad):
         hydrology.flow_accumulation(bad)
 
 
+def test_ragged_elevation_and_a_text_flag_are_named():
+    # NumPy's own "inhomogeneous shape" error named nothing; any non-empty text counted as True
+    for call in (hydrology.fill, hydrology.depressions, hydrology.flow_accumulation):
+        with pytest.raises(ValueError, match="'elevation', but got rows of different lengths"):
+            call([[1.0, 2.0], [3.0]])
+    with pytest.raises(TypeError, match="'filled', but got 'no'"):
+        hydrology.flow_accumulation(np.zeros((4, 4)), filled="no")
+    with pytest.raises(ValueError, match="'method'"):
+        hydrology.flow_accumulation(np.zeros((4, 4)), method=["d8"])
+
+
 @pytest.mark.parametrize("make", [hydrology.fbm_terrain, hydrology.ridged_terrain])
 @pytest.mark.parametrize(
     "shape, exc, match",

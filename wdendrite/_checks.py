@@ -97,9 +97,13 @@ def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu",
 
     Raises:
         TypeError: a dtype outside ``kinds`` (text, objects).
-        ValueError: an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
+        ValueError: ragged nested sequences, an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
     """
-    raw = np.asarray(value)
+    try:
+        raw = np.asarray(value)
+    except ValueError:  # nested sequences of different lengths
+        raise ValueError(f"Expected a {shapes} array for '{name}', but got rows of different lengths: "
+                         f"{value!r:.200}") from None
     if raw.dtype.kind not in kinds:
         raise TypeError(f"Expected a real-valued {shapes} array for '{name}', but got dtype {raw.dtype} "
                         f"(shape {raw.shape})")

@@ -99,31 +99,52 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
 Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]
 
 
+_CONTROL_DOMAINS = {"perlin": ((-0.2, -0.4), (1.4, 0.7)), "ridged": ((-0.2, -0.4), (1.4, 0.7)),
+                    "radial": ((0.0, 0.0), (1.0, 1.0)), "plane": ((0.0, 0.0), (1.0, 1.0)),
+                    "lichtenberg": ((-1.0, -1.0), (1.0, 1.0))}
+
+
 def dendry_setup(size: int, params, *, extent: float, control: str, frequency: float, drained: bool,
-                 seed: int) -> dict:
+                 seed: int, output: str = "distance") -> dict:
     """Keyword arguments of :func:`wdendrite.dendry` (``shape``, ``domain``, ``params``, ``control``) for a model.
 
     The image covers ``[0, extent]^2`` domain units; the control spans the paper's
-    Table 1 rectangle (noise) or its own domain (ramps, Lichtenberg bowl).
+    Table 1 rectangle (noise) or its own domain (ramps, Lichtenberg bowl). Every argument,
+    and the image :func:`wdendrite.dendry` would make of them with ``output``, is checked
+    before the control is made (a noise control's range is found by sampling it with kernels).
     """
     from . import control as ctl
+    from .dendry import dendry as _dendry
 
     size = _checks.integer("size", size, low=1)
     _checks.positive("extent", extent)  # in domain units
+    if not isinstance(control, str) or control not in _CONTROL_DOMAINS:
+        raise ValueError(f"Expected 'control' in {typing.get_args(Control)}, but got {control!r}")
+    _checks.positive("frequency", frequency)  # (read by the noise controls only, but never left unchecked)
+    if not isinstance(drained, (bool, np.bool_)):
+        raise TypeError(f"Expected a bool for 'drained', but got {drained!r}")
+    seed = _checks.seed32(seed)
+    if not isinstance(params, DendryParams):
+        raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
+    params = dataclasses.replace(params, seed=seed)
+    shape, domain = (size, size), ((0.0, 0.0), (extent, extent))
+    try:  # the image's own checks (output, params, coordinate reach), which stop before any kernel runs
+        with _checks.checking_only():
+            _dendry(shape, domain=domain, params=params, control_domain=_CONTROL_DOMAINS[control], output=output)
+    except _checks.Checked:
+        pass
+    _checks.stop_if_checking()  # (a batch checking its tasks stops here, before the control's kernels)
     if control in ("perlin", "ridged"):
-        c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
+        c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=_CONTROL_DOMAINS[control])
     elif control == "radial":
         c = ctl.radial((0.5, 0.5), radius=0.75)
     elif control == "plane":
         c = ctl.plane((0.0, 1.0))
-    elif control == "lichtenberg":
-        c = ctl.lichtenberg(scale=0.2)  # [0, 1], as terrains take it; the values keep their order
     else:
-        raise ValueError(f"Expected 'control' in {typing.get_args(Control)}, but got {control!r}")
+        c = ctl.lichtenberg(scale=0.2)  # [0, 1], as terrains take it; the values keep their order
     if drained:
         c = ctl.drained(c)
-    return {"shape": (size, size), "domain": ((0.0, 0.0), (extent, extent)),
-            "params": dataclasses.replace(params, seed=seed), "control": c}
+    return {"shape": shape, "domain": domain, "params": params, "control": c}
 
 
 
@@ -146,7 +167,7 @@ def dendry(size: int = 512, *, params: DendryParams = TABLE1,
         seed: seed of the tree and of the noise control.
     """
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
-                         seed=seed)
+                         seed=seed, output=output)
     from .dendry import dendry as _dendry
 
     z = _dendry(**setup, output=output)
@@ -173,8 +194,10 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
     from . import hydrology
     from .dendry import dendry as _dendry
 
+    if not isinstance(rivers, (bool, np.bool_)):
+        raise TypeError(f"Expected a bool for 'rivers', but got {rivers!r}")
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
-                         seed=seed)
+                         seed=seed, output="elevation")
     z = _dendry(**setup, output="elevation")
     parts = {"elevation": z}
 

@@ -519,7 +519,7 @@ def _tiled_setup(task: Task):
     params = kwargs.get("params", preset.groups["params"][0])
     size = kwargs.get("size", preset.params["size"].default)
     output = "elevation" if task.preset == "terrain" else kwargs.get("output", preset.params["output"].default)
-    return dendry_setup(size, params, **p), output
+    return dendry_setup(size, params, **p, output=output), output
 
 
 def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", device=None):

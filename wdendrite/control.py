@@ -21,7 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, nonnegative, positive, seed32
+from ._checks import (
+    device as _device, finite, finite_array, fits_in_memory, integer, lattice_shape, nonnegative, positive, seed32,
+)
 from .kernels import noise as _kn
 
 __all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
@@ -184,6 +186,20 @@ def _permutation(seed: int) -> np.ndarray:
     return table
 
 
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _fits(control: Control, names: str) -> Control:
+    """``control``, once its minimum and maximum on its domain are finite in float32 (the kernels
+    evaluate it in float32); else a ValueError naming the parameters ``names`` that set its range."""
+    lo, hi = control.minimum, control.maximum
+    if not (math.isfinite(lo) and math.isfinite(hi) and max(abs(lo), abs(hi)) <= _FLOAT32_MAX):
+        raise ValueError(
+            f"The {control.kind} control's values on its domain {control.domain} do not fit float32 (minimum "
+            f"{lo!r}, maximum {hi!r}; the kernels evaluate it in float32): choose smaller {names}")
+    return control
+
+
 def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain) -> Control:
     seed = seed32(seed)
     octaves = integer("octaves", octaves, low=1, high=16)
@@ -201,7 +217,9 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
     # ridged maxima sit on creases (where an octave's noise crosses 0), which a coarse grid
     # straddles: a finer grid and more starting points for the zoom find them
     lo, hi = _extremes(probe, samples=513, keep=32) if kind == "ridged" else _extremes(probe)
-    return Control(kind, dom, lo, hi, params, seed, octaves)
+    # (a large gain over many octaves overflows the octaves' float32 sum, which then gives NaN)
+    return _fits(Control(kind, dom, lo, hi, params, seed, octaves),
+                 "'gain' or 'octaves'" + (" or 'offset'" if kind == "ridged" else ""))
 
 
 def _extremes(probe: Control, samples: int = 257, keep: int = 4, rounds: int = 4) -> tuple[float, float]:
@@ -268,7 +286,7 @@ def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0,
     off = finite("offset", offset)
     dom = rectangle("domain", domain)
     corners = [off + gx * x + gy * y for x in (dom[0][0], dom[1][0]) for y in (dom[0][1], dom[1][1])]
-    return Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0))
+    return _fits(Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0)), "'gradient', 'offset' or 'domain'")
 
 
 def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
@@ -279,7 +297,7 @@ def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 
     (x0, y0), (x1, y1) = dom
     near = math.hypot(min(max(cx, x0), x1) - cx, min(max(cy, y0), y1) - cy) / r
     far = max(math.hypot(x - cx, y - cy) for x in (x0, x1) for y in (y0, y1)) / r
-    return Control("radial", dom, near, far, (cx, cy, r, 0.0))
+    return _fits(Control("radial", dom, near, far, (cx, cy, r, 0.0)), "a larger 'radius', or a smaller 'domain'")
 
 
 def lichtenberg(scale: float = 1.0) -> Control:
@@ -290,9 +308,12 @@ def lichtenberg(scale: float = 1.0) -> Control:
     function, so Dendry drops their segments. ``scale`` (> 0) keeps the order of the values
     (up to float32 rounding, which could make two nearly equal key points tie), so the tree is
     the paper's; terrains (``output="elevation"``) take controls in [0, 1], which ``scale=0.2``
-    gives.
+    gives. Outside the square a terrain has no branches, and its height there is the bowl's
+    maximum, ``5 * scale``.
     """
     scale = positive("scale", scale)
+    # (16 * scale, its value outside the square, must fit float32 too)
+    _fits(Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 16.0 * scale), "'scale'")
     return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0 * scale, (scale, 0.0, 0.0, 0.0), bounded=True)
 
 
@@ -302,17 +323,9 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     Values are clamped to the array's own minimum and maximum, so the Catmull-Rom
     overshoot never leaves that range. Outside ``domain`` the border values continue.
     """
-    arr = np.asarray(values)
-    if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
-        raise TypeError(f"Expected a real-valued array for 'values', but got dtype {arr.dtype}")
-    if arr.ndim != 2:
-        raise ValueError(f"Expected a 2D array for 'values', but got shape {arr.shape}")
-    if arr.size == 0:
-        raise ValueError(f"Expected a non-empty array for 'values', but got shape {arr.shape}")
+    arr = finite_array("values", values, "2D (h, w)", lambda shape: len(shape) == 2)
     arr = np.array(arr, dtype=np.float32, order="C")  # a copy: later changes to the caller's array do not reach it
     arr.flags.writeable = False
-    if not np.isfinite(arr).all():
-        raise ValueError(f"'values' must be finite, but has {int((~np.isfinite(arr)).sum())} NaN/inf entries")
     dom = rectangle("domain", domain)
     return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
 

@@ -68,10 +68,10 @@ _WIDE_DELTA = 0.5
 _STRIDE = int(_kd.NV)  # vec3 entries per cell in the vertex array
 
 
-def _float_in(name: str, value, lo: float, hi: float, *, open_lo: bool = False) -> float:
+def _float_in(name: str, value, lo: float, hi: float) -> float:
     x = finite(name, value)  # refuses text too: "0.1" * length would fail much later
-    if not (x > lo if open_lo else x >= lo) or not x <= hi:
-        raise ValueError(f"Expected '{name}' in {'(' if open_lo else '['}{lo}, {hi}], but got {value!r}")
+    if not lo <= x <= hi:
+        raise ValueError(f"Expected '{name}' in [{lo}, {hi}], but got {value!r}")
     return x
 
 
@@ -152,7 +152,7 @@ class DendryParams:
     level: repeat the value once per level for a constant); a tuple gives one value per level. Above 0.5 at levels 1-3 (above 0.1 with the
     Lichtenberg rule) links and queries search 7 x 7 cells (see ``search``)."""
     resolution: float = 1.0
-    """Level-1 cells per domain unit (> 0): the spacing of the main branches. Terrain slopes
+    """Level-1 cells per domain unit (1e-30 to 1e6): the spacing of the main branches. Terrain slopes
     multiply distances in domain units, so the relief of one tree scales as ``1 / resolution``;
     the paper's unit is the level-1 cell (``resolution`` 1)."""
     smoothing: bool = True
@@ -189,7 +189,8 @@ class DendryParams:
         put("seed", seed32(self.seed))
         put("eps", _per_level("eps", self.eps, self.levels, 0.5))
         put("delta", _per_level("delta", self.delta, self.levels, 1.0))
-        put("resolution", _float_in("resolution", self.resolution, 0.0, 1.0e6, open_lo=True))
+        # (from 1e-30 on, 1 / resolution and distances in domain units stay finite in float32)
+        put("resolution", _float_in("resolution", self.resolution, 1.0e-30, 1.0e6))
         for name in ("smoothing", "subdivision"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise TypeError(f"Expected a bool for '{name}', but got {getattr(self, name)!r}")
@@ -369,9 +370,9 @@ _CACHED_POINTS = 8  # tiles with fewer points are not even estimated
 
 
 def _check_output_mode(output, mode):
-    if output not in _OUTPUTS:
+    if not isinstance(output, str) or output not in _OUTPUTS:
         raise ValueError(f"Expected 'output' in {tuple(_OUTPUTS)}, but got {output!r}")
-    if mode not in _MODES:
+    if not isinstance(mode, str) or mode not in _MODES:
         raise ValueError(f"Expected 'mode' in {_MODES}, but got {mode!r}")
 
 
@@ -411,7 +412,7 @@ def _check_elevation_control(control: Control | None, output: str, control_domai
         probe = (plane((a[1], a[2]), offset=a[0], domain=control_domain) if control.kind == "plane"
                  else radial((a[0], a[1]), radius=a[2], domain=control_domain))
         lo, hi, where = probe.minimum, probe.maximum, f" over 'control_domain' {control_domain!r}"
-    if lo < 0.0 or hi > 1.0:
+    if not (lo >= 0.0 and hi <= 1.0):  # (NaN fails too)
         raise ValueError(
             f"output='elevation' needs a 'control' with values in [0, 1] (the paper's control c: R^2 -> [0, 1], "
             f"which eq. 7's slopes assume), but this {control.kind} control spans [{lo:.6g}, {hi:.6g}]{where}; "
@@ -448,7 +449,12 @@ def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, 
             f"float32 key points and int32 cell indices resolve; use coordinates below "
             f"{_GRID_LIMIT / scale:.6g} (a domain nearer the origin, a lower resolution or fewer levels)"
         )
-    # the kernels map domain onto control coordinates in float32: the mapping must be representable
+    _check_mapping(domain, control_domain, lo, hi, what)
+
+
+def _check_mapping(domain, control_domain, lo, hi, what: str) -> None:
+    """The kernels map ``domain`` onto ``control_domain`` in float32: refuse a mapping float32
+    cannot hold, or one that takes the points between corners ``lo`` and ``hi`` beyond it."""
     (dx0, dy0), (dx1, dy1) = domain
     (cx0, cy0), (cx1, cy1) = control_domain
     sx, sy = (cx1 - cx0) / (dx1 - dx0), (cy1 - cy0) / (dy1 - dy0)
@@ -461,6 +467,28 @@ def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, 
             f"{sy:.4g}) does not fit float32 over the {what} evaluated (control coordinates "
             f"{[float(v) for v in corners]})"
         )
+
+
+def _check_pixels_apart(params: DendryParams, domain, shape) -> None:
+    """Refuse a domain too narrow for float32 to give an image's pixels distinct centres.
+
+    The kernels place pixel centres in float32 grid units (``x0 + (col + 0.5) * step``, see
+    ``kernels.dendry.pixel_centre``); where ``step`` falls below the spacing of float32 numbers at
+    the domain's coordinates, neighbouring pixels share one centre and the image turns flat or
+    blocky. The same centres are computed here, in the same float32 operations.
+    """
+    res = params.resolution
+    for axis, n, name in ((0, shape[1], "columns"), (1, shape[0], "rows")):
+        lo = np.float32(domain[0][axis] * res)
+        step = np.float32((domain[1][axis] - domain[0][axis]) / n * res)
+        centres = lo + (np.arange(n, dtype=np.float32) + np.float32(0.5)) * step
+        same = np.flatnonzero(np.diff(centres) <= 0.0)
+        if same.size:
+            i = int(same[0])
+            raise ValueError(
+                f"'domain' {domain!r} is too narrow for {n} {name} in float32: {name} {i} and {i + 1} share the "
+                f"centre {float(centres[i])!r} (grid units, domain times resolution); use a wider domain, fewer "
+                "pixels, or a domain nearer the origin")
 
 
 def _window(window, shape) -> tuple[int, int, int, int]:
@@ -722,7 +750,8 @@ def dendry(
             have ``|x| * resolution * 2^(level - 1) >= 2^22``: float32 key points and int32
             cell indices cannot resolve them, and the modes and windows would stop agreeing.
             Near that bound the finest key points keep only a bit or two of their jitter;
-            a domain near the origin keeps the full precision.
+            a domain near the origin keeps the full precision. Also for a domain so narrow
+            that two neighbouring pixels would share one float32 centre.
     """
     shape = lattice_shape(shape)
     if len(shape) != 2:
@@ -736,9 +765,10 @@ def dendry(
     what = "'domain'" if window is None else f"'window' {tuple(window)!r} of 'domain' {domain!r}"
     _check_reach(params, output, domain, control_domain, (x0 + (c0 + 0.5) * dx, y0 + (r0 + 0.5) * dy),
                  (x0 + (c0 + w - 0.5) * dx, y0 + (r0 + h - 0.5) * dy), what)
-    control = default_control() if control is None else control
+    _check_pixels_apart(params, domain, shape)
     device = _device(device)
     stop_if_checking()  # (every argument is checked: a check of a whole model stops here)
+    control = default_control() if control is None else control  # (its range is sampled with kernels)
     # the image on the device, and its copy on the host when the device is a GPU
     fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
     if not device.is_cpu:
@@ -837,16 +867,18 @@ def dendry_points(
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, "pixel")
     _check_elevation_control(control, output, control_domain)
-    if mode not in _POINT_MODES:
+    if not isinstance(mode, str) or mode not in _POINT_MODES:
         raise ValueError(f"Expected 'mode' in {_POINT_MODES}, but got {mode!r}")
     n = len(pts)
+    device = _device(device)
     if n == 0:
+        # no coordinates to bound, but the mapping itself must be one float32 holds
+        _check_mapping(domain, control_domain, domain[0], domain[0], "'domain'")
         return np.zeros(0, np.float32)
     row = int(np.argmax(np.abs(pts).max(axis=1)))
     _check_reach(params, output, domain, control_domain, pts.min(axis=0).tolist(), pts.max(axis=0).tolist(),
                  f"'points' (row {row}: {pts[row].tolist()})")
     control = default_control() if control is None else control
-    device = _device(device)
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
     code = _OUTPUTS[output]

@@ -33,7 +33,10 @@ __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill"
 
 def _elevation(name: str, value) -> np.ndarray:
     """``value`` as a finite, non-empty (H, W) float64 array (integers only where float64 holds them)."""
-    raw = np.asarray(value)
+    try:
+        raw = np.asarray(value)
+    except ValueError:  # ragged nested lists: finite_array names them
+        return _checks.finite_array(name, value, "2D (H, W)", lambda s: len(s) == 2, dtype=np.float64)
     top = max(abs(int(raw.min())), abs(int(raw.max()))) if raw.dtype.kind in "iu" and raw.size else 0
     if top > 2**53:
         raise ValueError(f"'{name}' holds integers beyond 2**53 (magnitudes up to {top}), which float64 cannot "
@@ -125,8 +128,10 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
         MemoryError: when the arrays (about 36 bytes per cell for D8, 56 for D-infinity)
             would not fit in free memory.
     """
-    if method not in ("d8", "dinf"):
+    if not isinstance(method, str) or method not in ("d8", "dinf"):
         raise ValueError(f"Expected 'method' in ('d8', 'dinf'), but got {method!r}")
+    if not isinstance(filled, (bool, np.bool_)):
+        raise TypeError(f"Expected a bool for 'filled', but got {filled!r}")
     try:
         cells = math.prod(np.shape(elevation))
     except ValueError:  # ragged nested lists: the elevation check names them
