@@ -665,3 +665,38 @@ def test_write_tiled_refuses_no_paths_and_a_path_twice(tmp_path, monkeypatch, pa
     with pytest.raises(ValueError, match="distinct output paths for 'path'"):
         batch.write_tiled(_ramp, (8, 8), 8, paths)
     assert not list(tmp_path.iterdir())
+
+
+def test_write_tiled_refuses_bad_tiles_and_paths_before_writing(tmp_path):
+    def value(window):
+        return np.ones(window[2:], np.float32)
+
+    for tile, exc, match in [(-1, ValueError, "'tile' >= 1, but got -1"), (0, ValueError, "'tile' >= 1"),
+                             (2.5, TypeError, "'tile', but got 2.5"), (True, TypeError, "'tile', but got True")]:
+        with pytest.raises(exc, match=match):
+            batch.write_tiled(value, (5, 7), tile, tmp_path / "t.npy")
+        with pytest.raises(exc, match=match):
+            batch.dendry_array({"shape": (5, 7)}, tile=tile)
+    with pytest.raises(ValueError, match="'.npy' or '.zarr'"):
+        batch.write_tiled(value, (5, 7), 4, tmp_path / "t.txt")
+    with pytest.raises(ValueError, match="'shape'"):
+        batch.write_tiled(value, (5, 7, 2), 4, tmp_path / "t.npy")
+    # a folder named like the output had been moved aside and deleted, with its contents
+    (tmp_path / "data.npy").mkdir()
+    (tmp_path / "data.npy" / "notes.txt").write_text("keep")
+    with pytest.raises(ValueError, match="is a folder"):
+        batch.write_tiled(value, (5, 7), 4, tmp_path / "data.npy")
+    assert (tmp_path / "data.npy" / "notes.txt").read_text() == "keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data.npy"]
+
+
+def test_zarr_chunks_fit_the_image_and_the_suffix_is_read_in_any_case(tmp_path):
+    zarr = pytest.importorskip("zarr")
+
+    def value(window):
+        r0, c0, h, w = window
+        return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 100).astype(np.float32)
+
+    out = batch.write_tiled(value, (5, 7), 8192, tmp_path / "v.ZARR")
+    arr = zarr.open_array(str(out), mode="r")  # (an upper-case suffix had made an NPY file)
+    assert arr.chunks == (5, 7) and np.array_equal(arr[:], value((0, 0, 5, 7)))

@@ -446,6 +446,16 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["dendry", "--size", "32", "--output", "d.png"], None, ["--output expects one of distance, elevation, level",
                                                             "output files are named with -o/--out"]),
     (["tree", "--size", "16", "--geometry", "cones"], None, ["--geometry expects one of tubes, spheres, isosurface"]),
+    # a distance image with no branch in view had made an all-black heightmap said to span [0, 0]
+    (["dendry", "--size", "24", "--control", "lichtenberg", "--extent", "0.05", "--levels", "1", "-o", "h.png",
+      "--heightmap"], None, ["--heightmap: the field has no finite value", "nothing was written"]),
+    (["dendry", "--size", "32", "--tile", "8", "--heightmap", "-o", "x.npy"], None,
+     ["--heightmap makes .png outputs, which --tile does not write"]),
+    # refused only once the terrain was made, naming an internal 'z'
+    (["terrain", "--size", "1", "-o", "s.png"], None, ["'size' >= 2, but got 1 (--size)"]),
+    # 1 / resolution overflowed float32: an all-NaN file was written
+    (["dendry", "--size", "16", "--output", "elevation", "--resolution", "1e-40", "-o", "z.npy"], None,
+     ["'resolution' in [1e-30, 1000000.0], but got 1e-40 (--resolution)"]),
 ])
 def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
@@ -544,3 +554,18 @@ def test_dendry_models_check_everything_before_any_kernel(model, kw, exc, match,
     with pytest.raises(exc, match=match):
         getattr(_models, model)(16, **kw)
     assert launches == []
+
+
+def test_a_link_to_a_missing_file_is_not_clobbered(tmp_path, monkeypatch, capsys):
+    # exists() follows links: a dangling one was replaced by the output without --force
+    monkeypatch.chdir(tmp_path)
+    for args in (["dendry", "--size", "16", "-o", "link.png"], ["dendry", "--size", "16", "--tile", "8", "-o", "l.npy"]):
+        link = Path(args[-1])
+        link.symlink_to("missing" + link.suffix)
+        assert cli.main([*args, "--quiet"]) == 2
+        assert "is a link to a missing file; pass --force" in capsys.readouterr().err
+        assert link.is_symlink() and {p.name for p in tmp_path.iterdir()} <= {"l.npy", "link.png"}
+    from wdendrite import io
+
+    with pytest.raises(FileExistsError, match="link to a missing file"):
+        io.save_png(tmp_path / "link.png", np.zeros((4, 4)))

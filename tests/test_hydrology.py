@@ -405,3 +405,10 @@ def test_noise_terrains_name_an_absent_device(make, launches):
     with pytest.raises(ValueError, match="'device'"):
         getattr(hydrology, make)((8, 8), device="cuda:9")
     assert launches == []
+
+
+def test_drainage_image_names_an_area_below_one():
+    with pytest.raises(ValueError, match=r"'area' counts cells.*first at \(0, 1\): 0.5"):
+        hydrology.drainage_image(np.array([[1.0, 0.5], [2.0, 3.0]]))
+    img = hydrology.drainage_image(np.array([[1.0, 1.5], [2.0, 4.0]]))  # D-infinity shares are fractions of cells
+    assert img.min() == 0.0 and img.max() == 1.0

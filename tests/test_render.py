@@ -389,3 +389,5 @@ def test_unit_range_maps_the_finite_values_onto_0_1():
     np.testing.assert_array_equal(wd.render.unit_range(a), [[0.0, 1.0, 0.0], [0.0, 0.5, 0.0]])
     np.testing.assert_array_equal(wd.render.unit_range(np.full((2, 3), 7.0)), np.zeros((2, 3)))  # no span
     np.testing.assert_array_equal(wd.render.unit_range(np.full(4, np.nan)), np.zeros(4))  # nothing finite
+    # a span float64 cannot hold (it overflowed to inf, and every value became NaN)
+    np.testing.assert_array_equal(wd.render.unit_range(np.array([-1e308, 1e308, 0.0])), [0.0, 1.0, 0.5])

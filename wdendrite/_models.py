@@ -196,6 +196,7 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
 
     if not isinstance(rivers, (bool, np.bool_)):
         raise TypeError(f"Expected a bool for 'rivers', but got {rivers!r}")
+    _checks.integer("size", size, low=2)  # (the shaded relief takes slopes between pixels)
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
                          seed=seed, output="elevation")
     z = _dendry(**setup, output="elevation")

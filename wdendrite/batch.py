@@ -479,6 +479,16 @@ def run_task(task: Task, device: str | None = None, *, quiet: bool = True) -> di
 # --------------------------------------------------------------------------- tiled fields
 
 
+def _tiling(shape, tile) -> tuple[tuple[int, int], int]:
+    """``shape`` as (H, W) positive ints and ``tile`` as a positive int, or an error naming them."""
+    from ._checks import integer, lattice_shape
+
+    dims = lattice_shape(shape)
+    if len(dims) != 2:
+        raise ValueError(f"Expected a 2D image shape (H, W) for 'shape', but got {shape!r}")
+    return dims, integer("tile", tile, low=1)
+
+
 def tile_windows(shape, tile: int) -> list[tuple[int, int, int, int]]:
     """``(row0, col0, h, w)`` of the tiles covering an (H, W) image, row by row; edge tiles are smaller."""
     h, w = shape
@@ -498,6 +508,7 @@ def tiled_array(tile_fn, shape, tile: int):
     """
     import dask.array as da
 
+    shape, tile = _tiling(shape, tile)
     chunks = tuple(tuple(min(tile, n - s) for s in range(0, n, tile)) for n in shape)
     return da.map_blocks(_block, tile_fn, chunks=chunks, dtype=np.float32, meta=np.empty((0, 0), np.float32))
 
@@ -529,6 +540,7 @@ def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", d
         setup, output = _tiled_setup(task_or_setup)
     else:
         setup = task_or_setup
+    _tiling(setup["shape"], tile)
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=device)
     return tiled_array(fn, setup["shape"], tile)
 
@@ -545,7 +557,7 @@ class _Target:
 
     def write(self, window, values) -> None:
         r0, c0, h, w = window
-        if self.path.endswith(".zarr"):
+        if self.path.lower().endswith(".zarr"):
             import zarr
 
             arr = zarr.open_array(self.path, mode="r+")
@@ -603,11 +615,13 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, 
     if not partial.exists() or not same:
         _remove(marks)
         _remove(partial)
-        if final.suffix == ".zarr":
+        if final.suffix.lower() == ".zarr":
             import zarr
 
-            # one chunk per tile: workers writing different tiles never touch the same chunk
-            zarr.open_array(str(partial), mode="w", shape=tuple(shape), chunks=(tile, tile), dtype="f4")
+            # one chunk per tile (none larger than the image): workers writing different tiles never
+            # touch the same chunk
+            zarr.open_array(str(partial), mode="w", shape=tuple(shape), chunks=tuple(min(tile, n) for n in shape),
+                            dtype="f4")
         else:
             from numpy.lib.format import open_memmap
 
@@ -652,14 +666,22 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         The written path (a list of them when ``path`` is a list).
 
     Raises:
-        ValueError: an empty list of paths, or one path given twice.
+        ValueError, TypeError: a bad ``shape`` or ``tile``; an empty list of paths, one path given
+        twice, a path not ending in ``.npy`` or ``.zarr``, or a ``.npy`` path that is a folder
+        (an existing file or Zarr store at a path is replaced: the caller decides whether it may be);
         whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
         pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
         are made.
     """
+    shape, tile = _tiling(shape, tile)
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
     if not finals or len({f.resolve() for f in finals}) != len(finals):
         raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
+    for final in finals:
+        if final.suffix.lower() not in (".npy", ".zarr"):
+            raise ValueError(f"Expected '.npy' or '.zarr' output paths for 'path', but got {str(final)!r}")
+        if final.suffix.lower() == ".npy" and final.is_dir() and not final.is_symlink():
+            raise ValueError(f"'path' {str(final)!r} is a folder, not a file: it would be replaced with its contents")
     if client is None:
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)

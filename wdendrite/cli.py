@@ -99,8 +99,9 @@ def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
                          f"({exc.strerror})") from None
     if p.is_dir() and p.suffix.lower() != ".zarr":  # a Zarr store is a folder; nothing else is
         raise UsageError(f"-o/--out {str(p)!r} is a folder; name a file")
-    if p.exists() and not force:
-        raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
+    if os.path.lexists(p) and not force:  # (a link, even one to nowhere, is the user's too)
+        what = "exists" if p.exists() else "is a link to a missing file"
+        raise UsageError(f"-o/--out {str(p)!r} {what}; pass --force to overwrite it")
     return p
 
 
@@ -136,7 +137,7 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             io.sync_to_disk(tmp)
             os.chmod(tmp, mode)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
-            if p.exists() and not force:
+            if os.path.lexists(p) and not force:
                 raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
         _rename_all(staged)
     except BaseException:
@@ -194,10 +195,22 @@ def _save_npy(path, array: np.ndarray) -> None:
         np.save(f, array)
 
 
+def _heightmap(field) -> np.ndarray:
+    """``field`` scaled from its finite minimum to its maximum onto [0, 1], +inf (a distance image's
+    "no branch in reach") as 1 and -inf as 0; a field without one finite value is refused."""
+    z = np.asarray(field, np.float64)
+    if not np.isfinite(z).any():
+        raise UsageError("--heightmap: the field has no finite value (a distance image with no branch in view, "
+                         "say), so there is no range to scale; nothing was written")
+    if np.isnan(z).any():
+        raise UsageError("--heightmap: the field has NaN values, which no grey level stands for; nothing was written")
+    return np.where(np.isposinf(z), 1.0, unit_range(z))
+
+
 def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -> None:
     """Write one output of ``result`` to ``path`` (an existing temporary file) as ``suf`` says."""
     if suf == ".png" and heightmap:
-        io.save_png(path, unit_range(_field(result, preset)), bits=16, overwrite=True)
+        io.save_png(path, _heightmap(_field(result, preset)), bits=16, overwrite=True)
     elif suf == ".png":
         io.save_png(path, _picture(result), overwrite=True)
     elif suf == ".npy":
@@ -304,6 +317,8 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
             result = preset.func(**kwargs)
             if not heightmap and any(p.suffix.lower() == ".png" for p in paths):
                 _picture(result)  # a deferred picture is made here: it counts as making, and fails before any write
+            if heightmap and any(p.suffix.lower() == ".png" for p in paths):
+                _heightmap(_field(result, name))  # (refused before any write too)
         seconds = time.perf_counter() - t0
         bar.update(1)
         t1 = time.perf_counter()
@@ -531,6 +546,8 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
+    if getattr(args, "heightmap", False):
+        raise UsageError("--heightmap makes .png outputs, which --tile does not write (it writes .npy or .zarr)")
     # tiles go straight into the field's file: no picture, which would need the whole image
     paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"))
     for p in paths:  # tiles go to a hidden partial file beside it, and their records to a hidden folder

@@ -211,8 +211,11 @@ def _drain_flats(z: np.ndarray, rec: np.ndarray, frac: np.ndarray | None, donors
 def drainage_image(area) -> np.ndarray:
     """Log-scaled drainage area in [0, 1] (float32), ready for :func:`wdendrite.io.save_png`."""
     a = _elevation("area", area)
-    if (a <= 0).any():
-        raise ValueError("'area' must be positive (areas are counted in cells, at least 1)")
+    low = a < 1.0
+    if low.any():  # (every cell drains at least itself)
+        first = tuple(int(i) for i in np.argwhere(low)[0])
+        raise ValueError(f"'area' counts cells, each its own, so at least 1, but has {int(low.sum())} entries "
+                         f"below 1 (first at {first}: {float(a[first])!r})")
     la = np.log(a)
     span = la.max() - la.min()
     return ((la - la.min()) / span if span > 0 else np.zeros_like(la)).astype(np.float32)

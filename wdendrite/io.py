@@ -30,8 +30,9 @@ def _target(path, overwrite: bool) -> Path:
         raise ValueError(f"'path' {str(path)!r} is a folder; give the name of a file to write in it")
     if not path.parent.is_dir():
         raise ValueError(f"The folder of 'path' does not exist (or is not a folder): {str(path.parent)!r}")
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"'path' {str(path)!r} exists; pass overwrite=True to replace it")
+    if os.path.lexists(path) and not overwrite:  # (a link, even one to nowhere, is the user's too)
+        what = "exists" if path.exists() else "is a link to a missing file"
+        raise FileExistsError(f"'path' {str(path)!r} {what}; pass overwrite=True to replace it")
     return path
 
 

@@ -616,6 +616,8 @@ def unit_range(a: np.ndarray) -> np.ndarray:
     if not ok.any():
         return np.zeros(a.shape)
     lo, hi = a[ok].min(), a[ok].max()
+    if hi / 2.0 - lo / 2.0 > np.finfo(np.float64).max / 2.0:  # a span float64 cannot hold: halve everything first
+        a, lo, hi = a / 2.0, lo / 2.0, hi / 2.0
     return np.where(ok, (a - lo) / (hi - lo) if hi > lo else 0.0, 0.0)
 
 
