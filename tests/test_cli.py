@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 from wdendrite import cli
-from wdendrite._spec import all_presets
+from wdendrite._spec import UsageError, all_presets
 
 
 def wd(*args, cwd):
@@ -569,3 +569,10 @@ def test_a_link_to_a_missing_file_is_not_clobbered(tmp_path, monkeypatch, capsys
 
     with pytest.raises(FileExistsError, match="link to a missing file"):
         io.save_png(tmp_path / "link.png", np.zeros((4, 4)))
+
+
+def test_heightmap_scales_the_finite_values_and_paints_inf_white():
+    z = np.array([[0.0, np.inf], [1.0, 2.0]])
+    np.testing.assert_array_equal(cli._heightmap(z), [[0.0, 1.0], [0.5, 1.0]])
+    with pytest.raises(UsageError, match="NaN"):
+        cli._heightmap(np.array([[0.0, np.nan]]))

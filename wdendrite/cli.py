@@ -109,7 +109,8 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     """Write what a preset returned to each path, the format taken from the suffix.
 
     ``.png``: the picture (8-bit RGB), or with ``heightmap`` the 2D field as a 16-bit grey PNG
-    scaled from its minimum to its maximum; ``.npy``: the field (float32; without one, as for the 3D
+    scaled from its finite minimum to its maximum (+inf as white; a field with NaN or without a
+    finite value is refused); ``.npy``: the field (float32; without one, as for the 3D
     presets, the picture's luminance); ``.obj/.ply/.stl/.glb``:
     the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
 
@@ -367,7 +368,8 @@ def _add_common(p, preset) -> None:
                    help=f"output file, repeatable; format from the suffix: {', '.join(SUFFIXES)} "
                         f"(default: {preset.name}.png)")
     g.add_argument("--heightmap", action="store_true", default=argparse.SUPPRESS,
-                   help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture")
+                   help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture "
+                        "(its finite minimum to its maximum; +inf, such as no branch in reach, as white)")
     if preset.name in ("dendry", "terrain") and preset.func.__module__ == "wdendrite._models":
         g.add_argument("--tile", type=int, default=argparse.SUPPRESS, metavar="N",
                        help="compute the field in N x N tiles straight into .npy (or .zarr) outputs, never the "
