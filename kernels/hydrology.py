@@ -27,6 +27,9 @@ E2R = wp.constant(vec8i(*(f[1][0] for f in FACETS)))
 E2C = wp.constant(vec8i(*(f[1][1] for f in FACETS)))
 SQRT2 = wp.constant(wp.float64(1.4142135623730951))
 QUARTER = wp.constant(wp.float64(0.7853981633974483))  # pi / 4
+# two facet slopes this close (relative) are compared by their squares instead, which are exact
+# where the slopes themselves round (integer terrains: sqrt(1 + 1) against 2 / sqrt(2))
+TIE = wp.constant(wp.float64(1.0e-12))
 
 
 @wp.func
@@ -77,7 +80,9 @@ def facet_slope(s1: wp.float64, s2: wp.float64) -> wp.float64:
 def dinf_kernel(z_in: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=int),
                 frac_out: wp.array2d(dtype=wp.float64), donors_out: wp.array(dtype=int)):
     """Receivers of cell (row, col) by D-infinity: the steepest of the 8 triangular facets
-    (the first among equals), its flow angle split between the facet's cardinal neighbour
+    (the first among equals: slopes within rounding of each other are compared by their
+    squares, ``s1^2 + s2^2``, ``(fall to e2)^2 / 2`` or ``s1^2``, exact for integer elevations
+    of moderate size), its flow angle split between the facet's cardinal neighbour
     (row 0 of the outputs) and diagonal neighbour (row 1) in proportion to the angle. A
     neighbour that gets nothing repeats the other; -1 where no facet falls. Counts the cell
     as a donor of each distinct receiver."""
@@ -86,6 +91,7 @@ def dinf_kernel(z_in: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=in
     w = z_in.shape[1]
     here = z_in[r, c]
     best = wp.float64(0.0)
+    best_sq = wp.float64(0.0)
     k = int(-1)
     across = wp.float64(0.0)  # the steepest facet's fall from e1 to e2 ...
     along = wp.float64(0.0)  # ... and from the cell to e1
@@ -99,15 +105,22 @@ def dinf_kernel(z_in: wp.array2d(dtype=wp.float64), rec_out: wp.array2d(dtype=in
             s1 = here - z1
             s2 = wp.float64(-1.0)  # no diagonal neighbour: the flow keeps to the facet's edge to e1
             slope = s1
+            sq = s1 * s1
             if inside(r2, c2, h, w):
                 z2 = z_in[nonneg(r2), nonneg(c2)]
                 s2 = z1 - z2
                 if s2 > s1:  # steepest direction beyond the diagonal: along it
                     slope = (here - z2) / SQRT2
+                    sq = (here - z2) * (here - z2) * wp.float64(0.5)
                 elif s2 >= wp.float64(0.0):  # inside the facet
                     slope = facet_slope(s1, s2)
-            if slope > best:
+                    sq = s1 * s1 + s2 * s2
+            take = slope > best
+            if k >= 0 and wp.abs(slope - best) <= best * TIE:
+                take = sq > best_sq
+            if take and slope > wp.float64(0.0):
                 best = slope
+                best_sq = sq
                 k = f
                 across = s2
                 along = s1

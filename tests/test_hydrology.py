@@ -135,8 +135,10 @@ def test_d8_with_ties_and_flats_equals_brute_force():
 
 
 def _dinf_reference(z):
-    """Tarboton's D-infinity, one cell at a time with math.atan2, passed on highest first."""
+    """Tarboton's D-infinity, one cell at a time with math.atan2, passed on highest first; facets
+    are compared by their squared slopes in exact rational arithmetic (the first of equals wins)."""
     import math
+    from fractions import Fraction
 
     h, w = z.shape
     facets = [((0, 1), (-1, 1)), ((-1, 0), (-1, 1)), ((-1, 0), (-1, -1)), ((0, -1), (-1, -1)),
@@ -145,23 +147,26 @@ def _dinf_reference(z):
     share = {}
     for r in range(h):
         for c in range(w):
-            best, choice = 0.0, None
+            best, choice = Fraction(0), None
             for (a, b), (d, e) in facets:
                 if not inside(r + a, c + b):
                     continue
-                s1 = z[r, c] - z[r + a, c + b]
+                s1 = Fraction(z[r, c]) - Fraction(z[r + a, c + b])
+                if s1 <= 0 and not inside(r + d, c + e):
+                    continue
                 if not inside(r + d, c + e):
-                    slope, angle = s1, 0.0
+                    square, angle = s1 * s1, 0.0
                 else:
-                    s2 = z[r + a, c + b] - z[r + d, c + e]
+                    s2 = Fraction(z[r + a, c + b]) - Fraction(z[r + d, c + e])
                     angle = math.atan2(s2, s1)
-                    slope = math.hypot(s1, s2)
+                    square = s1 * s1 + s2 * s2
                     if angle < 0:
-                        slope, angle = s1, 0.0
+                        square, angle = (s1 * s1 if s1 > 0 else Fraction(0)), 0.0
                     elif angle > math.pi / 4:
-                        slope, angle = (z[r, c] - z[r + d, c + e]) / math.sqrt(2), math.pi / 4
-                if slope > best:
-                    best, choice = slope, ((r + a, c + b), (r + d, c + e), angle / (math.pi / 4))
+                        fall = Fraction(z[r, c]) - Fraction(z[r + d, c + e])
+                        square, angle = (fall * fall / 2 if fall > 0 else Fraction(0)), math.pi / 4
+                if square > best:
+                    best, choice = square, ((r + a, c + b), (r + d, c + e), angle / (math.pi / 4))
             share[(r, c)] = choice
     area = np.ones(z.shape)
     for i in np.argsort(-z.ravel(), kind="stable"):
@@ -177,7 +182,10 @@ def _dinf_reference(z):
 
 def test_dinf_equals_a_cell_by_cell_reference():
     rng = np.random.default_rng(6)
-    for z in (rng.random((23, 27)), rng.integers(0, 5, (19, 21)).astype(float),
+    # (the first: two facets of exactly equal slope, sqrt(1 + 1) and 2 / sqrt(2), which rounding had
+    # told apart, against the rule that the first of equals wins)
+    for z in (np.array([[3.0, 1.0], [3.0, 3.0], [2.0, 1.0]]), rng.random((23, 27)),
+              rng.integers(0, 5, (19, 21)).astype(float), rng.integers(0, 11, (31, 29)).astype(float),
               hydrology.fbm_terrain((48, 40), seed=3).astype(float)):
         np.testing.assert_allclose(hydrology.flow_accumulation(z, method="dinf"), _dinf_reference(z), rtol=1e-12)
 
