@@ -101,8 +101,9 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     facets, with the area split between its two neighbours by angle (the paper's Figure 16).
     Among equally steep directions the first wins (D8: in row-major order of the neighbours;
     D-infinity: of the facets from east anticlockwise, its ties decided exactly for integer
-    elevations, whose squared slopes float64 holds). Cells without a downslope direction (pits, flats, cells against the border's lowest
-    side) keep their area; the areas of those end cells sum to the number of cells.
+    elevations, whose squared slopes float64 holds). Cells without a downslope direction
+    (pits, flats, cells against the border's lowest side) keep their area; the areas of those
+    end cells sum to the number of cells.
 
     With ``filled=True`` the depressions are filled first and the flats (those the fill makes
     and any others) are then drained: every interior cell of a flat passes its area to a
