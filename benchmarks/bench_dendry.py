@@ -47,6 +47,7 @@ def _case(kind: str, levels: int, search: str = "exact"):
 
 
 def _rate(size: int, mode: str, window: int, device, **kw) -> float:
+    window = min(window, size)  # (a window as large as the image: the whole image, pixel by pixel)
     win = None if mode == "cached" else ((size - window) // 2, (size - window) // 2, window, window)
     t = time.perf_counter()
     out = dendry((size, size), window=win, mode=mode, device=device, **kw)
@@ -62,17 +63,30 @@ def main() -> None:
     ap.add_argument("--lichtenberg-size", type=int, default=1024, help="side of the Lichtenberg figure (0: skip it)")
     ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
     ap.add_argument("--points", type=int, default=20000,
-                    help="random points per dendry_points case, in each mode (0: skip the point cases)")
+                    help="random points per dendry_points case, in each mode (0: skip the point cases; else at "
+                         "least 1000); those cases take the Table 1 setup at 2 levels and the Lichtenberg figure, "
+                         "exact search, whatever --levels and --search say")
     ap.add_argument("--repeat", type=int, default=3,
                     help="times each image case is run; the median and the best rate are printed")
     ap.add_argument("--device", default=None)
     args = ap.parse_args()
     if args.repeat < 1:
         ap.error(f"--repeat must be at least 1, got {args.repeat}")
+    if min(args.sizes) < 1 or args.pixel_window < 1:
+        ap.error(f"--sizes and --pixel-window must be at least 1, got {args.sizes} and {args.pixel_window}")
+    if not all(1 <= lv <= 6 for lv in args.levels):
+        ap.error(f"--levels must lie in 1-6, got {args.levels}")
+    if args.lichtenberg_size < 0:
+        ap.error(f"--lichtenberg-size must be 0 (skip) or positive, got {args.lichtenberg_size}")
+    if args.points < 0 or 0 < args.points < 1000:
+        ap.error(f"--points must be 0 (skip) or at least 1000 (1000 clusters of at least one point), got {args.points}")
     wp.config.quiet = True
     wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
-    device = wp.get_device(args.device)
+    try:
+        device = wp.get_device(args.device)
+    except (RuntimeError, ValueError) as exc:
+        ap.error(f"--device {args.device!r}: {exc}")
     # warm-up: compile every kernel once
     for out in ("distance", "elevation"):
         for mode in ("cached", "pixel"):

@@ -143,6 +143,10 @@ def sample_bicubic(image: wp.array2d(dtype=float), fx: float, fy: float) -> floa
     """Bicubic sample at pixel coordinates (fx along columns, fy along rows), edges clamped."""
     h = image.shape[0]
     w = image.shape[1]
+    # beyond a tap's reach of the edge every tap reads the border: clamping there first keeps the
+    # int32 cell index from overflowing for far points (which read the first pixel instead)
+    fx = wp.clamp(fx, -2.0, float(w) + 1.0)
+    fy = wp.clamp(fy, -2.0, float(h) + 1.0)
     x0 = int(wp.floor(fx))
     y0 = int(wp.floor(fy))
     wx = _cubic_weights(fx - float(x0))

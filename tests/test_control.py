@@ -304,3 +304,33 @@ def test_every_seed_bit_selects_the_field():
     fields = [control.perlin(seed=s).grid((16, 16)) for s in (0, 2**31, 2**32 - 1)]
     assert not np.array_equal(fields[0], fields[1]) and not np.array_equal(fields[0], fields[2])
     np.testing.assert_array_equal(fields[1], control.perlin(seed=2**31).grid((16, 16)))
+
+
+def test_an_image_control_keeps_its_border_values_far_away(device):
+    # past 2**31 pixel units the tap index overflowed int32 and read the first pixel instead
+    c = control.image([[0.2, 0.9], [0.9, 0.9]])
+    far = c.evaluate([[1e10, 1e10], [1e10, 0.25], [-1e10, -1e10], [1e12, 1e12]], device=device)
+    np.testing.assert_allclose(far, [0.9, 0.9, 0.2, 0.9], atol=1e-6)
+
+
+def test_a_masked_image_is_refused():
+    with pytest.raises(ValueError, match="'values' is a masked array with 1 masked cells"):
+        control.image(np.ma.masked_array([[0.0, 1e9], [2.0, 3.0]], mask=[[0, 1], [0, 0]]))
+    assert control.image(np.ma.masked_array([[0.0, 1.0]], mask=[[0, 0]])).maximum == 1.0  # nothing masked
+
+
+def test_drained_rises_survive_float32_and_slope_is_bounded():
+    # a plane offset by 1000 rising 1e-3: rises of 1e-4 of its range are below float32's spacing
+    # there, and had vanished in the cast from float64 (54 cells with no lower neighbour)
+    d = control.drained(control.plane((0.0, 1e-3), offset=1000.0), samples=20)
+    v = d.values
+    pad = np.pad(v, 1, constant_values=np.inf)
+    lower = np.zeros(v.shape, bool)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if dr or dc:
+                lower |= pad[1 + dr : 1 + dr + 20, 1 + dc : 1 + dc + 20] < v
+    assert lower[1:-1, 1:-1].all()
+    for slope in (1e40, 1.5):
+        with pytest.raises(ValueError, match=r"'slope' in \[0, 1\]"):
+            control.drained(control.plane(), slope=slope)

@@ -321,8 +321,13 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     """A 2D array (sketch, DEM) sampled bicubically; pixel centres tile ``domain``, row 0 at y0.
 
     Values are clamped to the array's own minimum and maximum, so the Catmull-Rom
-    overshoot never leaves that range. Outside ``domain`` the border values continue.
+    overshoot never leaves that range. Outside ``domain`` the border values continue. A masked
+    array (a DEM's nodata cells) is refused: fill its masked cells first.
     """
+    if np.ma.isMaskedArray(values) and np.ma.getmaskarray(values).any():
+        raise ValueError(f"'values' is a masked array with {int(np.ma.getmaskarray(values).sum())} masked cells "
+                         "(nodata?), which an image control has no value for; fill them first, e.g. "
+                         "values.filled(fill_value)")
     arr = finite_array("values", values, "2D (h, w)", lambda shape: len(shape) == 2)
     arr = np.array(arr, dtype=np.float32, order="C")  # a copy: later changes to the caller's array do not reach it
     arr.flags.writeable = False
@@ -338,13 +343,17 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     "without too low local minima"). This wrapper removes such minima: it samples
     ``base`` at ``samples`` x ``samples`` pixel centres over its domain and applies a
     priority-flood fill (Barnes et al. 2014) in which every filled cell rises by
-    ``slope * (maximum - minimum)`` above the cell it drains into, so filled basins tilt
-    towards their outlets instead of staying flat.
+    ``slope * (maximum - minimum)`` above the cell it drains into (at least by one float32 step,
+    so that the rise survives the image's float32), so filled basins tilt towards their outlets
+    instead of staying flat. With ``slope`` > 0 every interior sample then has a strictly lower
+    neighbour. Between the samples the image's bicubic interpolation can still dip a little
+    near steep walls (a few per cent of the range in rough noise at 33 samples); more samples
+    shrink those dips.
 
     Args:
         base: any control function.
         samples: grid size (>= 3).
-        slope: rise per filled cell, relative to the base's range (>= 0).
+        slope: rise per filled cell, relative to the base's range (0 to 1; 0 leaves filled basins flat).
 
     Returns:
         An image :class:`Control` over ``base.domain``.
@@ -354,8 +363,12 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     if not isinstance(base, Control):
         raise TypeError(f"Expected a Control for 'base', but got {type(base).__name__}")
     samples = integer("samples", samples, low=3)
-    rise = nonnegative("slope", slope, allow_none=False) * max(base.maximum - base.minimum, 1e-12)
-    z = base.grid((samples, samples)).astype(np.float64)
+    slope = nonnegative("slope", slope, allow_none=False)
+    if slope > 1.0:
+        raise ValueError(f"Expected 'slope' in [0, 1] (a rise per filled cell, relative to the range), but got {slope!r}")
+    rise = np.float32(slope * max(base.maximum - base.minimum, 1e-12))
+    up = np.float32(np.inf)
+    z = base.grid((samples, samples))  # (float32, the image's own values: every rise is one it keeps)
     n = samples
     done = np.zeros(z.shape, bool)
     heap = []
@@ -372,6 +385,8 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
                 rr, cc = r + dr, c + dc
                 if 0 <= rr < n and 0 <= cc < n and not done[rr, cc]:
                     done[rr, cc] = True
-                    z[rr, cc] = max(z[rr, cc], v + rise)
+                    if z[rr, cc] < v + rise or (rise > 0 and z[rr, cc] <= v):
+                        # raised: above the cell it drains into, by the rise or at least one float32 step
+                        z[rr, cc] = max(v + rise, np.nextafter(v, up)) if rise > 0 else v
                     heapq.heappush(heap, (z[rr, cc], rr, cc))
-    return image(z.astype(np.float32), domain=base.domain)
+    return image(z, domain=base.domain)
