@@ -219,6 +219,18 @@ def test_bad_input_raises(make, match):
         make()
 
 
+def _interior_drains(v: np.ndarray) -> bool:
+    """True when every interior sample of ``v`` has a strictly lower 8-neighbour."""
+    h, w = v.shape
+    pad = np.pad(v, 1, constant_values=np.inf)
+    lower = np.zeros(v.shape, bool)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if dr or dc:
+                lower |= pad[1 + dr : 1 + dr + h, 1 + dc : 1 + dc + w] < v
+    return bool(lower[1:-1, 1:-1].all())
+
+
 def test_drained_control_has_no_interior_minimum(device):
     from scipy.ndimage import minimum_filter
 
@@ -230,14 +242,7 @@ def test_drained_control_has_no_interior_minimum(device):
     d = control.drained(base, samples=65)
     v = d.values
     assert (v >= g - 1e-6).all() and d.domain == base.domain
-    # every interior sample has a strictly lower 8-neighbour: water reaches the border
-    pad = np.pad(v, 1, constant_values=np.inf)
-    lower = np.zeros(v.shape, bool)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            if dr or dc:
-                lower |= pad[1 + dr : 1 + dr + 65, 1 + dc : 1 + dc + 65] < v
-    assert lower[1:-1, 1:-1].all()
+    assert _interior_drains(v)  # water reaches the border
     with pytest.raises(ValueError, match="samples"):
         control.drained(base, samples=2)
 
@@ -322,15 +327,7 @@ def test_a_masked_image_is_refused():
 def test_drained_rises_survive_float32_and_slope_is_bounded():
     # a plane offset by 1000 rising 1e-3: rises of 1e-4 of its range are below float32's spacing
     # there, and had vanished in the cast from float64 (54 cells with no lower neighbour)
-    d = control.drained(control.plane((0.0, 1e-3), offset=1000.0), samples=20)
-    v = d.values
-    pad = np.pad(v, 1, constant_values=np.inf)
-    lower = np.zeros(v.shape, bool)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            if dr or dc:
-                lower |= pad[1 + dr : 1 + dr + 20, 1 + dc : 1 + dc + 20] < v
-    assert lower[1:-1, 1:-1].all()
+    assert _interior_drains(control.drained(control.plane((0.0, 1e-3), offset=1000.0), samples=20).values)
     for slope in (1e40, 1.5):
         with pytest.raises(ValueError, match=r"'slope' in \[0, 1\]"):
             control.drained(control.plane(), slope=slope)
