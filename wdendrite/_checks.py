@@ -246,6 +246,14 @@ def device(value, name: str = "device"):
         raise ValueError(f"Expected a Warp device for '{name}' (one of {', '.join(known)}), but got {value!r}: {e}") from None
 
 
+def flag(name: str, value) -> bool:
+    """``value`` as a Python bool; only bools (Python or NumPy) are taken: text such as ``"no"``
+    would count as true, and 0 or 1 may be a slip for another parameter."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"Expected a bool for '{name}', but got {value!r}")
+    return bool(value)
+
+
 def integer(name: str, value, *, low: int | None = None, high: int | None = None) -> int:
     """``value`` as a Python int (bools, floats and text refused), in ``[low, high]`` where given."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):

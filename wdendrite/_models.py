@@ -121,8 +121,7 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
     if not isinstance(control, str) or control not in _CONTROL_DOMAINS:
         raise ValueError(f"Expected 'control' in {typing.get_args(Control)}, but got {control!r}")
     _checks.positive("frequency", frequency)  # (read by the noise controls only, but never left unchecked)
-    if not isinstance(drained, (bool, np.bool_)):
-        raise TypeError(f"Expected a bool for 'drained', but got {drained!r}")
+    drained = _checks.flag("drained", drained)
     seed = _checks.seed32(seed)
     if not isinstance(params, DendryParams):
         raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
@@ -194,8 +193,7 @@ def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4
     from . import hydrology
     from .dendry import dendry as _dendry
 
-    if not isinstance(rivers, (bool, np.bool_)):
-        raise TypeError(f"Expected a bool for 'rivers', but got {rivers!r}")
+    rivers = _checks.flag("rivers", rivers)
     _checks.integer("size", size, low=2)  # (the shaded relief takes slopes between pixels)
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
                          seed=seed, output="elevation")

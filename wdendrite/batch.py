@@ -540,7 +540,6 @@ def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", d
         setup, output = _tiled_setup(task_or_setup)
     else:
         setup = task_or_setup
-    _tiling(setup["shape"], tile)
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=device)
     return tiled_array(fn, setup["shape"], tile)
 

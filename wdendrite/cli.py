@@ -99,8 +99,10 @@ def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
                          f"({exc.strerror})") from None
     if p.is_dir() and p.suffix.lower() != ".zarr":  # a Zarr store is a folder; nothing else is
         raise UsageError(f"-o/--out {str(p)!r} is a folder; name a file")
-    if os.path.lexists(p) and not force:  # (a link, even one to nowhere, is the user's too)
-        what = "exists" if p.exists() else "is a link to a missing file"
+    from .io import occupied
+
+    what = occupied(p)
+    if what and not force:
         raise UsageError(f"-o/--out {str(p)!r} {what}; pass --force to overwrite it")
     return p
 
@@ -138,8 +140,9 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             io.sync_to_disk(tmp)
             os.chmod(tmp, mode)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
-            if os.path.lexists(p) and not force:
-                raise UsageError(f"-o/--out {str(p)!r} exists; pass --force to overwrite it")
+            what = io.occupied(p)
+            if what and not force:
+                raise UsageError(f"-o/--out {str(p)!r} {what}; pass --force to overwrite it")
         _rename_all(staged)
     except BaseException:
         for tmp, _ in staged:

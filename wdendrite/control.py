@@ -385,8 +385,10 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
                 rr, cc = r + dr, c + dc
                 if 0 <= rr < n and 0 <= cc < n and not done[rr, cc]:
                     done[rr, cc] = True
-                    if z[rr, cc] < v + rise or (rise > 0 and z[rr, cc] <= v):
-                        # raised: above the cell it drains into, by the rise or at least one float32 step
-                        z[rr, cc] = max(v + rise, np.nextafter(v, up)) if rise > 0 else v
+                    # the lowest value it may keep: above the cell it drains into, by the rise or at
+                    # least one float32 step (level with it when there is no rise)
+                    floor = max(v + rise, np.nextafter(v, up)) if rise > 0 else v
+                    if z[rr, cc] < floor:
+                        z[rr, cc] = floor
                     heapq.heappush(heap, (z[rr, cc], rr, cc))
     return image(z, domain=base.domain)

@@ -42,7 +42,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
-from ._checks import device as _device, finite, fits_in_memory, integer, lattice_shape, seed32, stop_if_checking
+from ._checks import device as _device, finite, fits_in_memory, flag, integer, lattice_shape, seed32, stop_if_checking
 from .control import Control, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
 from .kernels import dendry_pixels as _kp
@@ -192,9 +192,7 @@ class DendryParams:
         # (from 1e-30 on, 1 / resolution and distances in domain units stay finite in float32)
         put("resolution", _float_in("resolution", self.resolution, 1.0e-30, 1.0e6))
         for name in ("smoothing", "subdivision"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise TypeError(f"Expected a bool for '{name}', but got {getattr(self, name)!r}")
-            put(name, bool(getattr(self, name)))
+            put(name, flag(name, getattr(self, name)))
         put("beta", _float_in("beta", self.beta, 0.0, 2.0))
         put("noise", _float_in("noise", self.noise, 0.0, 1.0))
         put("primitive_steps", integer("primitive_steps", self.primitive_steps, low=1, high=4))

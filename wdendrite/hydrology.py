@@ -133,8 +133,7 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     """
     if not isinstance(method, str) or method not in ("d8", "dinf"):
         raise ValueError(f"Expected 'method' in ('d8', 'dinf'), but got {method!r}")
-    if not isinstance(filled, (bool, np.bool_)):
-        raise TypeError(f"Expected a bool for 'filled', but got {filled!r}")
+    filled = _checks.flag("filled", filled)
     try:
         cells = math.prod(np.shape(elevation))
     except ValueError:  # ragged nested lists: the elevation check names them

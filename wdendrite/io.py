@@ -23,6 +23,14 @@ __all__ = [
 ]
 
 
+def occupied(path) -> str | None:
+    """What stands at ``path`` in words (``"exists"``, ``"is a link to a missing file"``), or None
+    when nothing does. A link counts even when it leads nowhere: it is the user's too."""
+    if not os.path.lexists(path):
+        return None
+    return "exists" if os.path.exists(path) else "is a link to a missing file"
+
+
 def _target(path, overwrite: bool) -> Path:
     """``path`` as a Path, once it is known that a file may be written there."""
     path = Path(path)
@@ -30,8 +38,8 @@ def _target(path, overwrite: bool) -> Path:
         raise ValueError(f"'path' {str(path)!r} is a folder; give the name of a file to write in it")
     if not path.parent.is_dir():
         raise ValueError(f"The folder of 'path' does not exist (or is not a folder): {str(path.parent)!r}")
-    if os.path.lexists(path) and not overwrite:  # (a link, even one to nowhere, is the user's too)
-        what = "exists" if path.exists() else "is a link to a missing file"
+    what = occupied(path)
+    if what and not overwrite:
         raise FileExistsError(f"'path' {str(path)!r} {what}; pass overwrite=True to replace it")
     return path
 
