@@ -54,6 +54,10 @@ STATE_FAR = wp.constant(3.0)  # per-pixel mode: a finest-level segment too far f
 # per-pixel mode, 2 levels: a level-1 segment no query of the pixel reads, drawn only if a link
 # search comes near the box that bounds it (see fill_links1); keyp holds its key point as for a segment
 STATE_PENDING = wp.constant(4.0)
+# per-pixel mode, 3 levels or more: a cell of levels 2..n-1 with a key point of its own whose segment
+# is drawn only if some search may need it (see prepare_levels); keyp holds (x, y, reach, state)
+STATE_WAIT = wp.constant(5.0)
+STATE_WANTED = wp.constant(6.0)  # such a cell that a search may need: the next draw pass draws it
 
 OUT_DISTANCE = wp.constant(0)
 OUT_ELEVATION = wp.constant(1)
@@ -995,11 +999,87 @@ def query_short(
     return wp.vec3(wp.sqrt(best) * s.inv_resolution, bz, float(bl))
 
 
+@wp.struct
+class Prims:
+    """Per-pixel mode, elevation: the 5 x 5 terrain primitives around the pixel (see :func:`answer`)."""
+
+    px: vec25  # key points
+    py: vec25
+    pr2: vec25  # squared distance to the pixel over the blend's radius squared (>= 1: no weight)
+
+
+@wp.func
+def prim_points(s: Setup, u: wp.vec2) -> Prims:
+    """The primitives around ``u`` (the 5 x 5 cells of level ``levels + steps`` around its cell)."""
+    pl = s.levels + s.steps
+    pc = cell_of(u, pl)
+    radius = 2.0 / level_factor(pl)
+    inv_r2 = 1.0 / (radius * radius)
+    p = Prims()
+    for dy in range(5):
+        for dx in range(5):
+            k = dy * 5 + dx
+            q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
+            p.px[k] = q[0]
+            p.py[k] = q[1]
+            p.pr2[k] = wp.length_sq(q - u) * inv_r2
+    return p
+
+
+@wp.func
+def pixel_limit(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2, output: int,
+    qlo: wp.vec2i, qhi: wp.vec2i, prim: Prims, keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> float:
+    """Per-pixel mode, once the query's finest cells ``qlo..qhi`` are drawn: a distance from ``u``
+    beyond which no piece can answer the pixel (-1 when there is no such bound; see :func:`answer`).
+
+    Distance and level: the distance to the polyline through the key point of u's finest cell.
+    Elevation: the largest bound over the primitives that weigh (see :func:`answer`), from the
+    distances from u to the polylines through the key points of ``qlo..qhi`` (inf where a cell
+    has none); at least one primitive step keeps that square within 2.02 finest cells, so at
+    most 4 x 4 cells.
+    """
+    if output != OUT_ELEVATION:
+        if s.levels >= 2:
+            d2 = owner_near(s, blocks, bases, slot, cell_of(u, s.levels), u, keyp, verts)
+            if d2 >= 0.0:
+                return widened(wp.sqrt(d2), u)
+        return -1.0
+    reach_u = vec16()
+    nx = qhi[0] - qlo[0] + 1
+    ncells = nx * (qhi[1] - qlo[1] + 1)
+    for k in range(ncells):
+        d2 = owner_near(s, blocks, bases, slot, wp.vec2i(qlo[0] + k % nx, qlo[1] + k / nx), u, keyp, verts)
+        reach_u[k] = wp.inf
+        if d2 >= 0.0:
+            reach_u[k] = wp.sqrt(d2)
+    bound = float(0.0)
+    for k in range(25):
+        if prim.pr2[k] < 1.0:  # (the primitives that weigh)
+            q = wp.vec2(prim.px[k], prim.py[k])
+            gap = wp.length(q - u)
+            # any of those polylines within q's query neighbourhood bounds q's answer (an
+            # inherited one is within it at its coarser level too: DendryParams.radii keeps
+            # r1 >= rq)
+            qc = cell_of(q, s.levels)
+            best = float(wp.inf)
+            for f in range(ncells):
+                fx = qlo[0] + f % nx - qc[0]
+                fy = qlo[1] + f / nx - qc[1]
+                if wp.abs(fx) <= s.rq and wp.abs(fy) <= s.rq:
+                    best = wp.min(best, reach_u[f] + gap)
+            bound = wp.max(bound, best + gap)
+    if bound < wp.inf:
+        return widened(bound, u)
+    return -1.0
+
+
 @wp.func
 def answer(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
-    output: int, qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
-    verts: wp.array(dtype=wp.vec3), cached: int,
+    output: int, qlo: wp.vec2i, qhi: wp.vec2i, prim: Prims, limit: float, demand: int, pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3), cached: int,
     prims: wp.array(dtype=wp.vec3), sfirst: int, nearby: wp.array(dtype=wp.vec4i), gaps: wp.array(dtype=float),
     overflow_out: wp.array(dtype=int),
 ) -> float:
@@ -1017,19 +1097,21 @@ def answer(
     is at most ``D + |q - u|``, where D is the distance from ``u`` to the polyline through the
     key point of one of the query's finest cells ``qlo..qhi`` that lies in q's neighbourhood
     (a candidate of q's query), so q's nearest piece lies within ``D + 2 |q - u|`` of ``u``.
-    The shortlist keeps the pieces within the largest such bound over the primitives that weigh
-    (each taking its least D, with a margin against rounding). The finest cells outside
-    ``qlo..qhi`` are filled only once that bound is known (:func:`finish`), which leaves undrawn
-    the segments that lie beyond it.
+    The shortlist keeps the pieces within ``limit``, the largest such bound over the primitives
+    that weigh (each taking its least D, with a margin against rounding), which :func:`build`
+    found with :func:`pixel_limit` (-1: none; the cached mode ignores it). The finest cells
+    outside ``qlo..qhi`` are filled only once that bound is known (:func:`finish`), which
+    leaves undrawn the segments that lie beyond it.
     """
     pl = s.levels + s.steps
     pc = cell_of(u, pl)
     radius = 2.0 / level_factor(pl)
     inv_r2 = 1.0 / (radius * radius)
-    # the primitives' key points and squared relative distances r^2 (>= 1: no weight)
-    px = vec25()
-    py = vec25()
-    pr2 = vec25()
+    # the primitives' key points and squared relative distances r^2 (>= 1: no weight); the
+    # per-pixel mode's come from prim_points
+    px = prim.px
+    py = prim.py
+    pr2 = prim.pr2
     corner = int(0)
     width = int(0)
     elev = output == OUT_ELEVATION
@@ -1041,58 +1123,17 @@ def answer(
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
         width = blocks[nonneg(slot * SLOT + PRIM)][2]
-    # per-pixel mode: the distances from u to the polylines through the key points of the
-    # query's finest cells qlo..qhi (inf where a cell has none); at least one primitive step
-    # keeps that square within 2.02 finest cells, so at most 4 x 4 cells
-    reach_u = vec16()
-    nx = qhi[0] - qlo[0] + 1
-    ncells = int(0)
-    if cached == 0 and elev:
-        ncells = nx * (qhi[1] - qlo[1] + 1)
-        for k in range(ncells):
-            d2 = owner_near(s, blocks, bases, slot, wp.vec2i(qlo[0] + k % nx, qlo[1] + k / nx), u, keyp, verts)
-            reach_u[k] = wp.inf
-            if d2 >= 0.0:
-                reach_u[k] = wp.sqrt(d2)
-    bound = float(0.0)
-    if elev:
+    if cached != 0 and elev:
         for dy in range(5):
             for dx in range(5):
                 k = dy * 5 + dx
-                q = wp.vec2(0.0, 0.0)
-                if cached != 0:
-                    pq = prims[nonneg(corner + dy * width + dx)]
-                    q = wp.vec2(pq[0], pq[1])
-                else:
-                    q = jitter(s, pl, wp.vec2i(pc[0] + dx - 2, pc[1] + dy - 2))
-                px[k] = q[0]
-                py[k] = q[1]
-                r2 = wp.length_sq(q - u) * inv_r2
-                pr2[k] = r2
-                if cached == 0 and r2 < 1.0:
-                    # any of those polylines within q's query neighbourhood bounds q's answer (an
-                    # inherited one is within it at its coarser level too: DendryParams.radii keeps
-                    # r1 >= rq)
-                    qc = cell_of(q, s.levels)
-                    gap = wp.length(q - u)
-                    best = float(wp.inf)
-                    for f in range(ncells):
-                        fx = qlo[0] + f % nx - qc[0]
-                        fy = qlo[1] + f / nx - qc[1]
-                        if wp.abs(fx) <= s.rq and wp.abs(fy) <= s.rq:
-                            best = wp.min(best, reach_u[f] + gap)
-                    bound = wp.max(bound, best + gap)
+                pq = prims[nonneg(corner + dy * width + dx)]
+                px[k] = pq[0]
+                py[k] = pq[1]
+                pr2[k] = wp.length_sq(wp.vec2(pq[0], pq[1]) - u) * inv_r2
     n = int(-1)
     if cached == 0:
-        limit = float(-1.0)
-        if elev:
-            if bound < wp.inf:
-                limit = widened(bound, u)
-        elif s.levels >= 2:
-            d2 = owner_near(s, blocks, bases, slot, cell_of(u, s.levels), u, keyp, verts)
-            if d2 >= 0.0:
-                limit = widened(wp.sqrt(d2), u)
-        finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, pts1, keyp, verts)
+        finish(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, demand, pts1, keyp, verts)
         if limit >= 0.0 and elev:
             n = shortlist(s, blocks, bases, slot, u, limit, keyp, verts, sfirst, nearby, gaps)
     if not elev:
@@ -1225,14 +1266,245 @@ def fill_links1(
 
 
 @wp.func
-def build(
+def prepare_levels(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    qlo: wp.vec2i, qhi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> int:
+    """Per-pixel mode, 3 levels or more, once level 1 is drawn: the key points of levels 2..n-1,
+    without their segments. Return 1 when the pixel must draw those levels whole instead.
+
+    A cell that inherits its parent's key point is stored as :func:`fill_levelk` stores it; one
+    outside the control's domain as ``STATE_NONE``. Any other cell is left ``STATE_WAIT``: its
+    segment is drawn only when a search may need it (:func:`want_box`). It keeps what
+    bounds that segment without drawing it:
+
+    - ``d`` (in ``verts``, at the cell's first vertex): its link search's answer lies no farther.
+      The parent's key point lies on the tree, within that search (it belongs to an ancestor of
+      the cell, the centre of the search's neighbourhood at its level), so ``d`` is the distance
+      to that point, or at level 2 to the parent's drawn polyline, widened against rounding.
+    - its reach (``keyp[2]``): the polyline lies within ``segment_reach(link_span(d, L))`` of the
+      key point (:func:`segment_reach`, :func:`link_span`), where L bounds every piece of the
+      coarser levels: the longest drawn piece at level 1, twice a waiting cell's reach above.
+
+    A cell whose parent has no point on the tree (beyond the domain's edge) would have no such
+    bound, and its children could not know yet whether they inherit its key point: then 1.
+    """
+    longest = float(0.0)
+    if s.rule == 0:
+        b = blocks[nonneg(slot * SLOT + 1)]
+        o = bases[nonneg(slot * SLOT + 1)]
+        last = o + b[2] * b[3]
+        while o < last:
+            if keyp[nonneg(o)][3] == STATE_SEGMENT:
+                longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
+            o += 1
+    for level in range(2, s.levels):
+        bi = slot * SLOT + level
+        b = blocks[nonneg(bi)]
+        o = bases[nonneg(bi)]
+        grow = float(0.0)
+        for j in range(b[3]):
+            for i in range(b[2]):
+                c = wp.vec2i(b[0] + i, b[1] + j)
+                po = block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1))
+                parent = keyp[nonneg(po)]
+                pp = wp.vec2(parent[0], parent[1])
+                state = STATE_WAIT
+                if parent[3] != STATE_NONE:
+                    pc = cell_of(pp, level)
+                    if pc[0] == c[0] and pc[1] == c[1]:
+                        keyp[nonneg(o)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
+                        state = STATE_INHERITED
+                if state == STATE_WAIT:
+                    q = jitter(s, level, c)
+                    if not control_inside(ctl, to_control(s, q)):
+                        keyp[nonneg(o)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
+                    else:
+                        if parent[3] == STATE_NONE:
+                            return 1
+                        d2 = wp.length_sq(q - pp)
+                        if level == 2:
+                            for k in range(PIECES):
+                                d2 = wp.min(d2, piece_near(q, verts[nonneg(po * NV + k)], verts[nonneg(po * NV + k + 1)])[0])
+                        d = widened(wp.sqrt(d2), q)
+                        r = segment_reach(s, level, link_span(s, d, longest))
+                        keyp[nonneg(o)] = wp.vec4(q[0], q[1], r, STATE_WAIT)
+                        verts[nonneg(o * NV)] = wp.vec3(d, 0.0, 0.0)
+                        grow = wp.max(grow, r)
+                o += 1
+        longest = wp.max(longest, 2.0 * grow)
+    return 0
+
+
+@wp.func
+def want_box(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, lo: wp.vec2,
+    hi: wp.vec2, d: float, keyp: wp.array(dtype=wp.vec4),
+):
+    """Mark ``STATE_WANTED`` the waiting cells (see :func:`prepare_levels`) of levels 2 to
+    ``level - 1`` that the link searches of key points of ``level`` in the box ``lo..hi`` may
+    need, each knowing its answer lies within ``d``: those whose reach comes within ``d`` of the
+    box. The others' pieces all lie farther than each search's answer, so each search finds
+    the same piece without them."""
+    lim = d + coord_margin(lo) + coord_margin(hi)
+    for l in range(2, level):
+        bi = slot * SLOT + l
+        b = blocks[nonneg(bi)]
+        o = bases[nonneg(bi)]
+        last = o + b[2] * b[3]
+        while o < last:
+            k = keyp[nonneg(o)]
+            if k[3] == STATE_WAIT:
+                p = wp.vec2(k[0], k[1])
+                if wp.length(wp.max(wp.max(lo - p, p - hi), wp.vec2(0.0, 0.0))) - k[2] <= lim:
+                    keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
+            o += 1
+
+
+@wp.func
+def want_finest(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, c: wp.vec2i,
+    u: wp.vec2, limit: float, longest: float, owner: int, keyp: wp.array(dtype=wp.vec4),
+) -> wp.vec4:
+    """What cell ``c`` of the finest level needs drawn before :func:`fill_levelk` draws it:
+    (state, x, y, d) with d >= 0 when its link search from key point (x, y) finds its answer
+    within d (for :func:`want_box`), else -1. When it inherits its parent's key point and
+    ``owner`` is 1, the cell owning that point is marked ``STATE_WANTED`` (for :func:`owner_near`).
+
+    With ``limit`` >= 0, a cell whose polyline provably stays farther than ``limit`` from ``u``
+    (as in :func:`fill_levelk`, with ``longest`` bounding the coarser pieces) needs nothing:
+    the state is ``STATE_FAR`` then, else ``STATE_NONE``.
+    """
+    n = s.levels
+    parent = keyp[nonneg(block_index(blocks, bases, slot * SLOT + n - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
+    pp = wp.vec2(parent[0], parent[1])
+    if parent[3] != STATE_NONE:
+        pc = cell_of(pp, n)
+        if pc[0] == c[0] and pc[1] == c[1]:
+            l = n - 1
+            a = wp.vec2i(c[0] >> 1, c[1] >> 1)
+            if owner == 0:
+                l = 1
+            while l >= 2:
+                o = block_index(blocks, bases, slot * SLOT + l, a)
+                k = keyp[nonneg(o)]
+                if k[3] == STATE_WAIT:
+                    keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
+                if k[3] != STATE_INHERITED:
+                    break
+                l -= 1
+                a = wp.vec2i(a[0] >> 1, a[1] >> 1)
+            return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
+    q = jitter(s, n, c)
+    if not control_inside(ctl, to_control(s, q)):
+        return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
+    d = float(wp.inf)
+    if parent[3] != STATE_NONE:
+        d = widened(wp.length(q - pp), q)
+    if limit >= 0.0:
+        if segment_reach(s, n, link_span(s, d, longest)) < wp.length(u - q) - limit - coord_margin(u):
+            return wp.vec4(STATE_FAR, 0.0, 0.0, -1.0)
+    return wp.vec4(STATE_NONE, q[0], q[1], d)
+
+
+@wp.func
+def spread_wants(
+    s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+):
+    """Levels n-1 down to 3: mark what the wanted cells' own link searches may need, so that
+    drawing the wanted cells level by level (coarsest first) draws every segment they use."""
+    for i in range(1, s.levels - 2):
+        l = s.levels - i
+        b = blocks[nonneg(slot * SLOT + l)]
+        o = bases[nonneg(slot * SLOT + l)]
+        last = o + b[2] * b[3]
+        lo = wp.vec2(1.0e30, 1.0e30)
+        hi = wp.vec2(-1.0e30, -1.0e30)
+        d = float(-1.0)
+        while o < last:
+            k = keyp[nonneg(o)]
+            if k[3] == STATE_WANTED:
+                p = wp.vec2(k[0], k[1])
+                lo = wp.min(lo, p)
+                hi = wp.max(hi, p)
+                d = wp.max(d, verts[nonneg(o * NV)][0])
+            o += 1
+        if d >= 0.0:
+            want_box(s, blocks, bases, slot, l, lo, hi, d, keyp)
+
+
+@wp.func
+def want_pixel(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3),
 ):
+    """Per-pixel mode, levels drawn on demand (see :func:`build`), once the pixel's answer is
+    bounded by ``limit`` (< 0: unbounded): mark the waiting segments that the pixel's queries
+    may read (their reach comes within ``limit`` of ``u``) and those the finest cells outside
+    ``qlo..qhi`` may need (:func:`want_finest`); store ``STATE_FAR`` for those finest cells
+    that need not be drawn at all."""
+    n = s.levels
+    longest = float(0.0)
+    if s.rule == 0:
+        for level in range(1, n):
+            b = blocks[nonneg(slot * SLOT + level)]
+            o = bases[nonneg(slot * SLOT + level)]
+            last = o + b[2] * b[3]
+            while o < last:
+                k = keyp[nonneg(o)]
+                if k[3] == STATE_SEGMENT:
+                    longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
+                elif k[3] == STATE_WAIT:
+                    longest = wp.max(longest, 2.0 * k[2])
+                o += 1
+    lim = limit + coord_margin(u)
+    for level in range(2, n):
+        b = blocks[nonneg(slot * SLOT + level)]
+        o = bases[nonneg(slot * SLOT + level)]
+        last = o + b[2] * b[3]
+        while o < last:
+            k = keyp[nonneg(o)]
+            if k[3] == STATE_WAIT:
+                if limit < 0.0 or wp.length(u - wp.vec2(k[0], k[1])) - k[2] <= lim:
+                    keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
+            o += 1
+    b = blocks[nonneg(slot * SLOT + n)]
+    o = bases[nonneg(slot * SLOT + n)]
+    lo = wp.vec2(1.0e30, 1.0e30)
+    hi = wp.vec2(-1.0e30, -1.0e30)
+    d = float(-1.0)
+    for j in range(b[3]):
+        for i in range(b[2]):
+            c = wp.vec2i(b[0] + i, b[1] + j)
+            if c[0] < qlo[0] or c[1] < qlo[1] or c[0] > qhi[0] or c[1] > qhi[1]:
+                w = want_finest(s, ctl, blocks, bases, slot, c, u, limit, longest, 0, keyp)
+                keyp[nonneg(o)] = wp.vec4(0.0, 0.0, 0.0, w[0])
+                if w[3] >= 0.0:
+                    lo = wp.min(lo, wp.vec2(w[1], w[2]))
+                    hi = wp.max(hi, wp.vec2(w[1], w[2]))
+                    d = wp.max(d, w[3])
+            o += 1
+    if d >= 0.0:
+        want_box(s, blocks, bases, slot, n, lo, hi, d, keyp)
+    spread_wants(s, blocks, bases, slot, keyp, verts)
+
+
+@wp.func
+def build(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
+    u: wp.vec2, output: int, qlo: wp.vec2i, qhi: wp.vec2i, prim: Prims, pts1: wp.array(dtype=wp.vec4),
+    keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+) -> wp.vec2:
     """Per-pixel mode: fill the blocks of ``slot`` in order: level-1 points, level-1 segments,
     levels 2..n, except that of the finest level (from 2 levels on) only the query's cells
-    ``qlo..qhi`` are filled; :func:`finish` fills the others.
+    ``qlo..qhi`` are filled; :func:`finish` fills the others. Returns (the bound on the pixel's
+    answer from :func:`pixel_limit`, demand).
+
+    From 3 levels on, levels 2..n-1 are drawn on demand (demand 1; 0 when drawn whole, see
+    :func:`prepare_levels`): first the segments the query's cells need, then those that the
+    other finest cells and the pixel's queries may need (:func:`want_pixel`).
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
@@ -1257,33 +1529,74 @@ def build(
         chi = wp.vec2i(wp.max((qhi[0] >> 1) + s.r1, chi[0] - 1), wp.max((qhi[1] >> 1) + s.r1, chi[1] - 1))
     fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
-    for level in range(2, s.levels + 1):
-        b = blocks[nonneg(slot * SLOT + level)]
-        i0 = int(0)
-        j0 = int(0)
-        i1 = b[2]
-        j1 = b[3]
-        if level == s.levels:
-            i0 = qlo[0] - b[0]
-            j0 = qlo[1] - b[1]
-            i1 = qhi[0] - b[0] + 1
-            j1 = qhi[1] - b[1] + 1
-        for j in range(j0, j1):
-            for i in range(i0, i1):
-                # (no pending level-1 cell lies within reach of these: their parents are the query's)
-                fill_levelk(
-                    s, ctl, blocks, bases, slot, level, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
-                    0, keyp, verts,
-                )
+    demand = int(0)
+    if s.levels >= 3:
+        if prepare_levels(s, ctl, blocks, bases, slot, keyp, verts) == 0:
+            # levels 2..n-1 drawn on demand: what the query's finest cells need, first
+            demand = 1
+            lo = wp.vec2(1.0e30, 1.0e30)
+            hi = wp.vec2(-1.0e30, -1.0e30)
+            d = float(-1.0)
+            for j in range(qlo[1], qhi[1] + 1):
+                for i in range(qlo[0], qhi[0] + 1):
+                    w = want_finest(s, ctl, blocks, bases, slot, wp.vec2i(i, j), nowhere, -1.0, 0.0, 1, keyp)
+                    if w[3] >= 0.0:
+                        lo = wp.min(lo, wp.vec2(w[1], w[2]))
+                        hi = wp.max(hi, wp.vec2(w[1], w[2]))
+                        d = wp.max(d, w[3])
+            if d >= 0.0:
+                want_box(s, blocks, bases, slot, s.levels, lo, hi, d, keyp)
+            spread_wants(s, blocks, bases, slot, keyp, verts)
+    # two passes over the levels (one call site of fill_levelk: its code is inlined): first
+    # levels 2..n, then, once the pixel's answer is bounded, what finish's cells and the
+    # queries may still want of levels 2..n-1
+    limit = float(-1.0)
+    top = s.levels + 1
+    rounds = int(0)
+    while rounds < 2:
+        if rounds == 1:
+            limit = pixel_limit(s, blocks, bases, slot, u, output, qlo, qhi, prim, keyp, verts)
+            top = 2
+            if demand != 0:
+                want_pixel(s, ctl, blocks, bases, slot, qlo, qhi, u, limit, keyp, verts)
+                top = s.levels
+        rounds += 1
+        for level in range(2, top):
+            bi = slot * SLOT + level
+            b = blocks[nonneg(bi)]
+            i0 = int(0)
+            j0 = int(0)
+            i1 = b[2]
+            j1 = b[3]
+            if level == s.levels:
+                i0 = qlo[0] - b[0]
+                j0 = qlo[1] - b[1]
+                i1 = qhi[0] - b[0] + 1
+                j1 = qhi[1] - b[1] + 1
+            for j in range(j0, j1):
+                for i in range(i0, i1):
+                    k = j * b[2] + i
+                    draw = True
+                    if demand != 0:
+                        if level < s.levels:  # (Warp evaluates both sides of an `and`)
+                            draw = keyp[nonneg(bases[nonneg(bi)] + k)][3] == STATE_WANTED
+                    if draw:
+                        # (no pending level-1 cell lies within reach of these: their parents are the query's)
+                        fill_levelk(
+                            s, ctl, blocks, bases, slot, level, k, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
+                            0, keyp, verts,
+                        )
+    return wp.vec2(limit, float(demand))
 
 
 @wp.func
 def finish(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, pts1: wp.array(dtype=wp.vec4),
+    qlo: wp.vec2i, qhi: wp.vec2i, u: wp.vec2, limit: float, demand: int, pts1: wp.array(dtype=wp.vec4),
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ):
-    """Per-pixel mode, after :func:`build`: the finest level's cells outside ``qlo..qhi``.
+    """Per-pixel mode, after :func:`build`: the finest level's cells outside ``qlo..qhi`` (with
+    ``demand`` 1, those that :func:`want_pixel` did not already find ``STATE_FAR``).
 
     Only pieces within ``limit`` of ``u`` can answer the pixel (``limit`` < 0: all can), and
     most of these cells' segments lie farther: :func:`fill_levelk` marks those ``STATE_FAR``
@@ -1303,7 +1616,9 @@ def finish(
             last = o + b[2] * b[3]
             while o < last:
                 state = keyp[nonneg(o)][3]
-                if state == STATE_SEGMENT or state == STATE_PENDING:  # (a bound for those pending)
+                # (a bound for those pending; the nearest piece of each finest cell drawn here is
+                # drawn, so waiting cells need none)
+                if state == STATE_SEGMENT or state == STATE_PENDING:
                     longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
                 o += 1
     b = blocks[nonneg(slot * SLOT + n)]
@@ -1314,6 +1629,10 @@ def finish(
                 # (one call site of fill_levelk: its code is inlined)
                 pend = pending
                 sb = float(0.0)
+                if demand != 0:
+                    # (a nested test: Warp evaluates both sides of an `and`)
+                    if keyp[nonneg(bases[nonneg(slot * SLOT + n)] + j * b[2] + i)][3] == STATE_FAR:
+                        sb = -1.0
                 while sb >= 0.0:
                     sb = fill_levelk(s, ctl, blocks, bases, slot, n, j * b[2] + i, c, u, limit, longest, pend, keyp,
                                      verts)
@@ -1337,6 +1656,9 @@ def evaluate(
     pc = cell_of(u, s.levels)
     qlo = pc
     qhi = pc
+    limit = float(-1.0)
+    demand = int(0)
+    prim = Prims()
     if cached == 0:
         if output == OUT_ELEVATION:
             # the primitives that weigh lie within two primitive cells of u: their queries start
@@ -1348,10 +1670,14 @@ def evaluate(
         if over != 0:
             wp.atomic_max(overflow_out, 0, 1)
             return wp.nan
-        build(s, ctl, blocks, bases, slot, qlo, qhi, pts1, keyp, verts)
+        if output == OUT_ELEVATION:
+            prim = prim_points(s, u)
+        built = build(s, ctl, blocks, bases, slot, u, output, qlo, qhi, prim, pts1, keyp, verts)
+        limit = built[0]
+        demand = int(built[1])
     return answer(
-        s, ctl, blocks, bases, slot, u, output, qlo, qhi, pts1, keyp, verts, cached, prims, slot * cap[1] * 4, nearby,
-        gaps, overflow_out,
+        s, ctl, blocks, bases, slot, u, output, qlo, qhi, prim, limit, demand, pts1, keyp, verts, cached, prims,
+        slot * cap[1] * 4, nearby, gaps, overflow_out,
     )
 
 

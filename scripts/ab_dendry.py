@@ -4,6 +4,7 @@
     python scripts/ab_dendry.py /tmp/before .                       # the Table 1 setup, per pixel
     python scripts/ab_dendry.py /tmp/before . --search exact --output distance --runs 12
     python scripts/ab_dendry.py /tmp/before . --workload lichtenberg --window 64 --mode cached
+    python scripts/ab_dendry.py /tmp/before . --levels 3 --search exact     # Table 1's setup at 3 levels
 
 On a shared or throttled machine the same code can run 1.4x faster or slower from one
 minute to the next, so two benchmark runs made one after the other cannot resolve a change of
@@ -41,11 +42,13 @@ def _load(root: Path, name: str, into: Path):
     return importlib.import_module(f"{name}.dendry"), importlib.import_module(f"{name}.control")
 
 
-def _case(dendry_mod, control_mod, workload: str, search: str):
+def _case(dendry_mod, control_mod, workload: str, search: str, levels: int | None = None):
+    """Keyword arguments of ``dendry`` for ``workload`` and the image's side; ``levels`` replaces
+    the workload's own (2 for Table 1, 6 for the Lichtenberg figure)."""
     if workload == "lichtenberg":
-        p = dendry_mod.DendryParams(levels=6, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, search=search)
+        p = dendry_mod.DendryParams(levels=levels or 6, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, search=search)
         return dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=p, control=control_mod.lichtenberg()), 1024
-    p = dendry_mod.DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0, search=search)
+    p = dendry_mod.DendryParams(levels=levels or 2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=0, search=search)
     ctl = control_mod.perlin(seed=0, domain=((-0.2, -0.4), (1.4, 0.7)))
     return dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl), 512
 
@@ -59,6 +62,8 @@ def main() -> None:
     ap.add_argument("--search", choices=["exact", "paper"], default="paper")
     ap.add_argument("--output", choices=["distance", "elevation", "level"], default="elevation")
     ap.add_argument("--mode", choices=["pixel", "cached"], default="pixel")
+    ap.add_argument("--levels", type=int, choices=range(1, 7), metavar="1..6",
+                    help="levels instead of the workload's own (Table 1: 2, Lichtenberg: 6)")
     ap.add_argument("--window", type=int, default=160, help="side of the centred window timed in the per-pixel mode")
     ap.add_argument("--runs", type=int, default=10, help="runs of each side, in turns")
     args = ap.parse_args()
@@ -80,11 +85,11 @@ def main() -> None:
         rates: dict[str, list[float]] = {"old": [], "new": []}
         images = {}
         for name, (dmod, cmod) in sides.items():  # compile and warm up
-            kw, _ = _case(dmod, cmod, args.workload, args.search)
+            kw, _ = _case(dmod, cmod, args.workload, args.search, args.levels)
             dmod.dendry((16, 16), output=args.output, mode=args.mode, **kw)
         for _ in range(args.runs):
             for name, (dmod, cmod) in sides.items():
-                kw, size = _case(dmod, cmod, args.workload, args.search)
+                kw, size = _case(dmod, cmod, args.workload, args.search, args.levels)
                 w = min(args.window, size)
                 window = None if args.mode == "cached" else ((size - w) // 2, (size - w) // 2, w, w)
                 t = time.perf_counter()
@@ -92,7 +97,8 @@ def main() -> None:
                 rates[name].append(images[name].size / (time.perf_counter() - t))
     old, new = np.array(rates["old"]), np.array(rates["new"])
     same = np.array_equal(images["old"], images["new"], equal_nan=True)
-    print(f"{args.workload} {args.search} {args.output} {args.mode}: "
+    levels = f" {args.levels} levels" if args.levels else ""
+    print(f"{args.workload}{levels} {args.search} {args.output} {args.mode}: "
           f"old median {np.median(old):,.0f} px/s (best {old.max():,.0f}), "
           f"new median {np.median(new):,.0f} px/s (best {new.max():,.0f}); "
           f"new/old {np.median(new) / np.median(old):.2f}x, run by run {np.median(new / old):.2f}x "

@@ -72,7 +72,7 @@ def _child(args) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         sys.path.insert(0, tmp)
         dmod, cmod = _load(Path(args.root).resolve(), args.package, Path(tmp))
-        kw, size = _case(dmod, cmod, args.workload, args.search)
+        kw, size = _case(dmod, cmod, args.workload, args.search, args.levels)
         w = min(args.window, size)
         window = ((size - w) // 2, (size - w) // 2, w, w)
         image = dmod.dendry((size, size), window=window, output=args.output, mode="pixel", **kw)
@@ -95,7 +95,7 @@ def _child(args) -> None:
 def _child_command(args, root: str, package: str, window: int, runs: int, report: Path, line_tables: bool):
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", "--root", root, "--package", package,
            "--window", str(window), "--runs", str(runs), "--report", str(report), "--workload", args.workload,
-           "--search", args.search, "--output", args.output]
+           "--search", args.search, "--output", args.output] + (["--levels", str(args.levels)] if args.levels else [])
     return cmd + (["--line-tables"] if line_tables else [])
 
 
@@ -220,7 +220,8 @@ def _count(args) -> None:
                 collected.append(int(found.group(1).replace(",", "")))
             per = (collected[1] - collected[0]) / (args.window**2 - 1)
             checksum = json.loads(report.read_text())["checksum"]
-            print(f"{root}: {per:,.0f} instructions per pixel ({args.workload} {args.search} {args.output}, "
+            levels = f" {args.levels} levels" if args.levels else ""
+            print(f"{root}: {per:,.0f} instructions per pixel ({args.workload}{levels} {args.search} {args.output}, "
                   f"{args.window}^2 window; checksum {checksum!r})", flush=True)
 
 
@@ -229,6 +230,8 @@ def main() -> None:
     ap.add_argument("--workload", choices=["table1", "lichtenberg"], default="table1",
                     help="the paper's Table 1 setup (512^2, 2 levels) or the 1024^2 Lichtenberg figure (6 levels)")
     ap.add_argument("--search", choices=["exact", "paper"], default="exact")
+    ap.add_argument("--levels", type=int, choices=range(1, 7), metavar="1..6",
+                    help="levels instead of the workload's own (Table 1: 2, Lichtenberg: 6)")
     ap.add_argument("--output", choices=["distance", "elevation", "level"], default="elevation")
     ap.add_argument("--window", type=int, default=None,
                     help="side of the centred window (default: 160 to profile, 64 to count)")

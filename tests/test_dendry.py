@@ -864,6 +864,69 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
             assert on_demand > 5, on_demand
 
 
+@pytest.mark.parametrize("kw", [dict(levels=3, eps=0.25, delta=0.1), dict(levels=4, eps=0.0, delta=0.5),
+                                dict(levels=4, eps=0.25, delta=0.1, rule="lichtenberg"),
+                                dict(levels=5, eps=0.1, delta=0.3, rule="lichtenberg", search="paper")])
+def test_levels_drawn_on_demand_bound_the_segments_they_leave_undrawn(kw):
+    # from 3 levels on a pixel draws the segments of levels 2..n-1 only where a search may need
+    # them: each one left waiting must be a segment of the whole tree whose polyline lies within
+    # the reach it records and whose link search's answer lies within the bound it records;
+    # every cell it drew equals the cached mode's; near the domain's edge it draws them all
+    # a bounded control (the Lichtenberg bowl on [-1, 1]^2), so that cells beyond its edge have no key point
+    p = DendryParams(beta=0.5, noise=0.05, seed=9, resolution=6.5, **kw)
+    dom = ((-1.4, -1.4), (1.4, 1.4))
+    ctl = control.lichtenberg(scale=0.2)
+    tree = _cached_tree((16, 16), domain=dom, control_domain=dom, params=p, control=ctl)
+    known = [{tuple(c): (k, v) for c, k, v in zip(cells.tolist(), keyp, verts)} for cells, keyp, verts in tree]
+    coarser = {level: _pieces_of(p, tree, level) for level in range(2, p.levels)}
+    rng = np.random.default_rng(5)
+    # in grid units: 16 inside, 4 by the bowl's corner (its edge at 6.5 crosses cells)
+    points = np.concatenate([rng.uniform(-2.0, 2.0, (16, 2)), rng.uniform(6.0, 6.5, (4, 2))]).astype(np.float32)
+    waiting = drawn = whole = 0
+    for n, u in enumerate(points):
+        output = ("distance", "elevation")[n % 2]
+        s = _setup(p, dom, dom, output)
+        slots = _slots_for_pixels(p, output, 1, "cpu")
+        out = wp.zeros(1, dtype=float, device="cpu")
+        wp.launch(_kp.points_kernel, dim=1, inputs=[s, ctl.struct("cpu"), _OUTPUTS[output], slots.cap, 1, 0,
+                                                    wp.array(u[None], dtype=wp.vec2, device="cpu"), *slots.arrays()],
+                  outputs=[out, slots.overflow], device="cpu")
+        blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
+        keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, int(_kd.NV), 3)
+        here = 0
+        for level in range(2, p.levels):
+            i0, j0, ni, nj = (int(v) for v in blocks[level])
+            for j in range(nj):
+                for i in range(ni):
+                    o = int(bases[level]) + j * ni + i
+                    want_k, want_v = known[level - 1][(i0 + i, j0 + j)]
+                    state = keyp[o, 3]
+                    assert state != float(_kd.STATE_WANTED)  # every cell wanted is drawn
+                    if state == float(_kd.STATE_WAIT):
+                        assert want_k[3] == float(_kd.STATE_SEGMENT) and np.array_equal(keyp[o, :2], want_k[:2])
+                        q = want_k[:2].astype(np.float64)
+                        assert np.linalg.norm(want_v[:5, :2] - q, axis=1).max() <= keyp[o, 2]
+                        a, b, _ = coarser[level]
+                        assert _piece_distance(q[None], a[:, :2], b[:, :2])[0].min() <= verts[o, 0, 0]
+                        here += 1
+                        continue
+                    # (an inherited key point's elevation is never read: a waiting parent's is its reach)
+                    assert np.array_equal(keyp[o, [0, 1, 3]], want_k[[0, 1, 3]]), (u, level, (i0 + i, j0 + j))
+                    if state == float(_kd.STATE_SEGMENT):
+                        # (elevations along the tree are computed for elevations only)
+                        z = slice(None) if output == "elevation" else slice(0, 2)
+                        assert np.array_equal(keyp[o, z], want_k[z]) and np.array_equal(verts[o, :, z], want_v[:, z])
+                        assert np.array_equal(verts[o, int(_kd.BOUND):], want_v[int(_kd.BOUND):])
+                        drawn += 1
+        waiting += here
+        whole += here == 0
+        got = dendry_points(u[None].astype(np.float64) / p.resolution, domain=dom, control_domain=dom, params=p,
+                            control=ctl, output=output, mode="pixel", device="cpu")
+        assert np.array_equal(out.numpy(), got)
+    assert waiting >= 10 and drawn > 100, (waiting, drawn)
+    assert whole >= 2  # points by the domain's corner, where cells have parents beyond it
+
+
 @pytest.mark.parametrize("trial", range(6))
 def test_per_pixel_cells_left_undrawn_never_change_a_value(device, trial):
     # random setups over the whole parameter space: the per-pixel mode, which skips drawing the
