@@ -54,8 +54,9 @@ STATE_FAR = wp.constant(3.0)  # per-pixel mode: a finest-level segment too far f
 # per-pixel mode, 2 levels: a level-1 segment no query of the pixel reads, drawn only if a link
 # search comes near the box that bounds it (see fill_links1); keyp holds its key point as for a segment
 STATE_PENDING = wp.constant(4.0)
-# per-pixel mode, 3 levels or more: a cell of levels 2..n-1 with a key point of its own whose segment
-# is drawn only if some search may need it (see prepare_levels); keyp holds (x, y, reach, state)
+# per-pixel mode, 3 levels or more, links wider than 3 x 3: a cell of levels 2..n-1 with a key
+# point of its own whose segment is drawn only if some search may need it (see prepare_levels);
+# keyp holds (x, y, reach, state)
 STATE_WAIT = wp.constant(5.0)
 STATE_WANTED = wp.constant(6.0)  # such a cell that a search may need: the next draw pass draws it
 
@@ -1270,7 +1271,7 @@ def prepare_levels(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
     keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
 ) -> int:
-    """Per-pixel mode, 3 levels or more, once level 1 is drawn: the key points of levels 2..n-1,
+    """Per-pixel mode, 3 levels or more (see :func:`build`), once level 1 is drawn: the key points of levels 2..n-1,
     without their segments. Return 1 when the pixel must draw those levels whole instead.
 
     A cell that inherits its parent's key point is stored as :func:`fill_levelk` stores it; one
@@ -1325,7 +1326,8 @@ def prepare_levels(
                         d2 = wp.length_sq(q - pp)
                         if level == 2:
                             for k in range(PIECES):
-                                d2 = wp.min(d2, piece_near(q, verts[nonneg(po * NV + k)], verts[nonneg(po * NV + k + 1)])[0])
+                                pk = piece_near(q, verts[nonneg(po * NV + k)], verts[nonneg(po * NV + k + 1)])
+                                d2 = wp.min(d2, pk[0])
                         d = widened(wp.sqrt(d2), q)
                         r = segment_reach(s, level, link_span(s, d, longest))
                         keyp[nonneg(o)] = wp.vec4(q[0], q[1], r, STATE_WAIT)
@@ -1446,27 +1448,20 @@ def want_pixel(
     ``qlo..qhi`` may need (:func:`want_finest`); store ``STATE_FAR`` for those finest cells
     that need not be drawn at all."""
     n = s.levels
+    # the longest piece of levels 1..n-1, drawn or waiting (every piece of a waiting segment
+    # lies within twice its reach), for the terrain rule's link bound
     longest = float(0.0)
-    if s.rule == 0:
-        for level in range(1, n):
-            b = blocks[nonneg(slot * SLOT + level)]
-            o = bases[nonneg(slot * SLOT + level)]
-            last = o + b[2] * b[3]
-            while o < last:
-                k = keyp[nonneg(o)]
-                if k[3] == STATE_SEGMENT:
-                    longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
-                elif k[3] == STATE_WAIT:
-                    longest = wp.max(longest, 2.0 * k[2])
-                o += 1
     lim = limit + coord_margin(u)
-    for level in range(2, n):
+    for level in range(1, n):
         b = blocks[nonneg(slot * SLOT + level)]
         o = bases[nonneg(slot * SLOT + level)]
         last = o + b[2] * b[3]
         while o < last:
             k = keyp[nonneg(o)]
-            if k[3] == STATE_WAIT:
+            if k[3] == STATE_SEGMENT:
+                longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
+            elif k[3] == STATE_WAIT:
+                longest = wp.max(longest, 2.0 * k[2])
                 if limit < 0.0 or wp.length(u - wp.vec2(k[0], k[1])) - k[2] <= lim:
                     keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
             o += 1
@@ -1502,9 +1497,10 @@ def build(
     ``qlo..qhi`` are filled; :func:`finish` fills the others. Returns (the bound on the pixel's
     answer from :func:`pixel_limit`, demand).
 
-    From 3 levels on, levels 2..n-1 are drawn on demand (demand 1; 0 when drawn whole, see
-    :func:`prepare_levels`): first the segments the query's cells need, then those that the
-    other finest cells and the pixel's queries may need (:func:`want_pixel`).
+    From 3 levels on, with links wider than the paper's 3 x 3 (``rl`` >= 2), levels 2..n-1 are
+    drawn on demand (demand 1; 0 when drawn whole, see :func:`prepare_levels`): first the
+    segments the query's cells need, then those that the other finest cells and the pixel's
+    queries may need (:func:`want_pixel`).
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
@@ -1530,7 +1526,9 @@ def build(
     fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
     demand = int(0)
-    if s.levels >= 3:
+    # (with the paper's 3 x 3 links a pixel needs most of those cells: the bounds would cost more
+    # than they save, 4-13 % more instructions per pixel)
+    if s.levels >= 3 and s.rl >= 2:
         if prepare_levels(s, ctl, blocks, bases, slot, keyp, verts) == 0:
             # levels 2..n-1 drawn on demand: what the query's finest cells need, first
             demand = 1

@@ -4,9 +4,12 @@
     python scripts/demand_dendry.py --workload table1 --levels 3
     python scripts/demand_dendry.py --search paper --pixels 80
 
-The per-pixel mode builds, for each pixel, every cell of its planned blocks at the levels below
-the finest (``kernels/dendry.py:build``), although most of those segments never come near a
-search. This script measures what a build driven by demand would save, before anyone writes one.
+The per-pixel mode used to build, for each pixel, every cell of its planned blocks at the levels
+below the finest, although most of those segments never come near a search. This script measured
+what a build driven by demand would save, before one was written (session 20). Since session 21
+the kernels draw levels 2..n-1 on demand from 3 levels on (``kernels/dendry.py:prepare_levels``),
+with the ``key`` bound below, a cell's searches gathered per level into one box
+(``want_box``); the script still measures the bounds one search at a time.
 It takes the cells of the cached mode (the same values the per-pixel mode draws) around a window
 and, for sample pixels of it, replays two builds in Python (distance output):
 
