@@ -1,6 +1,7 @@
 """trace(): forest invariants, exact steps, shortest-path optimality against SciPy, extension, bad input."""
 
 import os
+import re
 import sys
 
 import numpy as np
@@ -177,6 +178,7 @@ MASK[:, 4] = False
         ([[0, 6]], ValueError, "unreachable"),
         ([[0.5, 1]], TypeError, "endpoints"),
         (np.zeros((0, 2), int), ValueError, "empty"),
+        ([[1, 2], [3]], ValueError, "'endpoints' in rows of one length"),
     ],
 )
 def test_bad_endpoints(ends, exc, words):
@@ -196,6 +198,19 @@ def test_bad_trace_arguments():
         wd.trace(np.zeros((8, 8)), [[1, 1]])
     with pytest.raises(TypeError, match="extend"):
         wd.trace(cf, [[1, 1]], extend="x")
+
+
+def test_path_refuses_a_row_outside_the_dendrite():
+    den = wd.trace(wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]]), [[7, 7], [3, 5]])
+    n = len(den)
+    assert den.path(np.int64(n - 1))[0] == n - 1 and den.path(0)[0] == 0
+    # -1 had given a path from the last row, 10**6 a bare IndexError
+    for row, exc in [(-1, ValueError), (n, ValueError), (10**6, ValueError), (1.0, TypeError), (True, TypeError),
+                     ("0", TypeError)]:
+        with pytest.raises(exc, match=rf"'row'.*{re.escape(repr(row))}"):
+            den.path(row)
+    with pytest.raises(ValueError, match=rf"'row' in \[0, {n}\), the dendrite's rows, but got -1"):
+        den.path(-1)
 
 
 def _reference_walk(lat, dist, label, start):

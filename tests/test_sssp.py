@@ -323,6 +323,11 @@ LAT = wd.Lattice((6, 7), 4, mask=np.pad(np.ones((5, 7), bool), ((0, 1), (0, 0)))
         ([[0, 0]], {"limit": float("nan")}, ValueError, "limit"),
         ([[0, 0]], {"delta": 0}, ValueError, "delta"),
         ([[0, 0]], {"warm_start": "x"}, TypeError, "warm_start"),
+        # ragged rows had raised NumPy's "inhomogeneous shape", naming nothing
+        ([[1, 2], [3]], {}, ValueError, "'generators' in rows of one length, but got rows of different lengths"),
+        # unsigned coordinates beyond int64 had been wrapped and reported as row -9223372036854775808
+        (np.array([[1, 1], [2**63, 0]], np.uint64), {}, ValueError,
+         "'generators' has coordinates beyond int64: 9223372036854775808 at index (1, 0)"),
     ],
 )
 def test_bad_input(gens, kwargs, exc, words):

@@ -133,10 +133,19 @@ def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
 
 def integer_array(name: str, value, what: str = "values") -> np.ndarray:
     """Return ``value`` as an int64 array; a non-integer dtype (bool included) is a TypeError
-    naming ``what`` the integers are. Empty arrays of any dtype pass (``np.asarray([])`` is float)."""
-    arr = np.asarray(value)
+    naming ``what`` the integers are. Empty arrays of any dtype pass (``np.asarray([])`` is float).
+    Ragged nested sequences and unsigned values beyond int64 are ValueErrors naming ``name``."""
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # nested sequences of different lengths
+        raise ValueError(f"Expected integer {what} for '{name}' in rows of one length, but got rows of different "
+                         f"lengths: {value!r:.200}") from None
     if arr.size and (arr.dtype.kind not in "iu" or arr.dtype == np.bool_):
         raise TypeError(f"Expected integer {what} for '{name}', but got dtype {arr.dtype}")
+    top = np.iinfo(np.int64).max
+    if arr.dtype.kind == "u" and arr.size and arr.max() > top:  # (the cast below would wrap them to negatives)
+        where = tuple(int(i) for i in np.argwhere(arr > top)[0])
+        raise ValueError(f"'{name}' has {what} beyond int64: {arr[where].item()!r} at index {where}")
     return arr.astype(np.int64)
 
 

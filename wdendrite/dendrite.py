@@ -194,7 +194,14 @@ class Dendrite:
         return count
 
     def path(self, row: int) -> np.ndarray:
-        """``(L,)`` int64 rows from node ``row`` to its root (both included)."""
+        """``(L,)`` int64 rows from node ``row`` to its root (both included).
+
+        Raises:
+            TypeError, ValueError: ``row`` not an integer in ``[0, len(self))``.
+        """
+        n = len(self)
+        if _checks.integer("row", row) < 0 or row >= n:  # (a negative row would count from the end)
+            raise ValueError(f"Expected 'row' in [0, {n}), the dendrite's rows, but got {row!r}")
         out = [int(row)]
         while self.parent[out[-1]] >= 0:
             out.append(int(self.parent[out[-1]]))
