@@ -10,6 +10,12 @@ import wdendrite as wd
 from wdendrite.lattice import half_offsets
 
 
+def test_half_offsets_take_an_integer_connectivity_only():
+    with pytest.raises(TypeError, match="'connectivity', but got 8.0"):
+        half_offsets(2, 8.0)
+    assert len(half_offsets(2, np.int64(8))) == 4
+
+
 @pytest.mark.parametrize("ndim,conn,k", [(2, 4, 2), (2, 8, 4), (3, 6, 3), (3, 26, 13)])
 def test_half_offsets_cover_every_direction_once(ndim, conn, k):
     off = half_offsets(ndim, conn)
@@ -71,6 +77,12 @@ def test_edges_match_brute_force(shape, conn):
         (dict(shape=(2.5, 4)), TypeError, "shape"),
         (dict(shape=5), TypeError, "shape"),
         (dict(shape=(4, 4), connectivity=6), ValueError, "(4, 8)"),
+        # floats, bools and text had been taken as a connectivity, or as true
+        (dict(shape=(4, 4), connectivity=4.0), TypeError, "'connectivity', but got 4.0"),
+        (dict(shape=(4, 4), connectivity=True), TypeError, "'connectivity', but got True"),
+        (dict(shape=(4, 4), weights=wd.weights.Uniform(), store_weights="no"), TypeError,
+         "'store_weights', but got 'no'"),
+        (dict(shape=(4, 4), weights=wd.weights.Uniform(), store_weights=0), TypeError, "'store_weights', but got 0"),
         (dict(shape=(4, 4, 4), connectivity=8), ValueError, "(6, 26)"),
         (dict(shape=(4, 4), weights=np.ones((3, 4, 4))), ValueError, "(2, 4, 4)"),
         (dict(shape=(4, 4), weights=np.ones((2, 4, 4), dtype=bool)), TypeError, "bool"),

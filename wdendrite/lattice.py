@@ -27,7 +27,7 @@ def half_offsets(ndim: int, connectivity: int) -> np.ndarray:
     """
     if ndim not in _ALLOWED:
         raise ValueError(f"Expected a lattice rank of 2 or 3, but got {ndim}")
-    if connectivity not in _ALLOWED[ndim]:
+    if _checks.integer("connectivity", connectivity) not in _ALLOWED[ndim]:
         raise ValueError(
             f"Expected 'connectivity' in {_ALLOWED[ndim]} for a {ndim}D lattice, but got {connectivity!r}"
         )
@@ -337,7 +337,7 @@ class Lattice:
         self._device_arrays: dict[str, LatticeArrays] = {}
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
         self._num_usable: int | None = None
-        self._stored = bool(store_weights)
+        self._stored = _checks.flag("store_weights", store_weights)
         source = None
         if not store_weights:
             if self.distribution is None:
