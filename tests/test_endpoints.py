@@ -303,7 +303,9 @@ def test_in_band_refuses_a_band_above_the_cost_fields_limit():
         (lambda: ep.in_band(np.zeros((10, 10)), 3, 5.0, 0.0), ValueError, "'r'"),
         (lambda: ep.in_band(np.zeros((10, 10)), 3, float("nan"), 1.0), ValueError, "'d'"),
         (lambda: ep.in_band(np.zeros((10, 10), np.int32), 3, 5.0, 1.0), TypeError, "'cost'"),
-        (lambda: ep.in_band(np.zeros((10,)), 3, 5.0, 1.0), ValueError, "'shape'"),
+        (lambda: ep.in_band(np.zeros((10,)), 3, 5.0, 1.0), ValueError, r"'cost' as a non-empty 2D .*shape \(10,\)"),
+        (lambda: ep.in_band(np.zeros((0, 4)), 3, 5.0, 1.0), ValueError, r"'cost' .*shape \(0, 4\)"),
+        (lambda: ep.manual((10, 10), [[1, 2], [3]]), ValueError, "'points' in rows of one length"),
     ],
 )
 def test_bad_input_raises_clearly(call, error, match):

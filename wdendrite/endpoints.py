@@ -599,6 +599,9 @@ def in_band(
         dist = np.asarray(cost)
         if dist.dtype.kind != "f":
             raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
+        if dist.ndim not in (2, 3) or dist.size == 0:  # (the lattice check would name a 'shape' never given)
+            raise ValueError(f"Expected 'cost' as a non-empty 2D (H, W) or 3D (D, H, W) array, but got shape "
+                             f"{dist.shape}")
         shape, mask = _space(dist.shape)
         cost = dist.reshape(-1)
     d = _finite("d", d)
