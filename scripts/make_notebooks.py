@@ -96,7 +96,7 @@ show(res.image)'''),
         ("code", '''\
 res = presets.tropisms((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
-        ("md", "**Competition**: two dendrites grown at once never touch (2007 paper, Fig. 14):"),
+        ("md", "**Competition**: two dendrites grown at once never share a node (2007 paper, Fig. 14):"),
         ("code", '''\
 res = presets.competition((96, 96) if SMALL else (300, 300))
 show(res.image)'''),

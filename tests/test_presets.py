@@ -67,12 +67,27 @@ def test_lightning_main_stroke_runs_from_the_top_to_the_bottom():
     assert second is not None and len(second)
 
 
-def test_competing_dendrites_never_share_or_touch_nodes():
+def test_competing_dendrites_never_share_a_node():
     den = run("competition").dendrite
     assert set(np.unique(den.label)) == {0, 1}
     a = den.nodes[den.label == 0]
     b = den.nodes[den.label == 1]
     assert not ({tuple(p) for p in a} & {tuple(p) for p in b})
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5, 6, 8, 10, 15])
+def test_competition_guarantees_what_it_says_over_seeds(seed):
+    # at these seeds nodes of the two dendrites lie side by side: the docstring had said they never touch
+    doc = " ".join(presets.competition.__doc__.split())
+    assert "never touch" not in doc and "never share a node" in doc
+    den = presets.competition((64, 64), seed=seed).dendrite
+    assert sorted(den.label[den.roots].tolist()) == [0, 1]
+    # one node, one dendrite: no coordinates twice, and every branch stays in its generator's dendrite
+    assert len({tuple(p) for p in den.nodes.tolist()}) == len(den)
+    child = np.flatnonzero(den.parent >= 0)
+    np.testing.assert_array_equal(den.label[child], den.label[den.parent[child]])
+    for row in range(len(den)):
+        assert den.label[den.path(row)[-1]] == den.label[row]
 
 
 def test_letter_paths_stay_inside_the_letters():
@@ -180,6 +195,76 @@ def test_bad_input(call, match):
 def test_bad_preset_values_raise_before_any_kernel(func, kw, match, launches):
     with pytest.raises(ValueError, match=match):
         func(**kw)
+    assert launches == []
+
+
+@pytest.mark.parametrize(
+    "func, kw, exc, match",
+    [
+        # empty and scalar lists had raised bare IndexErrors and TypeErrors
+        (presets.weight_distributions, dict(shape=(32, 32), ns=()), ValueError, r"'ns' as a non-empty list.*got \(\)"),
+        (presets.weight_distributions, dict(shape=(32, 32), ns=2), TypeError, r"'ns' as a non-empty list.*got 2$"),
+        (presets.tropisms, dict(shape=(32, 32), toward=()), ValueError, r"'toward' as a non-empty list.*got \(\)"),
+        (presets.fractal_grid, dict(cell=32, alphas=()), ValueError, r"'alphas' as a non-empty list"),
+        (presets.fractal_grid, dict(cell=32, betas=()), ValueError, r"'betas' as a non-empty list"),
+        (presets.fractal_grid, dict(cell=32, alphas=2.0), TypeError, r"'alphas' as a non-empty list.*got 2.0"),
+        (presets.fractal_grid, dict(cell=32, betas=np.array([[2.0]])), ValueError, r"'betas' as a non-empty list"),
+        # one name is no list of names (its letters had been read as tropisms)
+        (presets.tropisms, dict(shape=(32, 32), toward="left"), ValueError, r"'toward'.*the string 'left': a sequence"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), toward="top"), ValueError, r"the string 'top': a sequence"),
+        # a repeated entry had drawn two panels but kept one dendrite in parts["dendrites"]
+        (presets.tropisms, dict(shape=(32, 32), toward=["left", "left"]), ValueError, r"'toward' lists 'left' twice"),
+        (presets.tropism_objects, dict(shape=(16, 16, 16), toward=("axis", "top", "axis")), ValueError,
+         r"'toward' lists 'axis' twice"),
+        (presets.weight_distributions, dict(shape=(32, 32), ns=[1, 1]), ValueError, r"'ns' lists 1 twice"),
+        (presets.weight_distributions, dict(shape=(32, 32), ns=[2, 0, 2.0]), ValueError, r"'ns' lists 2.0 twice"),
+        (presets.fractal_grid, dict(cell=32, alphas=(2.0, 1.5, 2.0)), ValueError, r"'alphas' lists 2.0 twice"),
+        (presets.fractal_grid, dict(cell=32, betas=(3.0, 3)), ValueError, r"'betas' lists 3 twice"),
+        # a float connectivity had been taken for the integer
+        (presets.weight_distributions, dict(shape=(16, 16), connectivity=8.0), TypeError, r"'connectivity'.*8.0"),
+    ],
+)
+def test_panel_lists_are_non_empty_sequences_without_repeats(func, kw, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        func(**kw)
+    assert launches == []
+
+
+def test_panel_lists_key_every_panel():
+    res = presets.weight_distributions((16, 16), ns=np.array([0.5, 2.0]), endpoints=3, seed=1)
+    assert list(res.parts["dendrites"]) == [0.5, 2.0]
+
+
+def test_costs_refuse_more_generators_than_nodes_before_any_kernel(launches):
+    from wdendrite import _models
+
+    with pytest.raises(ValueError, match=r"'generators' <= 64 \(the node count of the 8 x 8 lattice\), but got 1000"):
+        _models.costs(8, generators=1000)
+    assert launches == []
+
+
+def test_costs_with_every_node_a_generator_make_a_flat_picture(monkeypatch):
+    import warnings
+
+    from wdendrite import _checks, _models
+
+    class EveryNode:
+        def integers(self, low, high, size):
+            return np.indices((8, 8)).reshape(2, -1).T
+
+    monkeypatch.setattr(_checks, "rng", lambda seed: EveryNode())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (a division by 0 had warned and made NaN bands)
+        made = _models.costs(8, generators=64)
+    assert np.all(made.parts["field"] == 0)
+    assert np.isfinite(made.image).all() and np.all(made.image[..., 1] == made.image[0, 0, 1])
+
+
+def test_the_fractal_command_refuses_a_d_beyond_every_path_cost(launches):
+    from wdendrite import _models
+
+    with pytest.raises(ValueError, match=r"^Expected 'd' <= \S+ on a 32 x 32 lattice .*but got 1e\+30$"):
+        _models.fractal(32, d=1e30)
     assert launches == []
 
 

@@ -9,6 +9,7 @@ name there takes precedence.
 from __future__ import annotations
 
 import dataclasses
+import math
 import typing
 from dataclasses import dataclass
 from dataclasses import field as dataclass_field
@@ -62,6 +63,12 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
     from . import FractalParams, Lattice, grow, weights
 
     size = _checks.integer("size", size, low=8)
+    # no least path costs more than one costliest edge (a diagonal, sqrt(2) (1 + r)) per node: a first band
+    # (0.9 d, 1.1 d) above that holds nothing, and so many empty iterations would overflow the endpoint counts
+    most = (size * size - 1) * math.sqrt(2.0) * 11.0
+    if d is not None and _checks.positive("d", d) * 0.9 > most:
+        raise ValueError(f"Expected 'd' <= {most / 0.9:.6g} on a {size} x {size} lattice (no path on it costs more "
+                         f"than {most:.6g}), but got {d!r}")
     # defaults: a sparse, readable fractal whose first branches reach most of the way out
     params = FractalParams(count=count, d=1.2 * size if d is None else d, alpha=alpha, beta=beta,
                            epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
@@ -85,12 +92,16 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
 
     _checks.integer("size", size, low=8)
     _checks.integer("generators", generators, low=1)
+    if generators > size * size:  # no lattice holds more distinct generators (refused before the search)
+        raise ValueError(f"Expected 'generators' <= {size * size} (the node count of the {size} x {size} lattice), "
+                         f"but got {generators!r}")
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     gens = _checks.rng(seed).integers(0, size, size=(generators, 2))
     cf = shortest_paths(lat, gens)
     d = cf.dist
     # banded costs show the wavefronts; the label field tints each generator's region
-    bands = 0.5 + 0.5 * np.cos(d / (d[np.isfinite(d)].max() / 12.0) * 2 * np.pi)
+    top = float(d[np.isfinite(d)].max())  # 0 when every node is a generator: one flat band
+    bands = 0.5 + 0.5 * np.cos(d / (top / 12.0 if top > 0 else 1.0) * 2 * np.pi)
     tint = (cf.label * 0.61803) % 1.0
     rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
     return Made(rgb, parts={"field": d})

@@ -105,6 +105,24 @@ def _tile(panels: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:
     return out
 
 
+def _entries(name: str, values, what: str, check=lambda v: v) -> list:
+    """``values``, one entry per panel, as a list of ``check(entry)``: a non-empty list, tuple or 1D
+    array without repeats (each entry keys its panel's dendrite in ``parts["dendrites"]``)."""
+    if isinstance(values, (str, bytes)):
+        raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got the string {values!r}: a "
+                         "sequence of them is expected, not one string")
+    if not isinstance(values, (list, tuple, np.ndarray)):
+        raise TypeError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
+    if len(values) == 0 or (isinstance(values, np.ndarray) and values.ndim != 1):
+        raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
+    out = [check(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
+    for i, v in enumerate(out):
+        if v in out[:i]:
+            raise ValueError(f"'{name}' lists {values[i]!r} twice; each entry is one panel, keyed by it in "
+                             "parts['dendrites']")
+    return out
+
+
 _REACH = 0.85
 """Fraction of its half-width (in path cost) a fractal preset's schedule reaches: the first
 endpoints lie at cost d from the generator and each later iteration's d / alpha^k beyond the
@@ -179,6 +197,7 @@ def fractal_grid(
     of the way to the border. ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
     holds every panel's, keyed by ``(alpha, beta)``."""
     cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
+    alphas, betas = _entries("alphas", alphas, "attenuations"), _entries("betas", betas, "branching factors")
     for b in betas:  # every panel's schedule checked before the first grows
         for a in alphas:
             _fractal_params(cell // 2, 1.0, a, b, iterations, count)
@@ -243,17 +262,17 @@ def _polynomial(shape, n: float, seed: int, connectivity: int):
     return (lengths.reshape(-1, 1, 1) * (1.0 + v**n)).astype(np.float32)
 
 
-def weight_distributions(shape=(200, 200), *, ns=(0, 1, 4, 8), endpoints: int = 20, connectivity: int = 4,
-                         seed: int = 0) -> Result:
+def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 8), endpoints: int = 20,
+                         connectivity: int = 4, seed: int = 0) -> Result:
     """The same endpoints under ``W = 1 + v^n`` for each n (thesis section 4.2): Manhattan to very erratic.
     The thesis' lattice is 4-connected, where n = 0 makes Manhattan paths; on an 8-connected one
     (``connectivity=8``) they run straight and at 45 degrees instead. For n > 4, v is drawn from
     (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays 1e8 and float32 path costs
     resolve every edge (with 1e16 cheap edges vanish from the sums)."""
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
-    if connectivity not in (4, 8) or isinstance(connectivity, bool):
+    if _checks.integer("connectivity", connectivity) not in (4, 8):
         raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
-    ns = [_checks.finite("ns", n) for n in ns]
+    ns = _entries("ns", ns, "exponents", lambda n: _checks.finite("ns", n))
     if any(n < 0 for n in ns):
         raise ValueError(f"Expected every entry of 'ns' >= 0, but got {min(ns)!r}")
     _checks.seed32(seed)
@@ -270,13 +289,18 @@ def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), str
     Unlike the papers, whose root sits at the bottom among scattered endpoints, the root is at the
     centre, so that the four directions show side by side on the same footing."""
     shape = _shape(shape, 2)
+    toward = _entries("toward", toward, f"tropism names from {_w._TOWARD}")
     dists = [_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength) for t in toward]
     panels, dens = _panels_of_weights(shape, dists, _checks.integer("endpoints", endpoints, low=1), seed, band=True)
     return Result(_tile(panels, len(dists)), dens[0], parts={"dendrites": dict(zip(toward, dens))})
 
 
 def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
-    """Two dendrites grown at once compete for space and never touch (2007 paper, Fig. 14; thesis Fig. 5.3)."""
+    """Two dendrites grown at once compete for space (2007 paper, Fig. 14; thesis Fig. 5.3).
+
+    Each node belongs to one of them (``label`` 0 or 1) and they never share a node. They do not keep
+    a gap: their nodes may lie side by side, and nothing keeps a diagonal edge of one from crossing
+    one of the other inside a lattice cell (see :class:`~wdendrite.Dendrite`)."""
     shape, count = _shape(shape, 2), _checks.integer("count", count, low=2)
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
     gens = np.array([[shape[0] // 2, shape[1] // 3], [shape[0] // 2, 2 * shape[1] // 3]])
@@ -573,8 +597,7 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
     """3D objects from spatially varying weights (constructive path planning Fig. 5): the same endpoints, biased
     toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``."""
     shape = _shape(shape, 3)
-    if isinstance(toward, str) or not isinstance(toward, (list, tuple)) or not toward:
-        raise ValueError(f"Expected 'toward' as a non-empty list of tropisms from {_w._TOWARD}, but got {toward!r}")
+    toward = _entries("toward", toward, f"tropism names from {_w._TOWARD}")
     for t in toward:
         _w.Tropism(t, strength=strength)  # each kind and the strength checked before any search
     d, h, w = shape
