@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import shutil
 import sys
@@ -700,3 +701,14 @@ def test_zarr_chunks_fit_the_image_and_the_suffix_is_read_in_any_case(tmp_path):
     out = batch.write_tiled(value, (5, 7), 8192, tmp_path / "v.ZARR")
     arr = zarr.open_array(str(out), mode="r")  # (an upper-case suffix had made an NPY file)
     assert arr.chunks == (5, 7) and np.array_equal(arr[:], value((0, 0, 5, 7)))
+
+
+def test_tile_windows_name_a_bad_tile_and_write_tiled_a_missing_folder_before_any_tile(tmp_path):
+    with pytest.raises(ValueError, match=r"'tile' >= 1, but got 0"):
+        batch.tile_windows((10, 13), 0)
+    calls = []
+    missing = tmp_path / "missing" / "x.npy"
+    with pytest.raises(ValueError, match=rf"'path' {re.escape(repr(str(missing)))}: the folder .*missing' does not "
+                                         "exist"):
+        batch.write_tiled(lambda w: calls.append(w) or _ramp(w), (10, 13), 4, missing)
+    assert calls == [] and list(tmp_path.iterdir()) == []

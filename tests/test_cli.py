@@ -456,6 +456,15 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     # 1 / resolution overflowed float32: an all-NaN file was written
     (["dendry", "--size", "16", "--output", "elevation", "--resolution", "1e-40", "-o", "z.npy"], None,
      ["'resolution' in [1e-30, 1000000.0], but got 1e-40 (--resolution)"]),
+    # every node a generator had made NaN bands (refused at the save); 99999999 had run 24 s first
+    (["costs", "--size", "8", "--generators", "1000"], None, ["'generators' <= 64", "but got 1000 (--generators)"]),
+    (["costs", "--size", "8", "--generators", "99999999"], None, ["'generators' <= 64", "(--generators)"]),
+    # the schedule from so large a d had overflowed its endpoint counts, blamed on --count and --beta
+    (["fractal", "--size", "32", "--d", "1e30"], None, ["'d' <= ", "but got 1e+30 (--d)"]),
+    (["tropisms", "--size", "32", "--toward", "left,left"], None, ["'toward' lists 'left' twice", "(--toward)"]),
+    (["weight-distributions", "--size", "32", "--ns", "1,1.0"], None, ["'ns' lists 1.0 twice", "(--ns)"]),
+    # a value the config file gave is said to come from it, not from an option never given
+    (["tropism-objects", "--size", "16"], "seed = -3\n", ["but got -3 ('seed' from config file 'c.toml')"]),
 ])
 def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
@@ -576,3 +585,25 @@ def test_heightmap_scales_the_finite_values_and_paints_inf_white():
     np.testing.assert_array_equal(cli._heightmap(z), [[0.0, 1.0], [0.5, 1.0]])
     with pytest.raises(UsageError, match="NaN"):
         cli._heightmap(np.array([[0.0, np.nan]]))
+
+
+def test_exponents_of_weight_distributions_may_be_any_real_number(tmp_path, monkeypatch, capsys):
+    prm = all_presets()["weight-distributions"].params["ns"]
+    assert prm.convert("0.5,2") == (0.5, 2.0) and prm.metavar() == "X,X,..."
+    assert "(default: 0,1,4,8)" in prm.help_text()  # the default reads as before
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["weight-distributions", "--size", "16", "--endpoints", "3", "--ns", "0.5,2", "-o", "w.npz",
+                     "--quiet"]) == 0, capsys.readouterr().err
+    assert (tmp_path / "w.npz").exists()
+
+
+def test_a_config_file_that_is_not_utf8_is_named(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.toml").write_bytes(b"seed = 1\n\xff = 2\n")
+    assert cli.main(["fractal", "--size", "16", "--config", "c.toml", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--config 'c.toml' is not UTF-8 text" in err
+    # an option given on the command line is named as the option, even when the file sets it too
+    (tmp_path / "c.toml").write_text("seed = 1\n")
+    assert cli.main(["tropism-objects", "--size", "16", "--config", "c.toml", "--seed", "-2", "--quiet"]) == 2
+    assert capsys.readouterr().err.strip().endswith("but got -2 (--seed)")

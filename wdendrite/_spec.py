@@ -505,9 +505,12 @@ def read_toml(path, what: str) -> dict:
             raise UsageError(f"reading {what} needs tomli on Python < 3.11: pip install tomli") from None
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8")  # (TOML files are UTF-8, whatever the locale)
     except OSError as exc:
         raise UsageError(f"{what} {str(path)!r}: cannot read it ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{what} {str(path)!r} is not UTF-8 text, as TOML files must be ({exc.reason} at "
+                         f"byte {exc.start})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

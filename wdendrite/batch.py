@@ -491,7 +491,7 @@ def _tiling(shape, tile) -> tuple[tuple[int, int], int]:
 
 def tile_windows(shape, tile: int) -> list[tuple[int, int, int, int]]:
     """``(row0, col0, h, w)`` of the tiles covering an (H, W) image, row by row; edge tiles are smaller."""
-    h, w = shape
+    (h, w), tile = _tiling(shape, tile)
     return [(r, c, min(tile, h - r), min(tile, w - c)) for r in range(0, h, tile) for c in range(0, w, tile)]
 
 
@@ -681,6 +681,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
             raise ValueError(f"Expected '.npy' or '.zarr' output paths for 'path', but got {str(final)!r}")
         if final.suffix.lower() == ".npy" and final.is_dir() and not final.is_symlink():
             raise ValueError(f"'path' {str(final)!r} is a folder, not a file: it would be replaced with its contents")
+        if not final.parent.is_dir():  # (before the first tile is computed)
+            raise ValueError(f"'path' {str(final)!r}: the folder {str(final.parent)!r} does not exist or is not "
+                             "a folder")
     if client is None:
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)

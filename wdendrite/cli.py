@@ -464,11 +464,16 @@ def _unknown(argv, parser, extras) -> UsageError:
     return UsageError(f"unrecognized option {flag!r} for '{name}'{nearest(flag, options)}")
 
 
-def _values_from(args, preset) -> dict:
+def _values_from(args, preset, sources: dict | None = None) -> dict:
+    """Typed parameter values from the config file and the options (which win); ``sources`` is told
+    ``{parameter: where}`` for the values the config file gave."""
     given = {k: v for k, v in vars(args).items() if k in preset.params and k != "size"}
     values = {}
     if "config" in args:
         values.update(parse_config(args.config, preset))
+        overridden = {*given, *([preset.size_param] if "size" in args else [])}
+        if sources is not None:
+            sources.update({k: f"config file {str(args.config)!r}" for k in values if k not in overridden})
     for k, v in given.items():
         values[k] = preset.params[k].convert(v, source=f"--{k.replace('_', '-')}")
     if "size" in args:
@@ -483,6 +488,7 @@ def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     size_note = ""  # how --size became the preset's shape, for errors about that shape
     preset = None
+    sources = {}  # parameters the config file set
     try:
         import warp as wp
 
@@ -497,7 +503,7 @@ def main(argv=None) -> int:
             return run_file(args.jobs, scheduler=args.scheduler, device=args.device, workers=args.workers,
                             quiet=args.quiet, dry_run=args.dry_run, timeout=args.timeout, force=args.force)
         preset = all_presets()[args._preset]
-        values = _values_from(args, preset)
+        values = _values_from(args, preset, sources)
         if getattr(args, "size", None) is not None and isinstance(values[preset.size_param], tuple):
             size_note = f" (--size {args.size} gives {preset.size_param}={values[preset.size_param]})"
         outs = getattr(args, "out", None) or [f"{preset.name}.png"]
@@ -515,7 +521,7 @@ def main(argv=None) -> int:
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         if size_note and f"'{preset.size_param}'" not in str(exc):
             size_note = ""
-        print(f"wdendrite: error: {exc}{size_note}{_options_named(exc, preset)}", file=sys.stderr)
+        print(f"wdendrite: error: {exc}{size_note}{_options_named(exc, preset, sources)}", file=sys.stderr)
         return 2
     except BrokenPipeError:
         # the reader of our report went away (``| head``): the outputs are written, the report is not needed
@@ -535,13 +541,16 @@ def main(argv=None) -> int:
         return 1
 
 
-def _options_named(exc, preset) -> str:
+def _options_named(exc, preset, sources=None) -> str:
     """`` (--a, --b)``: the options behind the parameters a library error names in quotes
-    (the preset's checks speak of its Python parameters), or nothing."""
+    (the preset's checks speak of its Python parameters), or nothing; a value the config file
+    gave is said to come from it (``sources``: ``{parameter: where}``)."""
     if preset is None or isinstance(exc, UsageError):
         return ""
     named = dict.fromkeys(n for n in re.findall(r"'(\w+)'", str(exc)) if n in preset.params)
-    return f" ({', '.join('--' + n.replace('_', '-') for n in named)})" if named else ""
+    sources = sources or {}
+    where = [f"'{n}' from {sources[n]}" if n in sources else "--" + n.replace("_", "-") for n in named]
+    return f" ({', '.join(where)})" if named else ""
 
 
 def _tiled(preset, values: dict, outs: list, args) -> int:
