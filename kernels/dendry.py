@@ -54,9 +54,9 @@ STATE_FAR = wp.constant(3.0)  # per-pixel mode: a finest-level segment too far f
 # per-pixel mode, 2 levels: a level-1 segment no query of the pixel reads, drawn only if a link
 # search comes near the box that bounds it (see fill_links1); keyp holds its key point as for a segment
 STATE_PENDING = wp.constant(4.0)
-# per-pixel mode, 3 levels or more, links wider than 3 x 3: a cell of levels 2..n-1 with a key
-# point of its own whose segment is drawn only if some search may need it (see prepare_levels);
-# keyp holds (x, y, reach, state)
+# per-pixel mode, levels drawn on demand (see build): a cell of levels 2..n-1 with a key point of
+# its own whose segment is drawn only if some search may need it (see prepare_levels); keyp holds
+# (x, y, reach, state)
 STATE_WAIT = wp.constant(5.0)
 STATE_WANTED = wp.constant(6.0)  # such a cell that a search may need: the next draw pass draws it
 
@@ -1497,10 +1497,10 @@ def build(
     ``qlo..qhi`` are filled; :func:`finish` fills the others. Returns (the bound on the pixel's
     answer from :func:`pixel_limit`, demand).
 
-    From 3 levels on, with links wider than the paper's 3 x 3 (``rl`` >= 2), levels 2..n-1 are
-    drawn on demand (demand 1; 0 when drawn whole, see :func:`prepare_levels`): first the
-    segments the query's cells need, then those that the other finest cells and the pixel's
-    queries may need (:func:`want_pixel`).
+    With links wider than the paper's 3 x 3 (``rl`` >= 2), for the Lichtenberg rule from 3 levels
+    on and for terrains of 3 levels, levels 2..n-1 are drawn on demand (demand 1; 0 when drawn
+    whole, see :func:`prepare_levels`): first the segments the query's cells need, then those
+    that the other finest cells and the pixel's queries may need (:func:`want_pixel`).
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
@@ -1527,8 +1527,9 @@ def build(
     nowhere = wp.vec2(0.0, 0.0)
     demand = int(0)
     # (with the paper's 3 x 3 links a pixel needs most of those cells: the bounds would cost more
-    # than they save, 4-13 % more instructions per pixel)
-    if s.levels >= 3 and s.rl >= 2:
+    # than they save, 4-13 % more instructions per pixel; so they do for terrains of 4 levels or
+    # more, where the bound on the pieces of waiting cells is loose: 3 % more at 4 levels)
+    if s.levels >= 3 and s.rl >= 2 and (s.levels == 3 or s.rule == 1):
         if prepare_levels(s, ctl, blocks, bases, slot, keyp, verts) == 0:
             # levels 2..n-1 drawn on demand: what the query's finest cells need, first
             demand = 1

@@ -869,8 +869,8 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
                                 dict(levels=5, eps=0.1, delta=0.3, rule="lichtenberg"),
                                 dict(levels=4, eps=0.1, delta=0.3, rule="lichtenberg", search="paper")])
 def test_levels_drawn_on_demand_bound_the_segments_they_leave_undrawn(kw):
-    # from 3 levels on (with links wider than the paper's 3 x 3) a pixel draws the segments of
-    # levels 2..n-1 only where a search may need them: each one left waiting must be a segment of the whole tree whose polyline lies within
+    # with links wider than the paper's 3 x 3, from 3 levels on (terrains: at 3 levels) a pixel
+    # draws the segments of levels 2..n-1 only where a search may need them: each one left waiting must be a segment of the whole tree whose polyline lies within
     # the reach it records and whose link search's answer lies within the bound it records;
     # every cell it drew equals the cached mode's; near the domain's edge it draws them all
     # a bounded control (the Lichtenberg bowl on [-1, 1]^2), so that cells beyond its edge have no key point
@@ -925,8 +925,9 @@ def test_levels_drawn_on_demand_bound_the_segments_they_leave_undrawn(kw):
                             control=ctl, output=output, mode="pixel", device="cpu")
         assert np.array_equal(out.numpy(), got)
     assert drawn > 100, drawn
-    if p.search == "paper":
-        assert waiting == 0  # the paper's 3 x 3 links need most cells: all are drawn
+    if p.search == "paper" or (p.levels > 3 and p.rule == "terrain"):
+        # the paper's 3 x 3 links need most cells, and for deeper terrains the bounds are loose: all drawn
+        assert waiting == 0
     else:
         assert waiting >= 10, (waiting, drawn)
         assert whole >= 2  # points by the domain's corner, where cells have parents beyond it
