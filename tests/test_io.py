@@ -434,3 +434,59 @@ def test_a_written_file_reaches_the_disk_before_its_rename(tmp_path, monkeypatch
         names = [e for e in events if e[0] == "fsync"]
         assert len(names) == 2 and names[0][1].startswith(".out.txt.") and names[1][1] == tmp_path.name
         assert events.index(names[0]) < events.index(("rename", names[0][1])) < events.index(names[1])
+
+
+def _triangle(faces, vertices=((0, 0, 0), (1, 0, 0), (0, 1, 0))):
+    import trimesh
+
+    return trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+
+
+@pytest.mark.parametrize(
+    "mesh, match",
+    [
+        (_triangle([[0, 1, 10**9]]), r"Expected 'mesh.faces' indices in \[0, 3\), but got 1000000000"),
+        (_triangle([[0, 1, -1]]), r"Expected 'mesh.faces' indices in \[0, 3\), but got -1"),
+        # a finite vertex that float32 cannot hold is not called NaN/inf
+        (_triangle([[0, 1, 2]], ((0, 0, 0), (1e300, 0, 0), (0, 1, 0))),
+         r"'mesh.vertices' must fit in float32, but has 1 entries beyond its range \(first at \(1, 0\): "
+         r"1e\+300 \(too large for float32\)\)"),
+    ],
+    ids=["face-beyond", "face-negative", "vertex-beyond-float32"],
+)
+def test_save_mesh_refuses_faces_off_the_vertices_and_vertices_beyond_float32(tmp_path, mesh, match):
+    for fmt in MESH_FORMATS:
+        with pytest.raises(ValueError, match=match):
+            save_mesh(tmp_path / f"m.{fmt}", mesh)
+    assert os.listdir(tmp_path) == []
+
+
+def test_png_and_svg_writers_refuse_other_suffixes_and_png_bits_other_than_int_8_or_16(tmp_path):
+    img = np.zeros((4, 4))
+    for name in ("x.jpg", "x.svg", "x", "x.png.tmp"):
+        with pytest.raises(ValueError, match=rf"Expected 'path' ending in '.png' \(any case\), but got '.*{name}'"):
+            save_png(tmp_path / name, img)
+    for name in ("x.png", "x.SVGZ", "x"):
+        with pytest.raises(ValueError, match=rf"Expected 'path' ending in '.svg' \(any case\), but got '.*{name}'"):
+            save_svg(tmp_path / name, DEN2)
+    for bits in (8.0, True, "8"):
+        with pytest.raises(TypeError, match=rf"'bits', but got {bits!r}"):
+            save_png(tmp_path / "x.png", img, bits=bits)
+    assert os.listdir(tmp_path) == []
+    save_png(tmp_path / "X.PNG", img, bits=np.int64(16))
+    save_svg(tmp_path / "X.Svg", DEN2)
+    assert sorted(os.listdir(tmp_path)) == ["X.PNG", "X.Svg"]
+
+
+def test_load_dendrite_refuses_widths_of_zero_and_integers_beyond_int64(tmp_path):
+    with pytest.raises(ValueError, match=r"'path' '.*bad\.json' is not a dendrite file: 'width' must be positive, "
+                                         r"but its minimum is 0\.0"):
+        load_dendrite(_dendrite_json(tmp_path, width=[0.0] + [1.0] * (len(DEN2) - 1)))
+    path = save_dendrite(tmp_path / "good.npz", DEN2)
+    with np.load(path) as z:
+        raw = {k: z[k] for k in z.files}
+    raw["parent"] = raw["parent"].astype(np.uint64)  # the root's -1 becomes 2**64 - 1
+    np.savez(tmp_path / "u64.npz", **raw)
+    with pytest.raises(ValueError, match=r"'path' '.*u64\.npz' is not a dendrite file: Expected 'parent' rows "
+                                         r"within int64, but got 18446744073709551615"):
+        load_dendrite(tmp_path / "u64.npz")

@@ -116,6 +116,9 @@ def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu",
         first = tuple(int(i) for i in np.argwhere(bad)[0])
         v = raw[first].item()
         why = f" (too large for {np.dtype(dtype).name})" if math.isfinite(v) else ""
+        if np.isfinite(raw[bad]).all():  # finite values that only the conversion made infinite
+            raise ValueError(f"'{name}' must fit in {np.dtype(dtype).name}, but has {int(bad.sum())} entries "
+                             f"beyond its range (first at {first}: {v!r}{why})")
         raise ValueError(f"'{name}' must be finite, but has {int(bad.sum())} NaN/inf entries "
                          f"(first at {first}: {v!r}{why})")
     return arr
@@ -147,6 +150,25 @@ def integer_array(name: str, value, what: str = "values") -> np.ndarray:
         where = tuple(int(i) for i in np.argwhere(arr > top)[0])
         raise ValueError(f"'{name}' has {what} beyond int64: {arr[where].item()!r} at index {where}")
     return arr.astype(np.int64)
+
+
+def face_indices(name: str, value, n_vertices: int) -> np.ndarray:
+    """``value`` as an ``(F, 3)`` int64 array of vertex indices in ``[0, n_vertices)``.
+
+    Raises:
+        TypeError: a non-integer dtype (bool included).
+        ValueError: another shape, an index outside ``[0, n_vertices)`` (a mesh built with
+            ``process=False`` keeps any, and what reads it then reads out of bounds).
+    """
+    raw = np.asarray(value)
+    arr = integer_array(name, raw, "vertex indices")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"Expected '{name}' of shape (F, 3), but got shape {raw.shape}")
+    if raw.size:
+        lo, hi = raw.min(), raw.max()
+        if lo < 0 or hi >= n_vertices:
+            raise ValueError(f"Expected '{name}' indices in [0, {n_vertices}), but got {int(lo if lo < 0 else hi)}")
+    return arr
 
 
 def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray | None = None) -> np.ndarray:

@@ -201,6 +201,13 @@ def _png16_rgb(path, rgb: np.ndarray) -> None:
                 + chunk(b"IEND", b""))
 
 
+def _suffix(path, suffix: str) -> None:
+    """Refuse a ``path`` whose suffix is not ``suffix`` (any case): the file would hold another format
+    than its name says."""
+    if Path(path).suffix.lower() != suffix:
+        raise ValueError(f"Expected 'path' ending in {suffix!r} (any case), but got {str(path)!r}")
+
+
 def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False) -> Path:
     """Save a grey (H, W) or colour (H, W, 3|4) image with values in [0, 1] as an 8- or 16-bit PNG.
 
@@ -208,18 +215,19 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     (Pillow has no 16-bit RGB mode). The write is atomic.
 
     Raises:
-        ValueError: an empty image, a bad shape, NaN or inf values, integer values outside
-            [0, 1] (0-255 levels, say), ``bits`` not 8 or 16, a missing folder, a ``path`` that
-            is a folder.
-        TypeError: an image that is not numbers (bool images are fine).
+        ValueError: a ``path`` not ending in ``.png`` (any case), an empty image, a bad shape, NaN
+            or inf values, integer values outside [0, 1] (0-255 levels, say), ``bits`` not 8 or
+            16, a missing folder, a ``path`` that is a folder.
+        TypeError: an image that is not numbers (bool images are fine), ``bits`` not an int.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from PIL import Image
 
-    _target(path, overwrite)
+    _target(path, overwrite)  # (a folder is named as one, whatever its suffix)
+    _suffix(path, ".png")
     img = _checks.finite_array("image", image, "(H, W), (H, W, 3) or (H, W, 4)",
                                lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=None)
-    if bits not in (8, 16):
+    if _checks.integer("bits", bits) not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
     if img.dtype.kind in "iu" and (img.min() < 0 or img.max() > 1):
         # float values beyond [0, 1] are clipped (light that saturates); integer ones are levels
@@ -272,9 +280,10 @@ def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False)
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: an unknown format (the message lists the allowed ones), a mesh without faces
-            or with NaN/inf vertices, a missing folder, a ``path`` that is a folder.
-        TypeError: ``mesh`` is not a mesh.
+        ValueError: an unknown format (the message lists the allowed ones), a mesh without faces,
+            with NaN/inf vertices or vertices too large for float32, faces that are not ``(F, 3)``
+            or index no vertex, a missing folder, a ``path`` that is a folder.
+        TypeError: ``mesh`` is not a mesh, faces that are not integers.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     fmt = _format(path, format, MESH_FORMATS, "mesh")
@@ -283,7 +292,8 @@ def save_mesh(path, mesh, *, format: str | None = None, overwrite: bool = False)
         raise TypeError(f"Expected a trimesh.Trimesh for 'mesh', but got {type(mesh).__name__}")
     if not len(mesh.faces):
         raise ValueError("Expected a trimesh.Trimesh with at least one face for 'mesh', but it has none")
-    _checks.finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
+    verts = _checks.finite_array("mesh.vertices", mesh.vertices, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
+    _checks.face_indices("mesh.faces", mesh.faces, len(verts))
     if fmt == "glb":
         mesh = mesh.copy()
         mesh.apply_transform(_Z_UP_TO_Y_UP)
@@ -393,7 +403,8 @@ def load_dendrite(path, *, format: str | None = None):
 
     Raises:
         ValueError: an unknown suffix, or a file that is not a dendrite file (unreadable,
-            missing arrays, arrays that do not make a dendrite); the message names the file.
+            missing arrays, arrays that do not make a dendrite, integers beyond int64, widths
+            that are not positive); the message names the file.
         FileNotFoundError: ``path`` does not exist.
     """
     from .dendrite import Dendrite
@@ -421,8 +432,8 @@ def load_dendrite(path, *, format: str | None = None):
             spacing=raw["spacing"].item() if np.ndim(raw["spacing"]) == 0 else raw["spacing"],
         )
         width = _checks.finite_array("width", raw["width"], "1D (N,)", lambda s: len(s) == 1).reshape(-1)
-        if (width < 0).any():
-            raise ValueError(f"'width' must be non-negative, but its minimum is {width.min()}")
+        if (width <= 0).any():  # (save_dendrite writes node_widths, which are > 0)
+            raise ValueError(f"'width' must be positive, but its minimum is {width.min()}")
     except (TypeError, ValueError) as err:
         raise ValueError(f"'path' {str(path)!r} is not a dendrite file: {err}") from None
     if width.shape != (len(den),):
@@ -483,15 +494,17 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
         overwrite: replace an existing file.
 
     Raises:
-        ValueError: a 3D or empty dendrite, a colour holding characters that cannot appear in
-            an SVG paint value (the name itself is not checked: viewers skip strokes of an
-            unknown colour), a missing folder, a ``path`` that is a folder.
+        ValueError: a ``path`` not ending in ``.svg`` (any case), a 3D or empty dendrite, a colour
+            holding characters that cannot appear in an SVG paint value (the name itself is not
+            checked: viewers skip strokes of an unknown colour), a missing folder, a ``path`` that
+            is a folder.
         TypeError: a colour that is not a string.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
     """
     from .dendrite import Dendrite
 
-    _target(path, overwrite)
+    _target(path, overwrite)  # (a folder is named as one, whatever its suffix)
+    _suffix(path, ".svg")
     if not isinstance(dendrite, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
     _svg_colour("color", color)
