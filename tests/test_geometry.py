@@ -166,7 +166,7 @@ def test_marching_only_near_the_surface_gives_the_same_mesh():
     cf = wd.shortest_paths(lat, np.array([[2, 11, 12], [18, 3, 3], [18, 19, 21], [10, 20, 2]]))
     rock = region_mesh(cf.label, 0)
     field = np.pad(signed_region_field(cf.label == 0, band=2.0), 1, constant_values=0.5)
-    v, f, _, _ = marching_cubes(field, 0.0)
+    v, f, _, _ = marching_cubes(field, 0.0, method="lorensen")  # (region_mesh's cases)
     assert len(rock.faces) == len(f) and rock.is_watertight
     np.testing.assert_allclose(np.sort(rock.vertices, axis=0), np.sort(v[:, ::-1] - 1.0, axis=0), atol=1e-5)
     iso = isosurface(DEN, Taper(2.0, 1.0))
@@ -357,3 +357,81 @@ def test_a_single_straight_chain_is_one_closed_tube():
     assert len(mesh.faces) == 2 * 8 * 2 + 2 * 8 and mesh.is_watertight
     polygon_area = 0.5 * 8 * np.sin(2 * np.pi / 8)
     assert mesh.volume == pytest.approx(polygon_area * 2.0, rel=1e-9)
+
+
+def _region_meshes_closed(labels, region) -> bool:
+    mesh = region_mesh(labels, region)
+    return mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+
+
+def test_region_meshes_are_closed_where_nodes_touch_along_an_edge_only():
+    # nodes of a region that share an edge but no face: the field is +-1/2 across each such cube face,
+    # a tie that scikit-image's Lewiner cases split one way from one cube and the other way from the next
+    labels = np.zeros((3, 3, 3), np.int32)
+    labels[1] = [[0, 1, 1], [1, 0, 1], [0, 0, 0]]
+    labels[2] = [[1, 0, 1], [1, 1, 0], [0, 0, 0]]
+    assert _region_meshes_closed(labels, 1)
+    rng = np.random.default_rng(5)
+    for i in range(40):
+        mask = rng.random((8, 8, 8)) < rng.uniform(0.15, 0.85)
+        mask[rng.integers(0, 8, 3).tolist()] = True  # (never empty)
+        assert _region_meshes_closed(mask.astype(np.int32), 1), i
+    # a segmentation of several regions, each closed
+    cf = wd.shortest_paths(wd.Lattice((10, 10, 10), 26, weights=wd.weights.Uniform(r=10, seed=3)),
+                           rng.integers(0, 10, (6, 3)))
+    for region in np.unique(cf.label):
+        assert _region_meshes_closed(cf.label, region), region
+
+
+@pytest.mark.parametrize("radius", [3e5, 1e30])
+def test_isosurfaces_of_huge_radii_are_closed(radius):
+    # every node lies inside: the surface closes on the padded border, halfway past the lattice's edge
+    two = wd.Dendrite.from_arrays((3, 3, 3), [[1, 1, 1], [2, 2, 2]], [-1, 0])
+    mesh = isosurface(two, radius)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    np.testing.assert_allclose(mesh.bounds, [[-0.5] * 3, [2.5] * 3], atol=1e-3)
+
+
+def test_spheres_refuse_more_subdivisions_than_memory_allows(monkeypatch):
+    one = wd.Dendrite.from_arrays((3, 3, 3), [[1, 1, 1]], [-1])
+    with pytest.raises(ValueError, match=r"'subdivisions' <= 8 \(1310720 faces per sphere\), but got 12"):
+        spheres(one, subdivisions=12)
+    with pytest.raises(ValueError, match=r"'subdivisions' <= 8 .*, but got 1000000000"):
+        spheres(one, subdivisions=10**9)
+    # allowed subdivisions, but more spheres than memory holds: refused before they are built
+    monkeypatch.setattr(wd._checks, "available_bytes", lambda device: 2**20)
+    with pytest.raises(MemoryError, match=rf"spheres\(\) of {len(DEN)} nodes with 'subdivisions' = 3"):
+        spheres(DEN, subdivisions=3)
+    assert len(spheres(one, subdivisions=1).faces) == 80
+
+
+def _triangle(faces):
+    import trimesh
+
+    return trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=faces, process=False)
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: preview(_triangle([[0, 1, 10**9]]), size=(32, 32)), ValueError,
+         r"Expected 'mesh.faces' indices in \[0, 3\), but got 1000000000"),
+        (lambda: preview(_triangle([[0, 1, -1]]), size=(32, 32)), ValueError,
+         r"Expected 'mesh.faces' indices in \[0, 3\), but got -1"),
+        (lambda: preview([_triangle([[0, 1, 2]]), _triangle([[0, 1, 3]])], size=(32, 32)), ValueError,
+         r"'mesh\[1\].faces' indices in \[0, 3\), but got 3"),
+        (lambda: preview(_triangle([[0, 1, 2]]), color=(2, -1, 0.5)), ValueError,
+         r"'color' RGB values in \[0, 1\], but got \(2, -1, 0.5\)"),
+        (lambda: preview([_triangle([[0, 1, 2]])] * 2, color=[(1, 0, 0), (0, 0, 1.5)]), ValueError,
+         r"'color' RGB values in \[0, 1\]"),
+        (lambda: preview(_triangle([[0, 1, 2]]), background=(5, 5, 5)), ValueError,
+         r"'background' RGB values in \[0, 1\], but got \(5, 5, 5\)"),
+    ],
+    ids=["face-beyond", "face-negative", "face-in-a-list", "color", "colors", "background"],
+)
+def test_preview_refuses_faces_off_the_vertices_and_colours_outside_0_1(call, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        call()
+    assert launches == []
+    img = preview(_triangle([[0, 1, 2]]), size=(16, 16), color=(0, 1, 0), background=(0, 0, 0))
+    assert img.min() >= 0 and img.max() <= 1 and img[..., 1].max() > 0 and launches

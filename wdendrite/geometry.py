@@ -79,6 +79,11 @@ def _int_arg(name: str, value, low: int) -> int:
     return int(value)
 
 
+MAX_SUBDIVISIONS = 8
+"""Most icosphere subdivisions of :func:`spheres`: 20 * 4**8 (1.3 million) faces per sphere;
+each more takes four times the memory."""
+
+
 def spheres(dendrite: Dendrite, radius: Width = 1.0, *, side: Width | None = None, subdivisions: int = 1):
     """A sphere at every node of a 3D dendrite, merged into one mesh (the papers' elm trees and coral).
 
@@ -87,13 +92,25 @@ def spheres(dendrite: Dendrite, radius: Width = 1.0, *, side: Width | None = Non
         radius: sphere radius in world units: a constant > 0, a
             :class:`~wdendrite.render.Taper` or an ``(N,)`` array.
         side: optional radius of side branches (see :func:`~wdendrite.render.node_widths`).
-        subdivisions: icosphere subdivisions (0: 20 faces per sphere, 1: 80, 2: 320).
+        subdivisions: icosphere subdivisions (0: 20 faces per sphere, 1: 80, 2: 320), at most
+            :data:`MAX_SUBDIVISIONS` (8).
 
     Returns:
         A :class:`trimesh.Trimesh` of ``N`` closed spheres (watertight, outward normals).
+
+    Raises:
+        ValueError: an empty or 2D dendrite, a bad radius, ``subdivisions`` not an integer in
+            [0, 8] (before any work).
+        MemoryError: the spheres' vertices and faces would not fit in free host memory.
     """
     den = _check_3d(dendrite, "spheres()")
     subdivisions = _int_arg("subdivisions", subdivisions, 0)
+    if subdivisions > MAX_SUBDIVISIONS:
+        raise ValueError(f"Expected 'subdivisions' <= {MAX_SUBDIVISIONS} ({20 * 4**MAX_SUBDIVISIONS} faces per "
+                         f"sphere), but got {subdivisions!r}")
+    # (10 * 4^s + 2) vertices and 20 * 4^s faces per sphere, 3 float64 or int64 values each
+    _checks.fits_in_memory(24 * len(den) * (30 * 4**subdivisions + 2), "cpu",
+                           f"spheres() of {len(den)} nodes with 'subdivisions' = {subdivisions}")
     v, f = _sphere_mesh(_world(den), _radii(den, radius, side), subdivisions)
     return _trimesh(v, f)
 
@@ -255,6 +272,7 @@ def field_mesh(
     band: float | None = None,
     device=None,
     _backend: str = "auto",
+    _method: str = "lewiner",
 ):
     """The isosurface ``field == level`` by marching cubes.
 
@@ -295,7 +313,8 @@ def field_mesh(
     level = _checks.finite("level", level)
     band = None if band is None else _checks.positive("band", band)
     dev = field.device if isinstance(field, wp.array) else _checks.device(device if device is not None else "cpu")
-    # _backend is a testing hook: "warp" runs Warp's marching cubes on any device
+    # _backend is a testing hook: "warp" runs Warp's marching cubes on any device; _method is
+    # scikit-image's (region_mesh takes "lorensen")
     if (dev.is_cuda and _backend == "auto") or _backend == "warp":
         from warp.geometry import IsoSurfaceMarchingCubes
 
@@ -315,7 +334,7 @@ def field_mesh(
             lifted = _lift_level(wp.array(host, dtype=float, device="cpu"), level).numpy()
             host = np.where(at, lifted.astype(host.dtype), host)
         mask = None if band is None else np.abs(host - level) < band
-        v, f, _, _ = marching_cubes(host, level, mask=mask)
+        v, f, _, _ = marching_cubes(host, level, mask=mask, method=_method)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
     # both marching cubes, once their axes are reversed to (x, y, z), wind faces toward the low
     # values (the inside), closed surface or not: reversed, they point outward
@@ -394,18 +413,23 @@ def isosurface(
     r = node_widths(den, radius, side=side, _name="radius")
     if metric == "euclidean":
         r = np.maximum(r, np.float32(MIN_ISO_RADIUS))
-    limit = float(r.max()) + 2.0
+    # the limit, the border and the band in float32, as the field holds them (from about 2.6e5 on,
+    # limit - 0.01 rounded up to the limit itself, whose cubes the band skips: the surface did not
+    # close there); the limit stays above every radius, so that nodes inside stay within the band
+    limit32 = max(np.float32(float(r.max()) + 2.0), np.nextafter(r.max(), np.float32(np.inf)))
+    limit = float(limit32)
     dist, label = _nearest(den, limit, metric, lattice, None, device)
     out = wp.empty(dist.shape[0], dtype=float, device=dist.device)
     wp.launch(_kg.nearest_value_kernel, dim=dist.shape[0],
               inputs=[dist, label, wp.array(r, dtype=float, device=dist.device), limit], outputs=[out],
               device=dist.device)
     # a border just below the limit: outside the surface, but inside the cubes marching cubes visits
-    field = _padded(out.numpy().reshape(den.shape), limit - 0.01)
+    border = min(np.float32(limit - 0.01), np.nextafter(limit32, np.float32(0)))
+    field = _padded(out.numpy().reshape(den.shape), border)
     org = np.asarray(den.origin, np.float64) - den.spacing
     # cubes the surface crosses start within sqrt(3) of a node inside, i.e. below the limit (Euclidean
     # steps are <= 1 per node; path costs may step further, so every cube is visited there)
-    band = limit - 1e-3 if dist.device.is_cpu and metric == "euclidean" else None
+    band = float(limit32) if dist.device.is_cpu and metric == "euclidean" else None
     return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device=dist.device)
 
 
@@ -472,9 +496,13 @@ def region_mesh(labels, region, *, band: float = 2.0, smooth: int = 0, spacing: 
     field = signed_region_field(inside, band=band, device=device)
     # boundary nodes hold +-1/2 and their neighbours +-3/2: the crossed cubes start there
     cpu = _checks.device(device).is_cpu
-    # the border outside the lattice acts as outside boundary nodes (+1/2): the surface lies halfway
+    # the border outside the lattice acts as outside boundary nodes (+1/2): the surface lies halfway.
+    # Lorensen's cases, as Warp's marching cubes: they split an ambiguous cube face alike in both
+    # cubes that share it. Lewiner's face test ties on this field (+-1/2 across every face where
+    # nodes touch along an edge only), and each cube then splits the face its own way: edges of
+    # four faces, not a closed surface
     return field_mesh(_padded(field, 0.5), 0.0, spacing=spacing, origin=(-spacing,) * 3, smooth=smooth,
-                      band=2.0 if cpu else None, device=device)
+                      band=2.0 if cpu else None, device=device, _method="lorensen")
 
 
 def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -> np.ndarray:
@@ -516,12 +544,15 @@ def _scene(mesh, color) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cols = np.broadcast_to(cols, (len(meshes), cols.shape[0]))
     if cols.shape != (len(meshes), 3) or not np.isfinite(cols).all():
         raise ValueError(f"Expected 'color' as one RGB triple or one per mesh ({len(meshes)}), but got {color!r}")
+    _unit_rgb("color", cols, color)
     vs, fs, cs, base = [], [], [], 0
-    for m, c in zip(meshes, cols):
+    for i, (m, c) in enumerate(zip(meshes, cols)):
         v = np.asarray(getattr(m, "vertices", None), np.float64)
         f = np.asarray(getattr(m, "faces", None))
         if v.ndim != 2 or v.shape[1:] != (3,) or f.ndim != 2 or f.shape[1:] != (3,):
             raise ValueError("Expected triangle meshes with (V, 3) 'vertices' and (F, 3) 'faces' for 'mesh'")
+        # wp.Mesh reads whatever the faces index: one beyond the vertices would read out of bounds
+        f = _checks.face_indices("mesh.faces" if m is mesh else f"mesh[{i}].faces", f, len(v))
         vs.append(v)
         fs.append(f + base)
         cs.append(np.broadcast_to(c, (len(f), 3)))
@@ -530,6 +561,12 @@ def _scene(mesh, color) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     if not len(faces):
         raise ValueError("'mesh' has no faces: there is nothing to show")
     return np.concatenate(vs), faces, np.concatenate(cs).astype(np.float32)
+
+
+def _unit_rgb(name: str, values: np.ndarray, given) -> None:
+    """Refuse colours (finite RGB values) outside [0, 1]."""
+    if values.size and (values.min() < 0 or values.max() > 1):
+        raise ValueError(f"Expected '{name}' RGB values in [0, 1], but got {given!r}")
 
 
 def preview(
@@ -554,6 +591,11 @@ def preview(
 
     Returns:
         ``(H, W, 3)`` float32 in [0, 1], ready for :func:`wdendrite.io.save_png`.
+
+    Raises:
+        ValueError: an empty list, a bad ``size``, colours that are not RGB in [0, 1], meshes
+            whose faces are not ``(F, 3)`` or index no vertex (before any kernel runs).
+        TypeError: faces that are not integers.
     """
     if isinstance(mesh, (list, tuple)) and not len(mesh):
         raise ValueError("'mesh' is an empty list: there is nothing to show")
@@ -562,6 +604,7 @@ def preview(
         raise ValueError(f"Expected 'size' as (H, W) positive ints, but got {size!r}")
     verts, faces, face_colors = _scene(mesh, color)
     bg = _rgb_triple("background", background)
+    _unit_rgb("background", bg, background)
     el = math.radians(_checks.finite("elevation", elevation))
     az = math.radians(_checks.finite("azimuth", azimuth))
     forward = -np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
