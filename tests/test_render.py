@@ -391,3 +391,23 @@ def test_unit_range_maps_the_finite_values_onto_0_1():
     np.testing.assert_array_equal(wd.render.unit_range(np.full(4, np.nan)), np.zeros(4))  # nothing finite
     # a span float64 cannot hold (it overflowed to inf, and every value became NaN)
     np.testing.assert_array_equal(wd.render.unit_range(np.array([-1e308, 1e308, 0.0])), [0.0, 1.0, 0.5])
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda: brightness(DEN, 2.0, metric="euclidean", lattice=LAT), ValueError,
+         r"'lattice' is only used with metric='path', but metric is 'euclidean'"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=["grey"]), TypeError,
+         r"Expected 'colormap' as a str, one of \('grey', 'lightning', .*\), but got \['grey'\]"),
+        (lambda: glow(np.ones((4, 4)), passes=2**40), ValueError, r"Expected 'passes' <= 64, but got 1099511627776"),
+    ],
+    ids=["lattice", "colormap", "passes"],
+)
+def test_a_lattice_without_path_costs_an_unhashable_colormap_and_endless_passes_are_refused(call, exc, match,
+                                                                                             launches):
+    with pytest.raises(exc, match=match):
+        call()
+    assert launches == []
+    glow(np.ones((4, 4)), passes=64)
+    assert launches  # so the empty record above means that no kernel ran

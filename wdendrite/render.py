@@ -408,7 +408,7 @@ def brightness(
 
     Raises:
         ValueError: an empty or 3D dendrite, a non-positive width or reach,
-            ``clamp`` outside (0, 1], an unknown metric.
+            ``clamp`` outside (0, 1], an unknown metric, a ``lattice`` with the Euclidean metric.
     """
     den = _check_dendrite(dendrite)
     if den.ndim != 2:
@@ -422,6 +422,8 @@ def brightness(
         if clamp_f > 1:
             raise ValueError(f"Expected 'clamp' in (0, 1], but got {clamp!r}")
     _choice("metric", metric, _METRICS)
+    if metric == "euclidean" and lattice is not None:
+        raise ValueError("'lattice' is only used with metric='path', but metric is 'euclidean'")
     widths = node_widths(den, width, side=side)
     sel = _check_rows(rows, len(den))
     nodes, w = (den.nodes, widths) if sel is None else (den.nodes[sel], widths[sel])
@@ -494,6 +496,11 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
     return out.astype(np.float32)
 
 
+MAX_GLOW_PASSES = 64
+"""Most box filters :func:`glow` runs per axis: three (the default) already come close to a
+Gaussian, and each pass sweeps the whole image twice, so more only cost time."""
+
+
 def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=None) -> np.ndarray:
     """A soft halo: ``value`` blurred by ``passes`` box filters (close to a Gaussian of sigma ~ ``radius``).
 
@@ -501,21 +508,23 @@ def glow(value: np.ndarray, *, radius: float = 12.0, passes: int = 3, device=Non
         value: ``(H, W)`` brightness.
         radius: blur scale in pixels, > 0 (box half-width ``radius * sqrt(3 / passes)``); radii
             beyond four image diagonals (times ``sqrt(passes)``) blur as that one does, to a near-even glow.
-        passes: box filters per axis, >= 1.
+        passes: box filters per axis, in [1, :data:`MAX_GLOW_PASSES`].
         device: Warp device (default: Warp's default device).
 
     Returns:
         ``(H, W)`` float32; the blur keeps the image's total (away from its edges).
 
     Raises:
-        ValueError: an empty, non-2D or non-finite ``value``, a non-positive ``radius`` or ``passes``
-            (before any kernel runs).
+        ValueError: an empty, non-2D or non-finite ``value``, a non-positive ``radius``, ``passes``
+            outside [1, :data:`MAX_GLOW_PASSES`] (before any kernel runs).
         TypeError: a ``value`` that is not real-valued.
     """
     img = _image("value", value)
     radius = _checks.positive("radius", radius)
     if isinstance(passes, bool) or not isinstance(passes, (int, np.integer)) or passes < 1:
         raise ValueError(f"Expected an integer 'passes' >= 1, but got {passes!r}")
+    if passes > MAX_GLOW_PASSES:  # each pass sweeps the whole image twice
+        raise ValueError(f"Expected 'passes' <= {MAX_GLOW_PASSES}, but got {passes!r}")
     # a blur much wider than the image spreads it evenly: no wider box changes the result's look
     radius = min(radius, 4.0 * float(np.hypot(*img.shape)) * math.sqrt(passes))
     # a box of half-width h has variance h (h + 1) / 3; pick h so the passes add up to radius^2
@@ -589,8 +598,11 @@ def colorize(
 
     Raises:
         ValueError: an empty, non-2D or non-finite ``value`` or ``glow``, a bad colour, an unknown colormap.
+        TypeError: a ``colormap`` that is not a str.
     """
     img = _image("value", value)
+    if not isinstance(colormap, str):  # (a list is unhashable: the look-up below would fail on that)
+        raise TypeError(f"Expected 'colormap' as a str, one of {tuple(COLORMAPS)}, but got {colormap!r}")
     if colormap not in COLORMAPS:
         raise ValueError(f"Expected 'colormap' in {tuple(COLORMAPS)}, but got {colormap!r}")
     halo = np.zeros_like(img) if glow is None else _image("glow", glow)
