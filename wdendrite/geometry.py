@@ -31,7 +31,7 @@ from .dendrite import Dendrite
 from .kernels import geometry as _kg
 from .kernels import render as _kr
 from .lattice import Lattice
-from .render import Metric, Width, _choice, _METRICS, _nearest, _rgb_triple, node_widths
+from .render import Metric, Width, _check_metric, _nearest, _rgb_triple, node_widths
 
 __all__ = ["field_mesh", "isosurface", "preview", "region_mesh", "spheres", "surface_nodes", "tubes"]
 
@@ -406,9 +406,7 @@ def isosurface(
             a ``lattice`` with the Euclidean metric (before any kernel runs).
     """
     den = _check_3d(dendrite, "isosurface()")
-    _choice("metric", metric, _METRICS)
-    if metric == "euclidean" and lattice is not None:
-        raise ValueError("'lattice' is only used with metric='path', but metric is 'euclidean'")
+    _check_metric(metric, lattice)
     smooth = _int_arg("smooth", smooth, 0)  # checked again by field_mesh, but only after the kernels ran
     r = node_widths(den, radius, side=side, _name="radius")
     if metric == "euclidean":

@@ -201,13 +201,6 @@ def _png16_rgb(path, rgb: np.ndarray) -> None:
                 + chunk(b"IEND", b""))
 
 
-def _suffix(path, suffix: str) -> None:
-    """Refuse a ``path`` whose suffix is not ``suffix`` (any case): the file would hold another format
-    than its name says."""
-    if Path(path).suffix.lower() != suffix:
-        raise ValueError(f"Expected 'path' ending in {suffix!r} (any case), but got {str(path)!r}")
-
-
 def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False) -> Path:
     """Save a grey (H, W) or colour (H, W, 3|4) image with values in [0, 1] as an 8- or 16-bit PNG.
 
@@ -224,7 +217,7 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     from PIL import Image
 
     _target(path, overwrite)  # (a folder is named as one, whatever its suffix)
-    _suffix(path, ".png")
+    _format(path, None, ("png",), "image")  # (PNG data under another name misleads what opens it)
     img = _checks.finite_array("image", image, "(H, W), (H, W, 3) or (H, W, 4)",
                                lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=None)
     if _checks.integer("bits", bits) not in (8, 16):
@@ -504,7 +497,7 @@ def save_svg(path, dendrite, *, width=1.0, side=None, color: str = "black", back
     from .dendrite import Dendrite
 
     _target(path, overwrite)  # (a folder is named as one, whatever its suffix)
-    _suffix(path, ".svg")
+    _format(path, None, ("svg",), "drawing")
     if not isinstance(dendrite, Dendrite):
         raise TypeError(f"Expected a wdendrite.Dendrite for 'dendrite', but got {type(dendrite).__name__}")
     _svg_colour("color", color)

@@ -68,6 +68,13 @@ def _choice(name: str, value, allowed: tuple[str, ...]) -> str:
     return value
 
 
+def _check_metric(metric, lattice) -> None:
+    """Refuse an unknown ``metric``, and a ``lattice`` with the Euclidean one (which would ignore it)."""
+    _choice("metric", metric, _METRICS)
+    if metric == "euclidean" and lattice is not None:
+        raise ValueError("'lattice' is only used with metric='path', but metric is 'euclidean'")
+
+
 @dataclass(frozen=True)
 class Taper:
     """A width that changes along each path: ``T = Ts (1 - u^beta) + Tf u^beta`` with ``u = d / d_max``.
@@ -421,9 +428,7 @@ def brightness(
         clamp_f = _checks.positive("clamp", clamp)
         if clamp_f > 1:
             raise ValueError(f"Expected 'clamp' in (0, 1], but got {clamp!r}")
-    _choice("metric", metric, _METRICS)
-    if metric == "euclidean" and lattice is not None:
-        raise ValueError("'lattice' is only used with metric='path', but metric is 'euclidean'")
+    _check_metric(metric, lattice)
     widths = node_widths(den, width, side=side)
     sel = _check_rows(rows, len(den))
     nodes, w = (den.nodes, widths) if sel is None else (den.nodes[sel], widths[sel])
