@@ -405,6 +405,28 @@ def test_spheres_refuse_more_subdivisions_than_memory_allows(monkeypatch):
     assert len(spheres(one, subdivisions=1).faces) == 80
 
 
+def test_tubes_refuse_more_sides_than_memory_holds_before_any_work(monkeypatch):
+    # a billion sides a tube would take hundreds of GiB: refused at once, naming 'sides'
+    with pytest.raises(MemoryError, match=rf"tubes\(\) of {len(DEN)} nodes with 'sides' = 1000000000"):
+        tubes(DEN, sides=10**9)
+    monkeypatch.setattr(wd._checks, "available_bytes", lambda device: 2**16)
+    with pytest.raises(MemoryError, match=r"'sides' = 64"):
+        tubes(DEN, sides=64)
+    monkeypatch.undo()
+    assert tubes(DEN, sides=64).is_watertight
+
+
+def test_preview_refuses_vertices_that_are_not_finite_float32():
+    import trimesh
+
+    for bad, said in ((np.nan, "NaN/inf"), (1e300, "float32")):
+        m = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, bad]], faces=[[0, 1, 2]], process=False)
+        with pytest.raises(ValueError, match=rf"'mesh\.vertices'.*{said}"):
+            preview(m, size=(16, 16))
+        with pytest.raises(ValueError, match=rf"'mesh\[1\]\.vertices'.*{said}"):
+            preview([_triangle([[0, 1, 2]]), m], size=(16, 16))
+
+
 def _triangle(faces):
     import trimesh
 

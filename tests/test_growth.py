@@ -455,3 +455,11 @@ def test_fractal_params_refuse_text(field):
     kw[field] = "2"
     with pytest.raises((TypeError, ValueError), match=rf"'{field}'.*'2'"):
         wd.FractalParams(**kw)
+
+
+def test_an_endpoint_count_overflow_names_the_schedule_that_makes_it():
+    # a huge d makes the schedule long, and the counts overflow long before its end: the message
+    # names d and epsilon, which set the length, not only count and beta
+    with pytest.raises(ValueError, match=r"iteration 25 of about 37 \(from 'd' = 1e\+20 down to 'epsilon' = 1\.0\); "
+                                         r"lower 'beta' or 'count', or 'd'"):
+        wd.FractalParams(count=6, beta=4, d=1e20, epsilon=1.0, alpha=3.5)

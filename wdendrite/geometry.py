@@ -176,9 +176,16 @@ def tubes(
 
     Returns:
         A :class:`trimesh.Trimesh` of closed pieces (watertight, outward normals).
+
+    Raises:
+        MemoryError: the tubes' vertices and faces would not fit in free host memory (before any work).
     """
     den = _check_3d(dendrite, "tubes()")
     sides = _int_arg("sides", sides, 3)
+    # per edge two rings of ``sides`` vertices and their caps' centres, 4 ``sides`` faces, 3 float64
+    # or int64 values each, and about as much again while the runs are joined
+    _checks.fits_in_memory(2 * 24 * len(den) * (6 * sides + 2), "cpu",
+                           f"tubes() of {len(den)} nodes with 'sides' = {sides}")
     r = _radii(den, radius, side)
     pos = _world(den)
     child = np.flatnonzero(den.parent >= 0)
@@ -549,8 +556,12 @@ def _scene(mesh, color) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         f = np.asarray(getattr(m, "faces", None))
         if v.ndim != 2 or v.shape[1:] != (3,) or f.ndim != 2 or f.shape[1:] != (3,):
             raise ValueError("Expected triangle meshes with (V, 3) 'vertices' and (F, 3) 'faces' for 'mesh'")
-        # wp.Mesh reads whatever the faces index: one beyond the vertices would read out of bounds
-        f = _checks.face_indices("mesh.faces" if m is mesh else f"mesh[{i}].faces", f, len(v))
+        # wp.Mesh reads whatever the faces index: one beyond the vertices would read out of bounds;
+        # its rays and bounds need finite float32 vertices
+        which = "mesh" if m is mesh else f"mesh[{i}]"
+        f = _checks.face_indices(f"{which}.faces", f, len(v))
+        if len(v):
+            _checks.finite_array(f"{which}.vertices", v, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
         vs.append(v)
         fs.append(f + base)
         cs.append(np.broadcast_to(c, (len(f), 3)))

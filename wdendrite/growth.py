@@ -97,7 +97,8 @@ class FractalParams:
             if m > 1e15:
                 raise ValueError(
                     f"'count' = {self.count!r} times 'beta' = {self.beta!r} to the power {iterations - 1} asks for "
-                    f"{m:.3g} endpoints in iteration {iterations}; lower 'beta' or 'count'"
+                    f"{m:.3g} endpoints in iteration {iterations} of about {about:.0f} (from 'd' = {self.d!r} down "
+                    f"to 'epsilon' = {self.epsilon!r}); lower 'beta' or 'count', or 'd' (or raise 'epsilon')"
                 )
             m, d = m * self.beta, d / alpha
 
