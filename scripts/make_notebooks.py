@@ -42,7 +42,7 @@ NOTEBOOKS = {
                "first run compiles Warp's kernels (about 10-20 s, once; they are cached in `~/.cache/warp` "
                "afterwards), and on a machine without an NVIDIA driver Warp prints one harmless warning line, `Warp "
                "CUDA warning: ... GPU execution will not be available.`, and runs everything on the CPU. The notebooks "
-               "run in Jupyter (`pip install jupyter`)."),
+               "run in Jupyter: `pip install -e \".[notebooks]\"` in the project's folder installs it."),
         ("code", SETUP),
         ("md", "The least path cost from the generator at the centre to every node, divided by its largest value: dark "
                "is cheap to reach (black at the generator), bright is expensive (white at the costliest node). The "
@@ -228,9 +228,9 @@ show(wd.render.relief(z, 4.0 / n, d8))   # the picture `wdendrite terrain` draws
                "jobs.toml` writes every output atomically with a manifest and skips what is complete when run again. "
                "`--scheduler local` spreads the tasks over a Dask `LocalCluster` (one worker per GPU: `--workers 2 "
                "--device cuda`), `--scheduler tcp://host:8786` over an existing cluster.\n\nThe notebooks run in "
-               "Jupyter (`pip install jupyter`). The two cells on a Dask `LocalCluster` (the `competition` jobs run "
-               'with `scheduler="local"`, and the lazy Dask terrain) need `pip install "dask[distributed]"` (or `pip '
-               'install "wdendrite[distributed]"`); the other cells need only wdendrite.'),
+               "Jupyter: `pip install -e \".[notebooks]\"` in the project's folder installs it and Dask. The two cells "
+               'on a Dask `LocalCluster` (the `competition` jobs run with `scheduler="local"`, and the lazy Dask '
+               'terrain) need Dask (`pip install -e ".[distributed]"` alone); the other cells need only wdendrite.'),
         ("code", SETUP),
         ("code", '''\
 import json, tempfile

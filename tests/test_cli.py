@@ -159,6 +159,10 @@ def test_bad_values_are_named(tmp_path):
     bad(["fractal", "--size", 32, "--device", "cuda:7", "-o", "f.png"], tmp_path, "not available")
     bad(["lightning", "--size", 48, "-o", "l.glb"], tmp_path, "no mesh")
     bad(["fractal", "--size", 32, "-o", "f.tiff"], tmp_path, "unknown suffix", ".png")
+    # known formats a run does not write are named as such, with what to do instead
+    bad(["terrain", "--size", 32, "-o", "t.zarr"], tmp_path, "written tile by tile: add --tile N")
+    bad(["terrain", "--size", 32, "--tile", 16, "-o", "t.png"], tmp_path, "'.png' is not written tile by tile",
+        ".npy, .zarr")
     bad(["fractal", "--size", 32, "-o", "f.png", "-o", "./f.png"], tmp_path, "given twice")
     assert not list(tmp_path.iterdir())
 

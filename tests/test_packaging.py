@@ -21,3 +21,22 @@ def test_plain_install_includes_the_kernel_package(tmp_path):
     out = subprocess.run([sys.executable, "-c", probe], cwd=tmp_path, env={"PYTHONPATH": str(target)},
                          check=True, capture_output=True, text=True).stdout.split()
     assert all(str(target) in line for line in out)
+
+
+def test_help_shows_what_each_parameter_field_means():
+    # the fields are documented by a string under each; help() shows only class docstrings, so
+    # the package copies those strings into a Fields section after the summary
+    import dataclasses
+
+    import wdendrite as wd
+
+    for cls in (wd.DendryParams, wd.FractalParams, wd.render.Taper, wd.presets.Result, wd.hydrology.Depressions,
+                wd.weights.Uniform):
+        doc = cls.__doc__
+        head, fields = doc.split("\n\nFields:\n", 1)
+        assert "\n" not in head.strip() or len(head) < 400, cls  # right after the summary paragraph
+        for f in dataclasses.fields(cls):
+            if not f.name.startswith("_"):
+                assert f"\n    {f.name}" in "\n" + fields, (cls.__name__, f.name)
+    assert "Number of tree levels n, 1-6" in wd.DendryParams.__doc__
+    assert "Raised cells, in percent of all cells." in wd.hydrology.Depressions.__doc__

@@ -304,8 +304,9 @@ def _arg_docs(func) -> dict[str, str]:
     return out
 
 
-def _field_docs(cls) -> dict[str, str]:
-    """``{field: docstring}`` of a dataclass whose fields are followed by string literals."""
+def _field_docs(cls, whole: bool = False) -> dict[str, str]:
+    """``{field: docstring}`` of a dataclass whose fields are followed by string literals: the
+    first paragraph on one line, or with ``whole`` all of it."""
     try:
         tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
     except (OSError, TypeError, SyntaxError):
@@ -315,8 +316,26 @@ def _field_docs(cls) -> dict[str, str]:
     for a, b in zip(body, body[1:]):
         if (isinstance(a, ast.AnnAssign) and isinstance(a.target, ast.Name) and isinstance(b, ast.Expr)
                 and isinstance(b.value, ast.Constant) and isinstance(b.value.value, str)):
-            out[a.target.id] = " ".join(b.value.value.split("\n\n")[0].split())  # the first paragraph
+            text = b.value.value if whole else b.value.value.split("\n\n")[0]
+            out[a.target.id] = " ".join(text.split())
     return out
+
+
+def document_fields(cls) -> None:
+    """Add a ``Fields`` section, from the string literal under each field, to dataclass ``cls``'s
+    docstring, after its first paragraph: ``help()`` and IPython's ``?`` show class docstrings,
+    not those literals."""
+    docs = _field_docs(cls, whole=True)
+    if not docs or not cls.__doc__ or "\nFields:\n" in cls.__doc__:
+        return
+    lines = ["Fields:"]
+    for f in dataclasses.fields(cls):
+        if f.name in docs:
+            default = "" if f.default is dataclasses.MISSING else f" = {f.default!r}"
+            text = textwrap.fill(docs[f.name], 88, initial_indent=" " * 8, subsequent_indent=" " * 8)
+            lines.append(f"    {f.name}{default}\n{text}")
+    head, sep, rest = inspect.cleandoc(cls.__doc__).partition("\n\n")
+    cls.__doc__ = head + "\n\n" + "\n".join(lines) + ("\n\n" + rest if sep else "\n")
 
 
 # --------------------------------------------------------------------------- presets

@@ -86,7 +86,13 @@ def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
     """``p`` if it may be written (see :func:`check_outputs`); ``out``: the paths checked before it."""
     if p.resolve() in [q.resolve() for q in out]:
         raise UsageError(f"-o/--out {str(p)!r} is given twice")
-    if p.suffix.lower() not in suffixes:
+    suffix = p.suffix.lower()
+    if suffix not in suffixes:
+        if suffix == ".zarr":
+            raise UsageError(f"-o/--out {str(p)!r}: a .zarr field is written tile by tile: add --tile N")
+        if suffix in SUFFIXES:  # a known format this run does not write (tiles write fields only)
+            raise UsageError(f"-o/--out {str(p)!r}: {suffix!r} is not written tile by tile; "
+                             f"use one of {', '.join(suffixes)}")
         raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
                          f"use one of {', '.join(suffixes)}")
     folder = p.parent if str(p.parent) else Path(".")

@@ -32,7 +32,8 @@ class Dendrite:
 
     Attributes:
         shape: the lattice shape.
-        nodes: ``(N, ndim)`` int64 node coordinates.
+        nodes: ``(N, ndim)`` int64 node coordinates, (row, col) = (y, x) in 2D and (z, y, x) in 3D,
+            as numpy indexes (``image[tuple(nodes.T)]``).
         parent: ``(N,)`` int64 row of the next node toward the root; -1 at roots
             (generator nodes).
         cost: ``(N,)`` float32 path cost from the node's generator along the
@@ -312,7 +313,8 @@ def trace(
 
     Args:
         costfield: from :func:`wdendrite.shortest_paths`.
-        endpoints: ``(M, ndim)`` integer node coordinates with finite cost.
+        endpoints: ``(M, ndim)`` integer node coordinates with finite cost, (row, col) = (y, x) in
+            2D and (z, y, x) in 3D.
         extend: a dendrite to grow: walks stop when they reach one of its
             nodes, and the new nodes are appended after its rows; a new
             branch takes the label of the node it joins.

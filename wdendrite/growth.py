@@ -302,7 +302,8 @@ def grow(
 
     Args:
         lattice: the weighted lattice.
-        generators: ``(G, ndim)`` integer generator coordinates.
+        generators: ``(G, ndim)`` integer generator coordinates, (row, col) = (y, x) in 2D and
+            (z, y, x) in 3D, as numpy indexes.
         params: the growth schedule.
         seed: int or ``np.random.Generator`` for the endpoint draws.
         device: Warp device (default: Warp's default device).

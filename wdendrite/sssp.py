@@ -353,7 +353,8 @@ def shortest_paths(
 
     Args:
         lattice: the weighted lattice.
-        generators: ``(G, ndim)`` integer node coordinates (rows may repeat).
+        generators: ``(G, ndim)`` integer node coordinates in the lattice's axis order, (row, col) =
+            (y, x) in 2D and (z, y, x) in 3D, as numpy indexes (rows may repeat).
         device: Warp device to run on (default: the warm start's device, else
             Warp's default device).
         limit: search only costs up to this bound; nodes beyond it get
