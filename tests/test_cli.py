@@ -611,3 +611,12 @@ def test_a_config_file_that_is_not_utf8_is_named(tmp_path, monkeypatch, capsys):
     (tmp_path / "c.toml").write_text("seed = 1\n")
     assert cli.main(["tropism-objects", "--size", "16", "--config", "c.toml", "--seed", "-2", "--quiet"]) == 2
     assert capsys.readouterr().err.strip().endswith("but got -2 (--seed)")
+
+
+def test_the_summary_counts_in_words(tmp_path):
+    # "1 endpoint", not "1 endpoints"
+    code, out, err = wd("simple-dendrite", "--size", 32, "--endpoints", 1, "-o", "s.png", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    assert ", 1 endpoint in " in out, out
+    code, out, err = wd("simple-dendrite", "--size", 32, "--endpoints", 2, "-o", "t.png", "--quiet", cwd=tmp_path)
+    assert ", 2 endpoints in " in out, out

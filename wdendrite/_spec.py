@@ -321,6 +321,11 @@ def _field_docs(cls, whole: bool = False) -> dict[str, str]:
     return out
 
 
+def counted(n: int, noun: str) -> str:
+    """``"1 endpoint"``, ``"2 endpoints"``: ``n`` and ``noun``, plural (with an s) unless ``n`` is 1."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 def document_fields(cls) -> None:
     """Add a ``Fields`` section, from the string literal under each field, to dataclass ``cls``'s
     docstring, after its first paragraph: ``help()`` and IPython's ``?`` show class docstrings,

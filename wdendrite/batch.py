@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._spec import UsageError, all_presets, canonical_name, nearest, progress_bar, read_toml, resolve
+from ._spec import UsageError, all_presets, canonical_name, counted, nearest, progress_bar, read_toml, resolve
 from .io import _NAME_BYTES
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
@@ -916,7 +916,8 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
             client.close()
         if cluster is not None:
             cluster.close()
-    print(f"batch: {len(tasks)} tasks, {len(todo) - len(failed)} run, {len(tasks) - len(todo)} already complete, "
+    done = len(tasks) - len(todo)
+    print(f"batch: {counted(len(tasks), 'task')}, {len(todo) - len(failed)} run, {done} already complete, "
           f"{len(failed)} failed -> {settings['out']}")
     if not failed:
         return 0

@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ._models import MODELS, dendry_setup, relief, unit_range  # dendry_setup for batch jobs; relief and unit_range kept importable from here
-from ._spec import ALIASES, UsageError, all_presets, canonical_name, nearest, parse_config, progress_bar, resolve
+from ._spec import (ALIASES, UsageError, all_presets, canonical_name, counted, nearest, parse_config, progress_bar,
+                    resolve)
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
@@ -594,7 +595,7 @@ def _made(result) -> str:
     bits = []
     den, mesh = getattr(result, "dendrite", None), getattr(result, "mesh", None)
     if den is not None:
-        bits.append(f"{len(den)} nodes, {len(den.endpoints)} endpoints")
+        bits.append(f"{counted(len(den), 'node')}, {counted(len(den.endpoints), 'endpoint')}")
     if mesh is not None and hasattr(mesh, "faces"):
         bits.append(f"{len(mesh.faces)} faces")
     return ", ".join(bits)
