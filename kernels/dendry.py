@@ -102,6 +102,7 @@ class Setup:
     pieces: vec6i  # polyline pieces per level (1..4)
     slope: vec6  # minimum slope per level (elevation per domain unit)
     reach: vec6  # per level, how many spans a polyline may stray from its key point (see segment_reach)
+    piece: vec6  # per level, how many spans long a piece of a polyline may be (see piece_bound)
     smoothing: int
     beta: float
     noise: float
@@ -653,6 +654,14 @@ def segment_reach(s: Setup, level: int, span: float) -> float:
     computes that factor per level, with a 0.1 % margin against rounding (``Setup.reach``).
     """
     return (span + 1.0e-6) * s.reach[level - 1]
+
+
+@wp.func
+def piece_bound(s: Setup, level: int, reach: float) -> float:
+    """Bound on the pieces of a polyline of ``level`` whose :func:`segment_reach` is ``reach``:
+    ``reach / s.reach`` spans at most, times the level's piece factor (computed on the host,
+    ``wdendrite.dendry._piece_factors``), widened by 0.1 % against rounding."""
+    return reach / s.reach[level - 1] * s.piece[level - 1] * 1.001
 
 
 @wp.func
@@ -1285,7 +1294,8 @@ def prepare_levels(
       to that point, or at level 2 to the parent's drawn polyline, widened against rounding.
     - its reach (``keyp[2]``): the polyline lies within ``segment_reach(link_span(d, L))`` of the
       key point (:func:`segment_reach`, :func:`link_span`), where L bounds every piece of the
-      coarser levels: the longest drawn piece at level 1, twice a waiting cell's reach above.
+      coarser levels: the longest drawn piece at level 1, :func:`piece_bound` of the waiting
+      cells' reach above.
 
     A cell whose parent has no point on the tree (beyond the domain's edge) would have no such
     bound, and its children could not know yet whether they inherit its key point: then 1.
@@ -1334,7 +1344,7 @@ def prepare_levels(
                         verts[nonneg(o * NV)] = wp.vec3(d, 0.0, 0.0)
                         grow = wp.max(grow, r)
                 o += 1
-        longest = wp.max(longest, 2.0 * grow)
+        longest = wp.max(longest, piece_bound(s, level, grow))
     return 0
 
 
@@ -1448,8 +1458,8 @@ def want_pixel(
     ``qlo..qhi`` may need (:func:`want_finest`); store ``STATE_FAR`` for those finest cells
     that need not be drawn at all."""
     n = s.levels
-    # the longest piece of levels 1..n-1, drawn or waiting (every piece of a waiting segment
-    # lies within twice its reach), for the terrain rule's link bound
+    # the longest piece of levels 1..n-1, drawn or waiting (piece_bound), for the terrain rule's
+    # link bound
     longest = float(0.0)
     lim = limit + coord_margin(u)
     for level in range(1, n):
@@ -1461,7 +1471,7 @@ def want_pixel(
             if k[3] == STATE_SEGMENT:
                 longest = wp.max(longest, verts[nonneg(o * NV + BOUND + 1)][1])
             elif k[3] == STATE_WAIT:
-                longest = wp.max(longest, 2.0 * k[2])
+                longest = wp.max(longest, piece_bound(s, level, k[2]))
                 if limit < 0.0 or wp.length(u - wp.vec2(k[0], k[1])) - k[2] <= lim:
                     keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
             o += 1
@@ -1497,10 +1507,10 @@ def build(
     ``qlo..qhi`` are filled; :func:`finish` fills the others. Returns (the bound on the pixel's
     answer from :func:`pixel_limit`, demand).
 
-    With links wider than the paper's 3 x 3 (``rl`` >= 2), for the Lichtenberg rule from 3 levels
-    on and for terrains of 3 levels, levels 2..n-1 are drawn on demand (demand 1; 0 when drawn
-    whole, see :func:`prepare_levels`): first the segments the query's cells need, then those
-    that the other finest cells and the pixel's queries may need (:func:`want_pixel`).
+    From 3 levels on, with links wider than the paper's 3 x 3 (``rl`` >= 2), levels 2..n-1 are
+    drawn on demand (demand 1; 0 when drawn whole, see :func:`prepare_levels`): first the
+    segments the query's cells need, then those that the other finest cells and the pixel's
+    queries may need (:func:`want_pixel`).
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
@@ -1527,9 +1537,8 @@ def build(
     nowhere = wp.vec2(0.0, 0.0)
     demand = int(0)
     # (with the paper's 3 x 3 links a pixel needs most of those cells: the bounds would cost more
-    # than they save, 4-13 % more instructions per pixel; so they do for terrains of 4 levels or
-    # more, where the bound on the pieces of waiting cells is loose: 3 % more at 4 levels)
-    if s.levels >= 3 and s.rl >= 2 and (s.levels == 3 or s.rule == 1):
+    # than they save, 4-13 % more instructions per pixel)
+    if s.levels >= 3 and s.rl >= 2:
         if prepare_levels(s, ctl, blocks, bases, slot, keyp, verts) == 0:
             # levels 2..n-1 drawn on demand: what the query's finest cells need, first
             demand = 1

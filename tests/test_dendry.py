@@ -655,6 +655,12 @@ def _reach_kernel(s: _kd.Setup, level: int, spans: wp.array(dtype=float), reach_
     reach_out[i] = _kd.segment_reach(s, level, spans[i])
 
 
+@wp.kernel
+def _piece_kernel(s: _kd.Setup, level: int, reach: wp.array(dtype=float), piece_out: wp.array(dtype=float)):
+    i = wp.tid()
+    piece_out[i] = _kd.piece_bound(s, level, reach[i])
+
+
 @pytest.mark.parametrize(
     "kw",
     [dict(eps=0.0, delta=1.0), dict(eps=0.5, delta=0.0), dict(eps=0.25, delta=0.3, rule="lichtenberg"),
@@ -666,7 +672,7 @@ def test_segment_reach_bounds_every_drawn_polyline(kw):
     # key point, and the longest piece each cell records must be its longest piece
     p = DendryParams(levels=3, seed=5, **kw)
     s = _setup(p, DOMAIN, DOMAIN, "distance")
-    ratios = []
+    ratios, piece_ratios = [], []
     for level, (cells, keyp, verts) in enumerate(_region_tree(p, 6), start=1):
         seg = keyp[:, 3] == float(_kd.STATE_SEGMENT)
         v = verts[seg, :5, :2].astype(np.float64)
@@ -680,7 +686,17 @@ def test_segment_reach_bounds_every_drawn_polyline(kw):
         ratios += list(far[span > 0] / span[span > 0])
         longest = np.linalg.norm(np.diff(v, axis=1), axis=2).max(axis=1)
         np.testing.assert_allclose(verts[seg, int(_kd.BOUND) + 1, 1], longest, rtol=1e-5, atol=1e-6)
+        # and no piece is longer than piece_bound of that reach (the per-pixel mode's bound on the
+        # pieces of segments it has not drawn yet)
+        pieces = wp.zeros(len(span), dtype=float, device="cpu")
+        wp.launch(_piece_kernel, dim=len(span), inputs=[s, level, wp.array(reach, dtype=float, device="cpu")],
+                  outputs=[pieces], device="cpu")
+        assert (longest <= pieces.numpy()).all(), (level, (longest - pieces.numpy()).max())
+        piece_ratios += list(longest[span > 0] / span[span > 0] / s.piece[level - 1])
     assert len(ratios) > 100
+    if p.subdivision:
+        # the factors are not slack beyond what the vertices' spread allows
+        assert max(piece_ratios) > 0.4, max(piece_ratios)
     if p.rule == "terrain" and p.smoothing and p.subdivision and p.delta > 0:
         assert max(ratios) > 1.0  # splines and displacements do carry vertices beyond the segment's span
 
@@ -869,8 +885,8 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
                                 dict(levels=5, eps=0.1, delta=0.3, rule="lichtenberg"),
                                 dict(levels=4, eps=0.1, delta=0.3, rule="lichtenberg", search="paper")])
 def test_levels_drawn_on_demand_bound_the_segments_they_leave_undrawn(kw):
-    # with links wider than the paper's 3 x 3, from 3 levels on (terrains: at 3 levels) a pixel
-    # draws the segments of levels 2..n-1 only where a search may need them: each one left waiting must be a segment of the whole tree whose polyline lies within
+    # from 3 levels on, with links wider than the paper's 3 x 3, a pixel draws the segments of
+    # levels 2..n-1 only where a search may need them: each one left waiting must be a segment of the whole tree whose polyline lies within
     # the reach it records and whose link search's answer lies within the bound it records;
     # every cell it drew equals the cached mode's; near the domain's edge it draws them all
     # a bounded control (the Lichtenberg bowl on [-1, 1]^2), so that cells beyond its edge have no key point
@@ -925,9 +941,8 @@ def test_levels_drawn_on_demand_bound_the_segments_they_leave_undrawn(kw):
                             control=ctl, output=output, mode="pixel", device="cpu")
         assert np.array_equal(out.numpy(), got)
     assert drawn > 100, drawn
-    if p.search == "paper" or (p.levels > 3 and p.rule == "terrain"):
-        # the paper's 3 x 3 links need most cells, and for deeper terrains the bounds are loose: all drawn
-        assert waiting == 0
+    if p.search == "paper":
+        assert waiting == 0  # the paper's 3 x 3 links need most cells: all are drawn
     else:
         assert waiting >= 10, (waiting, drawn)
         assert whole >= 2  # points by the domain's corner, where cells have parents beyond it

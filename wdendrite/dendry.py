@@ -276,6 +276,34 @@ def _reach_factors(p: DendryParams) -> tuple[float, ...]:
     return tuple(out)
 
 
+def _piece_factors(p: DendryParams) -> tuple[float, ...]:
+    """Per level, how long a piece of a drawn polyline may be, in spans, with a 0.1 % margin.
+
+    A smoothed segment's Hermite curve moves at ``|h'(t)| <= span (6 t (1 - t) + |1 - 4 t + 3 t^2|
+    + |3 t^2 - 2 t|)`` (its chord and two tangents of at most a span each, see
+    ``kernels.dendry.segment_reach``), so the curve between two vertices is at most the integral of
+    that over their fractions long; the sideways displacements add delta for each inner vertex.
+    A straight segment's pieces are ``1 / n`` of it plus the displacements; one piece is the chord.
+    """
+    def integral(a: float, b: float) -> float:
+        out = (3 * b * b - 2 * b**3) - (3 * a * a - 2 * a**3)
+        for f, root in ((lambda t: t - 2 * t * t + t**3, 1 / 3), (lambda t: t**3 - t * t, 2 / 3)):
+            cuts = [a] + [root] * (a < root < b) + [b]
+            out += sum(abs(f(y) - f(x)) for x, y in zip(cuts, cuts[1:]))
+        return out
+
+    out = []
+    for n, delta in zip(_pieces(p), p.deltas()):
+        if n == 1:
+            f = 1.0
+        elif p.smoothing:
+            f = max(integral(j / n, (j + 1) / n) for j in range(n)) + 2.0 * delta
+        else:
+            f = 1.0 / n + 2.0 * delta
+        out.append(f * 1.001)
+    return tuple(out)
+
+
 def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s = _kd.Setup()
     s.need_z = int(output == "elevation")
@@ -288,6 +316,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.pieces = _kd.vec6i(*_pieces(p))
     s.slope = _kd.vec6(*p.min_slopes())
     s.reach = _kd.vec6(*_reach_factors(p))
+    s.piece = _kd.vec6(*_piece_factors(p))
     s.smoothing = int(p.smoothing)
     s.beta = p.beta
     s.noise = p.noise
