@@ -741,6 +741,16 @@ def nearest_on_tree(
 
 
 @wp.func
+def inherits(parent: wp.vec4, level: int, c: wp.vec2i) -> bool:
+    """True when cell ``c`` of ``level`` takes the key point of its parent, ``parent`` (x, y, z,
+    state): the parent has one and it lies in ``c``."""
+    if parent[3] == STATE_NONE:
+        return False
+    pc = cell_of(wp.vec2(parent[0], parent[1]), level)
+    return pc[0] == c[0] and pc[1] == c[1]
+
+
+@wp.func
 def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
     k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
@@ -761,11 +771,9 @@ def fill_levelk(
     bi = slot * SLOT + level
     vi = bases[nonneg(bi)] + k
     parent = keyp[nonneg(block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
-    if parent[3] != STATE_NONE:
-        pc = cell_of(wp.vec2(parent[0], parent[1]), level)
-        if pc[0] == c[0] and pc[1] == c[1]:
-            keyp[nonneg(vi)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
-            return -1.0
+    if inherits(parent, level, c):
+        keyp[nonneg(vi)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
+        return -1.0
     q = jitter(s, level, c)
     cp = to_control(s, q)
     if not control_inside(ctl, cp):
@@ -1320,13 +1328,9 @@ def prepare_levels(
                 po = block_index(blocks, bases, bi - 1, wp.vec2i(c[0] >> 1, c[1] >> 1))
                 parent = keyp[nonneg(po)]
                 pp = wp.vec2(parent[0], parent[1])
-                state = STATE_WAIT
-                if parent[3] != STATE_NONE:
-                    pc = cell_of(pp, level)
-                    if pc[0] == c[0] and pc[1] == c[1]:
-                        keyp[nonneg(o)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
-                        state = STATE_INHERITED
-                if state == STATE_WAIT:
+                if inherits(parent, level, c):
+                    keyp[nonneg(o)] = wp.vec4(parent[0], parent[1], parent[2], STATE_INHERITED)
+                else:
                     q = jitter(s, level, c)
                     if not control_inside(ctl, to_control(s, q)):
                         keyp[nonneg(o)] = wp.vec4(q[0], q[1], 0.0, STATE_NONE)
@@ -1390,23 +1394,21 @@ def want_finest(
     n = s.levels
     parent = keyp[nonneg(block_index(blocks, bases, slot * SLOT + n - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
     pp = wp.vec2(parent[0], parent[1])
-    if parent[3] != STATE_NONE:
-        pc = cell_of(pp, n)
-        if pc[0] == c[0] and pc[1] == c[1]:
-            l = n - 1
-            a = wp.vec2i(c[0] >> 1, c[1] >> 1)
-            if owner == 0:
-                l = 1
-            while l >= 2:
-                o = block_index(blocks, bases, slot * SLOT + l, a)
-                k = keyp[nonneg(o)]
-                if k[3] == STATE_WAIT:
-                    keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
-                if k[3] != STATE_INHERITED:
-                    break
-                l -= 1
-                a = wp.vec2i(a[0] >> 1, a[1] >> 1)
-            return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
+    if inherits(parent, n, c):
+        l = n - 1
+        a = wp.vec2i(c[0] >> 1, c[1] >> 1)
+        if owner == 0:
+            l = 1
+        while l >= 2:
+            o = block_index(blocks, bases, slot * SLOT + l, a)
+            k = keyp[nonneg(o)]
+            if k[3] == STATE_WAIT:
+                keyp[nonneg(o)] = wp.vec4(k[0], k[1], k[2], STATE_WANTED)
+            if k[3] != STATE_INHERITED:
+                break
+            l -= 1
+            a = wp.vec2i(a[0] >> 1, a[1] >> 1)
+        return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
     q = jitter(s, n, c)
     if not control_inside(ctl, to_control(s, q)):
         return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
