@@ -18,17 +18,12 @@ __version__ = "0.1.0"
 
 def _document_fields() -> None:
     """Show each public dataclass's field docstrings in ``help()`` (see ``_spec.document_fields``)."""
-    import dataclasses
     import importlib
 
     from . import _spec
 
     for part in ("dendry", "growth", "hydrology", "presets", "render", "sssp", "weights"):
-        module = importlib.import_module(f"{__name__}.{part}")  # (wdendrite.dendry is also a function)
-        for name, obj in vars(module).items():
-            if isinstance(obj, type) and dataclasses.is_dataclass(obj) and not name.startswith("_") \
-                    and obj.__module__ == module.__name__:
-                _spec.document_fields(obj)
+        _spec.document_fields(importlib.import_module(f"{__name__}.{part}"))  # (wdendrite.dendry is also a function)
 
 
 _document_fields()

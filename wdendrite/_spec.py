@@ -312,6 +312,11 @@ def _field_docs(cls, whole: bool = False) -> dict[str, str]:
     except (OSError, TypeError, SyntaxError):
         return {}
     body = tree.body[0].body if tree.body and isinstance(tree.body[0], ast.ClassDef) else []
+    return _docs_of_fields(body, whole)
+
+
+def _docs_of_fields(body: list, whole: bool) -> dict[str, str]:
+    """``{field: docstring}`` from the statements of a class body (see :func:`_field_docs`)."""
     out = {}
     for a, b in zip(body, body[1:]):
         if (isinstance(a, ast.AnnAssign) and isinstance(a.target, ast.Name) and isinstance(b, ast.Expr)
@@ -326,21 +331,38 @@ def counted(n: int, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def document_fields(cls) -> None:
-    """Add a ``Fields`` section, from the string literal under each field, to dataclass ``cls``'s
-    docstring, after its first paragraph: ``help()`` and IPython's ``?`` show class docstrings,
-    not those literals."""
-    docs = _field_docs(cls, whole=True)
-    if not docs or not cls.__doc__ or "\nFields:\n" in cls.__doc__:
+def document_fields(module) -> None:
+    """Add a ``Fields`` section, from the string literal under each field, to the docstring of
+    each public dataclass defined in ``module``, after its first paragraph: ``help()`` and
+    IPython's ``?`` show class docstrings, not those literals. Only the classes' own lines are
+    parsed (``inspect.getsource`` of a class parses its whole module each time: 0.15 s an import,
+    against about 0.01 s)."""
+    try:
+        source = inspect.getsource(module).splitlines()
+    except (OSError, TypeError):
         return
-    lines = ["Fields:"]
-    for f in dataclasses.fields(cls):
-        if f.name in docs:
-            default = "" if f.default is dataclasses.MISSING else f" = {f.default!r}"
-            text = textwrap.fill(docs[f.name], 88, initial_indent=" " * 8, subsequent_indent=" " * 8)
-            lines.append(f"    {f.name}{default}\n{text}")
-    head, sep, rest = inspect.cleandoc(cls.__doc__).partition("\n\n")
-    cls.__doc__ = head + "\n\n" + "\n".join(lines) + ("\n\n" + rest if sep else "\n")
+    starts = [i for i, line in enumerate(source) if line.startswith("class ")]
+    for i in starts:
+        name = re.match(r"class (\w+)", source[i]).group(1)
+        cls = getattr(module, name, None)
+        if (cls is None or name.startswith("_") or not dataclasses.is_dataclass(cls)
+                or cls.__module__ != module.__name__ or not cls.__doc__ or "\nFields:\n" in cls.__doc__):
+            continue
+        end = next((j for j in range(i + 1, len(source)) if source[j][:1] not in ("", " ", "\t", ")")), len(source))
+        try:
+            node = ast.parse("\n".join(source[i:end])).body[0]
+        except SyntaxError:
+            continue
+        docs = _docs_of_fields(node.body, whole=True)
+        lines = ["Fields:"]
+        for f in dataclasses.fields(cls):
+            if f.name in docs:
+                default = "" if f.default is dataclasses.MISSING else f" = {f.default!r}"
+                text = textwrap.fill(docs[f.name], 88, initial_indent=" " * 8, subsequent_indent=" " * 8)
+                lines.append(f"    {f.name}{default}\n{text}")
+        if len(lines) > 1:
+            head, sep, rest = inspect.cleandoc(cls.__doc__).partition("\n\n")
+            cls.__doc__ = head + "\n\n" + "\n".join(lines) + ("\n\n" + rest if sep else "\n")
 
 
 # --------------------------------------------------------------------------- presets
