@@ -246,8 +246,12 @@ def write_polyline(
     p3: wp.vec2,
     vi: int,
     verts_out: wp.array(dtype=wp.vec3),
-):
-    """Subdivide segment a -> b (x, y, z) into the level's pieces, smoothed and displaced sideways."""
+) -> float:
+    """Subdivide segment a -> b (x, y, z) into the level's pieces, smoothed and displaced sideways.
+
+    Returns how far the polyline's bounding box reaches beyond cell ``c`` of ``level`` (at
+    least 0), which searches use to stop at the first ring of cells beyond their reach
+    (see :func:`note_overhang`)."""
     pieces = s.pieces[level - 1]
     pa = wp.vec2(a[0], a[1])
     pb = wp.vec2(b[0], b[1])
@@ -287,6 +291,10 @@ def write_polyline(
     pad = 1.0e-4 * (hi[0] - lo[0] + hi[1] - lo[1]) + 1.0e-6 * (1.0 + wp.abs(lo[0]) + wp.abs(lo[1]))
     verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
     verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, wp.sqrt(longest), 0.0)
+    h = cell_size(level)
+    corner = wp.vec2(float(c[0]) * h, float(c[1]) * h)  # (exact: h is a power of two)
+    out = wp.max(corner - (lo - wp.vec2(pad, pad)), (hi + wp.vec2(pad, pad)) - (corner + wp.vec2(h, h)))
+    return wp.max(wp.max(out[0], out[1]), 0.0)
 
 
 @wp.func
@@ -332,6 +340,17 @@ def fill_point1(
 
 
 @wp.func
+def note_overhang(keyp: wp.array(dtype=wp.vec4), bases: wp.array(dtype=int), bi: int, over: float):
+    """Raise the overhang of block ``bi`` to ``over``: the most that the bounding box of any
+    segment drawn in the block reaches beyond its own cell (see :func:`write_polyline`).
+
+    The overhang lives in the record just before the block's first cell (``plan`` leaves one
+    there per level), so a search reads it with the block's cells. Threads of the cached mode
+    draw one level's cells together, hence the atomic maximum."""
+    wp.atomic_max(keyp, nonneg(bases[nonneg(bi)] - 1), wp.vec4(over, 0.0, 0.0, 0.0))
+
+
+@wp.func
 def store_point1(
     blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, vi: int, c: wp.vec2i, t: wp.vec2i,
     segment: float, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
@@ -369,7 +388,7 @@ def link1(
     p3 = 2.0 * pb - pa
     if (tt[0] != t[0] or tt[1] != t[1]) and ptt[3] > 0.0:
         p3 = wp.vec2(ptt[0], ptt[1])
-    write_polyline(s, 1, c, a, b, 2.0 * pa - pb, p3, vi, verts_out)
+    note_overhang(keyp_out, bases, bp + 1, write_polyline(s, 1, c, a, b, 2.0 * pa - pb, p3, vi, verts_out))
 
 
 @wp.func
@@ -601,10 +620,21 @@ def scan_range(
     # the plans make blocks hold every neighbourhood asked for; cells are then at fixed offsets
     whole = dx >= r and dy >= r and dx + r < b[2] and dy + r < b[3]
     centre = bases[nonneg(bi)] + dy * b[2] + dx
+    # q lies in cell c, so the cells of ring m lie at least (m - 1) cells beyond c's nearest
+    # edge to q, and their boxes at least that less the block's overhang: once that passes the
+    # reach, no cell of this ring or beyond can hold a nearer piece (the test below would skip
+    # each of them)
+    h = cell_size(l)
+    corner = wp.vec2(float(c[0]) * h, float(c[1]) * h)
+    inner = wp.min(wp.min(q - corner), wp.min(corner + wp.vec2(h, h) - q))
+    gap = h + wp.max(inner, 0.0) - keyp[nonneg(bases[nonneg(bi)] - 1)][0] - coord_margin(q)
     # a while loop: Warp's range() with a run-time bound compiled to a slower loop here
     # (per-pixel queries 8-20 % slower)
     k = k0
     while k < k1:
+        if k == 9 or k == 25:  # (the first cells of rings 2 and 3 in the search order)
+            if gap + float(k / 16) * h >= hit.sb:  # (k / 16: 0 at ring 2, 1 at ring 3)
+                break
         off = wp.vec2i(ORDER_X[k], ORDER_Y[k])
         k += 1
         o = int(-1)
@@ -827,7 +857,8 @@ def fill_levelk(
         p3 = pb
     elif m[2, 2] > 0.5:
         p3 = wp.vec2(m[2, 0], m[2, 1])
-    write_polyline(s, level, c, wp.vec3(q[0], q[1], zq), wp.vec3(x[0], x[1], zx), 2.0 * q - x, p3, vi, verts)
+    over = write_polyline(s, level, c, wp.vec3(q[0], q[1], zq), wp.vec3(x[0], x[1], zx), 2.0 * q - x, p3, vi, verts)
+    note_overhang(keyp, bases, bi, over)
     return -1.0
 
 
@@ -1223,7 +1254,8 @@ def plan(
             r = query_radius(s, l)
             lo = wp.vec2i(wp.min((lo[0] >> 1) - rl, (qlo[0] >> shift) - r), wp.min((lo[1] >> 1) - rl, (qlo[1] >> shift) - r))
             hi = wp.vec2i(wp.max((hi[0] >> 1) + rl, (qhi[0] >> shift) + r), wp.max((hi[1] >> 1) + rl, (qhi[1] >> shift) + r))
-        total += set_block(slot, l, lo, hi, base + total, blocks_out, bases_out)
+        # (one record before each level's cells holds its overhang, see note_overhang)
+        total += set_block(slot, l, lo, hi, base + total + 1, blocks_out, bases_out) + 1
     over = int(0)
     if total > cap[1]:
         over = 1
@@ -1516,6 +1548,8 @@ def build(
 
     Cells are visited row by row, so no cell is found from its position by an integer division.
     """
+    for level in range(1, s.levels + 1):
+        keyp[nonneg(bases[nonneg(slot * SLOT + level)] - 1)] = wp.vec4(0.0, 0.0, 0.0, 0.0)  # no overhang yet
     b = blocks[nonneg(slot * SLOT)]
     b1 = blocks[nonneg(slot * SLOT + 1)]
     lazy = b1[2] * b1[3] <= 64  # fill_links1 then draws the outer ring's points it needs

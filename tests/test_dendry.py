@@ -880,6 +880,51 @@ def test_a_pixels_own_cells_equal_the_cached_modes(kw):
             assert on_demand > 5, on_demand
 
 
+@pytest.mark.parametrize("kw", [dict(levels=2, eps=0.25, delta=0.1), dict(levels=2, eps=0.0, delta=0.5),
+                                dict(levels=4, eps=0.1, delta=0.3, rule="lichtenberg")])
+@pytest.mark.parametrize("mode", ["cached", "pixel"])
+def test_overhang_records_bound_every_drawn_box(kw, mode):
+    # searches stop at the first ring of cells that lies beyond their reach by more than the
+    # record before each level's block (kernels.dendry.note_overhang): that record must be at
+    # least how far every drawn segment's box reaches beyond its own cell, in both modes
+    p = DendryParams(beta=0.5, noise=0.05, seed=3, **kw)
+    dom = ((0.0, 0.0), (3.0, 3.0))
+    ctl = control.perlin(seed=1)
+    u = np.array([[1.3, 1.7]], np.float32)
+    s = _setup(p, dom, dom, "elevation")
+    wdd = importlib.import_module("wdendrite.dendry")  # (the package's name `dendry` is the function)
+    if mode == "cached":
+        plan = wdd._host_plan(p, "elevation", u[0].tolist(), u[0].tolist())
+        slots = wdd._cached_slots(plan, p, "cpu")
+        wdd._fill_cached(s, ctl.struct("cpu"), p, "elevation", slots, plan[2], "cpu")
+    else:
+        slots = _slots_for_pixels(p, "elevation", 1, "cpu")
+        out = wp.zeros(1, dtype=float, device="cpu")
+        wp.launch(_kp.points_kernel, dim=1, inputs=[s, ctl.struct("cpu"), _OUTPUTS["elevation"], slots.cap, 1, 0,
+                                                    wp.array(u, dtype=wp.vec2, device="cpu"), *slots.arrays()],
+                  outputs=[out, slots.overflow], device="cpu")
+    blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
+    keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, int(_kd.NV), 3)
+    seen = 0
+    for level in range(1, p.levels + 1):
+        i0, j0, ni, nj = (int(v) for v in blocks[level])
+        record = keyp[int(bases[level]) - 1, 0]
+        h = 2.0 ** (1 - level)
+        worst = 0.0
+        for j in range(nj):
+            for i in range(ni):
+                o = int(bases[level]) + j * ni + i
+                if keyp[o, 3] == float(_kd.STATE_SEGMENT):
+                    lo = verts[o, _kd.BOUND, :2].astype(np.float64)
+                    hi = np.array([verts[o, _kd.BOUND, 2], verts[o, _kd.BOUND + 1, 0]], np.float64)
+                    corner = np.array([i0 + i, j0 + j], np.float64) * h
+                    worst = max(worst, *(corner - lo), *(hi - corner - h))
+                    seen += 1
+        assert record >= worst - 1e-6, (level, record, worst)
+        assert record < 4.0 * h  # (a bound, not a blanket: no polyline strays that far)
+    assert seen > 0
+
+
 @pytest.mark.parametrize("kw", [dict(levels=3, eps=0.25, delta=0.1), dict(levels=4, eps=0.0, delta=0.5),
                                 dict(levels=4, eps=0.25, delta=0.1, rule="lichtenberg"),
                                 dict(levels=5, eps=0.1, delta=0.3, rule="lichtenberg"),

@@ -361,7 +361,7 @@ def _slot_capacity(p: DendryParams, output: str) -> tuple[int, int, int]:
     # elevation queries reach 2 primitive cells (+1 %) around the pixel, see kernels.dendry.evaluate
     n, m = p.levels, (math.ceil(2.02 / 2**p.primitive_steps) if output == "elevation" else 0)
     widest = [max(w) for w in zip(*(_plan_axis(p, q, q, m) for q in range(2 ** (n + 1))))]
-    return (widest[1] + 4) ** 2, sum(w * w for w in widest[1:]), 1
+    return (widest[1] + 4) ** 2, sum(w * w + 1 for w in widest[1:]), 1  # (+1: each level's overhang record)
 
 
 def _point_work(p: DendryParams, output: str) -> int:
@@ -632,13 +632,13 @@ def _host_plan(params: DendryParams, output: str, u_first, u_last) -> tuple[np.n
     counts[0] = (rx[1][1] - rx[1][0] + 5) * (ry[1][1] - ry[1][0] + 5)
     counts[_kd.PRIM] = (phi[0] - plo[0] + 1) * (phi[1] - plo[1] + 1)
     # (the kernels index cells' vertices, NV words apiece, and nearby pieces, 4 apiece, in int32)
-    if sum(counts[l] for l in range(1, n + 1)) * max(_STRIDE, 4) >= 2**31 or max(counts.values()) * 4 >= 2**31:
+    if (sum(counts[l] for l in range(1, n + 1)) + n) * max(_STRIDE, 4) >= 2**31 or max(counts.values()) * 4 >= 2**31:
         raise _TooManyCells(sum(counts[l] for l in range(1, n + 1)))
     total = 0
     for l in range(n, 0, -1):  # the tree's levels share one storage, finest first
         blocks[l] = (rx[l][0], ry[l][0], rx[l][1] - rx[l][0] + 1, ry[l][1] - ry[l][0] + 1)
-        bases[l] = total
-        total += int(blocks[l, 2]) * int(blocks[l, 3])
+        bases[l] = total + 1  # (after the record of the level's overhang, see kernels.dendry.note_overhang)
+        total += int(blocks[l, 2]) * int(blocks[l, 3]) + 1
     # level-1 points: two more cells around the level-1 block; the primitives
     blocks[0] = (blocks[1, 0] - 2, blocks[1, 1] - 2, blocks[1, 2] + 4, blocks[1, 3] + 4)
     blocks[_kd.PRIM] = (plo[0], plo[1], phi[0] - plo[0] + 1, phi[1] - plo[1] + 1)
@@ -649,7 +649,7 @@ def _cached_storage(plans, params: DendryParams, device) -> _Slots:
     """Slot-0 storage that holds the cells of each of ``plans`` (one at a time)."""
     n = params.levels
     pts = max(sizes[0] for _, _, sizes in plans)
-    cells = max(sum(sizes[1 : n + 1]) for _, _, sizes in plans)
+    cells = max(sum(sizes[1 : n + 1]) for _, _, sizes in plans) + n  # (and each level's overhang record)
     prims = max(sizes[_kd.PRIM] for _, _, sizes in plans)
     fits_in_memory(_Slots.nbytes(1, (pts, cells, prims)), device, "Dendry cached cells")
     return _Slots(1, (pts, cells, prims), device)
@@ -669,6 +669,7 @@ def _cached_slots(plan, params, device) -> _Slots:
 
 
 def _fill_cached(s, ctl, params, output, slots, sizes, device):
+    slots.keyp.zero_()  # (each level's overhang starts at 0, see kernels.dendry.note_overhang)
     wp.launch(_kd.points1_kernel, dim=sizes[0], inputs=[s, ctl, slots.blocks, slots.bases], outputs=[slots.pts1],
               device=device)
     wp.launch(_kd.segments1_kernel, dim=sizes[1], inputs=[s, slots.blocks, slots.bases, slots.pts1],
