@@ -13,7 +13,8 @@ where its cells start in the flat arrays:
 - L = 0: level-1 key points (``pts1``: x, y, z, valid; valid -1 marks a point the per-pixel
   mode has not drawn yet, see :func:`build`), two cells wider than L = 1;
 - L = 1..n: cells of level L (``keyp``: x, y, z, state; ``verts``: per cell, up
-  to 5 polyline vertices x, y, z, upstream first, then their bounding box);
+  to 5 polyline vertices x, y, z, upstream first, then their bounding box), after one
+  ``keyp`` record holding the level's overhang (see :func:`note_overhang`);
 - L = 7: terrain primitives (``prims``: x, y, h).
 
 Per-pixel elevation also keeps, per slot, a shortlist of the polyline pieces near
