@@ -132,6 +132,13 @@ def cell_size(level: int) -> float:
 
 
 @wp.func
+def cell_corner(c: wp.vec2i, level: int) -> wp.vec2:
+    """The lower corner of cell ``c`` of ``level`` in grid units (exact: the cell size is a power of two)."""
+    h = cell_size(level)
+    return wp.vec2(float(c[0]) * h, float(c[1]) * h)
+
+
+@wp.func
 def cell_of(u: wp.vec2, level: int) -> wp.vec2i:
     """The cell of ``level`` holding point ``u`` (grid units).
 
@@ -293,7 +300,7 @@ def write_polyline(
     verts_out[nonneg(vi * NV + BOUND)] = wp.vec3(lo[0] - pad, lo[1] - pad, hi[0] + pad)
     verts_out[nonneg(vi * NV + BOUND + 1)] = wp.vec3(hi[1] + pad, wp.sqrt(longest), 0.0)
     h = cell_size(level)
-    corner = wp.vec2(float(c[0]) * h, float(c[1]) * h)  # (exact: h is a power of two)
+    corner = cell_corner(c, level)
     out = wp.max(corner - (lo - wp.vec2(pad, pad)), (hi + wp.vec2(pad, pad)) - (corner + wp.vec2(h, h)))
     return wp.max(wp.max(out[0], out[1]), 0.0)
 
@@ -621,20 +628,21 @@ def scan_range(
     # the plans make blocks hold every neighbourhood asked for; cells are then at fixed offsets
     whole = dx >= r and dy >= r and dx + r < b[2] and dy + r < b[3]
     centre = bases[nonneg(bi)] + dy * b[2] + dx
-    # q lies in cell c, so the cells of ring m lie at least (m - 1) cells beyond c's nearest
-    # edge to q, and their boxes at least that less the block's overhang: once that passes the
-    # reach, no cell of this ring or beyond can hold a nearer piece (the test below would skip
-    # each of them)
-    h = cell_size(l)
-    corner = wp.vec2(float(c[0]) * h, float(c[1]) * h)
-    inner = wp.min(wp.min(q - corner), wp.min(corner + wp.vec2(h, h) - q))
-    gap = h + wp.max(inner, 0.0) - keyp[nonneg(bases[nonneg(bi)] - 1)][0] - coord_margin(q)
     # a while loop: Warp's range() with a run-time bound compiled to a slower loop here
     # (per-pixel queries 8-20 % slower)
     k = k0
     while k < k1:
         if k == 9 or k == 25:  # (the first cells of rings 2 and 3 in the search order)
-            if gap + float(k / 16) * h >= hit.sb:  # (k / 16: 0 at ring 2, 1 at ring 3)
+            # q lies in cell c, so the cells of ring m lie at least (m - 1) cells beyond c's
+            # nearest edge to q, and their boxes at least that less the block's overhang: once
+            # that passes the reach, no cell of this ring or beyond can hold a nearer piece (the
+            # test below would skip each of them). Worked out here, so that scans that never
+            # reach ring 2 (3 x 3 links, early stops) pay nothing for it
+            h = cell_size(l)
+            corner = cell_corner(c, l)
+            inner = wp.max(wp.min(wp.min(q - corner), wp.min(corner + wp.vec2(h, h) - q)), 0.0)
+            over = keyp[nonneg(bases[nonneg(bi)] - 1)][0]
+            if float(k / 16 + 1) * h + inner - over - coord_margin(q) >= hit.sb:  # (k / 16: 0 at ring 2, 1 at ring 3)
                 break
         off = wp.vec2i(ORDER_X[k], ORDER_Y[k])
         k += 1
