@@ -822,6 +822,15 @@ def fill_levelk(
     if limit >= 0.0:
         # the polyline matters only if some point of it comes within limit of u
         far = wp.length(u - q) - limit - coord_margin(u)
+        # the parent's key point starts a polyline of the tree (its own segment's, or the one it
+        # inherits), owned by the centre cell of the link search's first ring, so the piece
+        # joined lies within |q - p| of q: when that keeps the new polyline far, no search is
+        # needed (the test after the search would mark the cell far too)
+        if parent[3] != STATE_NONE:
+            pk = wp.vec2(parent[0], parent[1])
+            if segment_reach(s, level, link_span(s, wp.length(q - pk), longest)) < far:
+                keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
+                return -1.0
     m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, pending, keyp, verts)
     if m[2, 2] < -2.5:
         return m[0, 0]
