@@ -720,6 +720,26 @@ def link_span(s: Setup, d: float, longest: float) -> float:
 
 
 @wp.func
+def link_stays_far(s: Setup, level: int, d: float, longest: float, far: float) -> bool:
+    """True when the polyline of a new key point of ``level`` whose link joins a piece within ``d``
+    of it (no coarser piece longer than ``longest``) stays farther than ``far`` from it."""
+    return segment_reach(s, level, link_span(s, d, longest)) < far
+
+
+@wp.func
+def parent_reach(parent: wp.vec4, q: wp.vec2) -> float:
+    """Bound on the distance from new key point ``q`` to the piece its link joins, from its
+    parent cell's ``parent`` (x, y, z, state): that key point starts a polyline of the tree (the
+    parent's own segment, drawn or not yet, or the one it inherits), owned by the centre cell
+    of the link search's first ring (inf when the parent has no point). The distance as
+    measured: the margins of :func:`segment_reach` and of the limit cover its rounding, as they
+    cover that of the distances the link search measures."""
+    if parent[3] == STATE_NONE:
+        return wp.inf
+    return wp.length(q - wp.vec2(parent[0], parent[1]))
+
+
+@wp.func
 def nearest_on_tree(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
     q: wp.vec2, far: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
@@ -758,7 +778,7 @@ def nearest_on_tree(
         while k0 < cells:
             hit = scan_range(blocks, bases, slot * SLOT + l, l, anc, s.rl, k0, k1, q, keyp, verts, hit)
             if k1 < cells and hit.o >= 0:
-                if segment_reach(s, level, link_span(s, wp.sqrt(hit.best), longest)) < far:
+                if link_stays_far(s, level, wp.sqrt(hit.best), longest, far):
                     return wp.mat33(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -2.0)
             k0 = k1
             k1 = cells
@@ -822,15 +842,11 @@ def fill_levelk(
     if limit >= 0.0:
         # the polyline matters only if some point of it comes within limit of u
         far = wp.length(u - q) - limit - coord_margin(u)
-        # the parent's key point starts a polyline of the tree (its own segment's, or the one it
-        # inherits), owned by the centre cell of the link search's first ring, so the piece
-        # joined lies within |q - p| of q: when that keeps the new polyline far, no search is
-        # needed (the test after the search would mark the cell far too)
-        if parent[3] != STATE_NONE:
-            pk = wp.vec2(parent[0], parent[1])
-            if segment_reach(s, level, link_span(s, wp.length(q - pk), longest)) < far:
-                keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
-                return -1.0
+        # when the parent's key point keeps the new polyline far, no search is needed (the test
+        # after the search would mark the cell far too)
+        if link_stays_far(s, level, parent_reach(parent, q), longest, far):
+            keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
+            return -1.0
     m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, pending, keyp, verts)
     if m[2, 2] < -2.5:
         return m[0, 0]
@@ -1443,7 +1459,6 @@ def want_finest(
     """
     n = s.levels
     parent = keyp[nonneg(block_index(blocks, bases, slot * SLOT + n - 1, wp.vec2i(c[0] >> 1, c[1] >> 1)))]
-    pp = wp.vec2(parent[0], parent[1])
     if inherits(parent, n, c):
         l = n - 1
         a = wp.vec2i(c[0] >> 1, c[1] >> 1)
@@ -1462,11 +1477,9 @@ def want_finest(
     q = jitter(s, n, c)
     if not control_inside(ctl, to_control(s, q)):
         return wp.vec4(STATE_NONE, 0.0, 0.0, -1.0)
-    d = float(wp.inf)
-    if parent[3] != STATE_NONE:
-        d = widened(wp.length(q - pp), q)
+    d = widened(parent_reach(parent, q), q)  # (widened: want_box compares it with bounds of its own)
     if limit >= 0.0:
-        if segment_reach(s, n, link_span(s, d, longest)) < wp.length(u - q) - limit - coord_margin(u):
+        if link_stays_far(s, n, d, longest, wp.length(u - q) - limit - coord_margin(u)):
             return wp.vec4(STATE_FAR, 0.0, 0.0, -1.0)
     return wp.vec4(STATE_NONE, q[0], q[1], d)
 
