@@ -1675,7 +1675,8 @@ def finish(
 
     Only pieces within ``limit`` of ``u`` can answer the pixel (``limit`` < 0: all can), and
     most of these cells' segments lie farther: :func:`fill_levelk` marks those ``STATE_FAR``
-    without drawing them, after as little of their link search as proves it. The finest level
+    without drawing them, from their parent's key point where that proves it (:func:`parent_reach`),
+    else after as little of their link search as proves it. The finest level
     links nothing, so no other cell depends on them; the cells that stay have exactly the
     values the cached mode gives them.
     """
