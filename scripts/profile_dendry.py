@@ -24,6 +24,11 @@ counting the instructions executed inside Warp launches, and reports instruction
 (a 1-pixel window is subtracted), reproducible to a few instructions. Instructions are not
 time (latency, cache misses and branch mispredictions count for nothing), so confirm a gain
 with ``ab_dendry.py``; valgrind runs kernels compiled for the CPU it emulates. Needs valgrind.
+``--count-lines`` joins the two: the instructions of one checkout's window (callgrind, one
+count per instruction address) attributed by function and line as in the default mode, with
+the amount per pixel.
+
+    python scripts/profile_dendry.py --count-lines --window 32 --top 60
 """
 
 from __future__ import annotations
@@ -110,10 +115,15 @@ def _symbols(obj: str) -> list[tuple[int, int, str]]:
     return rows
 
 
-def _profile(args) -> None:
-    for tool in ("perf", "objdump", "addr2line"):
+def _need(mode: str, *tools: str) -> None:
+    """Exit with a clear message when a tool ``mode`` runs is not installed."""
+    for tool in tools:
         if shutil.which(tool) is None:
-            sys.exit(f"profile_dendry: '{tool}' is not installed (the default mode needs perf, objdump, addr2line)")
+            sys.exit(f"profile_dendry: '{tool}' is not installed ({mode} needs {', '.join(tools)})")
+
+
+def _profile(args) -> None:
+    _need("the default mode", "perf", "objdump", "addr2line")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         report, data = tmp / "report.json", tmp / "perf.data"
@@ -126,7 +136,51 @@ def _profile(args) -> None:
         info = json.loads(report.read_text())
         ips = subprocess.run(["perf", "script", "-i", str(data), "-F", "ip"], capture_output=True, text=True,
                              check=True).stdout.split()
-    total = len(ips)
+    weights: collections.Counter[int] = collections.Counter(int(ip, 16) for ip in ips)
+    _attribute(args, info, weights, f"{args.window}^2 window x {args.runs}: {len(ips)} samples")
+
+
+def _grind_weights(out: Path) -> collections.Counter[int]:
+    """Instructions executed at each address, from a callgrind output written with
+    ``--dump-instr=yes --compress-pos=no`` (every cost line starts with its address): the self
+    cost of each instruction; the inclusive costs of calls, on the line after each ``calls=``,
+    are left out."""
+    weights: collections.Counter[int] = collections.Counter()
+    skip, npos = False, 1
+    for line in out.read_text().splitlines():
+        if line.startswith("positions:"):
+            npos = len(line.split()) - 1  # e.g. "positions: instr line": the cost is the third field
+        elif line.startswith("calls="):
+            skip = True
+        elif line.startswith("0x"):
+            if not skip:
+                fields = line.split()
+                weights[int(fields[0], 16)] += int(fields[npos]) if len(fields) > npos else 0
+            skip = False
+    return weights
+
+
+def _count_lines(args) -> None:
+    """Instructions by function and line (callgrind on the line-table build, as ``--count``)."""
+    _need("--count-lines", "valgrind", "objdump", "addr2line")
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        report, out = tmp / "report.json", tmp / "callgrind.out"
+        subprocess.run(["valgrind", "--tool=none"] + _child_command(args, args.root, "wd_p", 1, 0, report, True),
+                       check=True, capture_output=True)
+        grind = ["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=ffi_call*",
+                 "--dump-instr=yes", "--compress-pos=no", f"--callgrind-out-file={out}"]
+        subprocess.run(grind + _child_command(args, args.root, "wd_p", args.window, 0, report, True), check=True,
+                       capture_output=True)
+        info = json.loads(report.read_text())
+        weights = _grind_weights(out)
+    per = 1.0 / info["pixels"]
+    _attribute(args, info, weights, f"{args.window}^2 window: instructions", per)
+
+
+def _attribute(args, info: dict, weights: collections.Counter[int], what: str, per: float = 0.0) -> None:
+    """Print the share of ``weights`` (address -> samples or instructions) inside the per-pixel
+    image kernel by Warp function and by Python line (``per`` > 0: also the amount per pixel)."""
     counts: collections.Counter[int] = collections.Counter()
     obj = None
     for name, entry in info["entries"].items():
@@ -137,16 +191,19 @@ def _profile(args) -> None:
         start = [s for s in syms if s[2] == name][0][0]
         end = max(o + n for o, n, _ in syms)
         base = entry - start
-        for ip in ips:
-            off = int(ip, 16) - base
+        for ip, n in weights.items():
+            off = ip - base
             if 0 <= off < end:
-                counts[off] += 1
+                counts[off] += n
     if obj is None:
         sys.exit("profile_dendry: the per-pixel image kernel was not found among the launches")
+    total = sum(weights.values())
     inside = sum(counts.values())
     offsets = sorted(counts)
-    lines = subprocess.run(["addr2line", "-a", "-i", "-f", "-e", obj] + [hex(o) for o in offsets],
-                           capture_output=True, text=True, check=True).stdout.splitlines()
+    lines = []
+    for i in range(0, len(offsets), 2000):  # (command lines of bounded length)
+        lines += subprocess.run(["addr2line", "-a", "-i", "-f", "-e", obj] + [hex(o) for o in offsets[i:i + 2000]],
+                                capture_output=True, text=True, check=True).stdout.splitlines()
     # the Python line each line of the generated code belongs to: Warp writes a comment citing it
     # (``// statement <L n>``) before the code of each statement
     cites, last = [], "?"
@@ -176,11 +233,17 @@ def _profile(args) -> None:
         if chain:
             fn, ln = chain[0]
             by_line[(fn, cites[ln - 1] if 0 < ln <= len(cites) else "?")] += n
-    print(f"{args.workload} {args.search} {args.output}, {args.window}^2 window x {args.runs}: {total} samples, "
-          f"{inside} ({100 * inside / max(total, 1):.0f} %) in the per-pixel kernel")
-    print("\ninclusive share by Warp function (along the chain of inlined calls):")
+
+    def amount(n: int) -> str:
+        return f"{100 * n / inside:5.1f} %" + (f" {n * per:9,.0f}" if per > 0 else "")
+
+    print(f"{args.workload} {args.search} {args.output}, {what}: {total}, "
+          f"{inside} ({100 * inside / max(total, 1):.0f} %) in the per-pixel kernel"
+          + (f", {inside * per:,.0f} per pixel" if per > 0 else ""))
+    print("\ninclusive share by Warp function (along the chain of inlined calls)"
+          + (", and per pixel:" if per > 0 else ":"))
     for fn, n in inclusive.most_common(args.top):
-        print(f"  {100 * n / inside:5.1f} %  {fn}")
+        print(f"  {amount(n)}  {fn}")
     # the file defining each function, to quote its lines
     files = {}
     for path in sorted((Path(args.root) / "kernels").glob("*.py")):
@@ -193,12 +256,11 @@ def _profile(args) -> None:
     for (fn, ln), n in by_line.most_common(args.top):
         name, text = files.get(fn, ("?", []))
         quote = text[int(ln) - 1].strip() if ln.isdigit() and int(ln) <= len(text) else ""
-        print(f"  {100 * n / inside:5.1f} %  {name}:{ln} ({fn})  {quote[:90]}")
+        print(f"  {amount(n)}  {name}:{ln} ({fn})  {quote[:90]}")
 
 
 def _count(args) -> None:
-    if shutil.which("valgrind") is None:
-        sys.exit("profile_dendry: --count needs valgrind")
+    _need("--count", "valgrind")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for i, root in enumerate(args.count):
@@ -240,6 +302,8 @@ def main() -> None:
     ap.add_argument("--frequency", type=int, default=4000, help="perf samples per second")
     ap.add_argument("--top", type=int, default=30, help="rows of each table")
     ap.add_argument("--count", nargs="+", metavar="ROOT", help="count instructions per pixel of these checkouts")
+    ap.add_argument("--count-lines", action="store_true",
+                    help="instructions (callgrind) instead of time samples by function and line, per pixel")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--package", default="wd_p", help=argparse.SUPPRESS)
     ap.add_argument("--report", help=argparse.SUPPRESS)
@@ -248,7 +312,7 @@ def main() -> None:
     if args.workload == "lichtenberg" and args.output == "elevation":
         ap.error("the Lichtenberg figure has no elevation: use --output distance or level")
     if args.window is None:
-        args.window = 64 if args.count else 160
+        args.window = 64 if args.count or args.count_lines else 160
     if not args.child and (args.window < 2 or args.runs < 0 or args.frequency < 1 or args.top < 1):
         ap.error(f"--window must be at least 2 and --runs, --frequency, --top positive, got "
                  f"{args.window}, {args.runs}, {args.frequency}, {args.top}")
@@ -259,6 +323,8 @@ def main() -> None:
         _child(args)
     elif args.count:
         _count(args)
+    elif args.count_lines:
+        _count_lines(args)
     else:
         _profile(args)
 
