@@ -5,20 +5,29 @@ Setup (the authors' Table 1 configuration): 512^2 pixels over the noise domain
 function on the rectangle (-0.2, -0.4)-(1.4, 0.7), seeds 0-9. Depressions are
 the cells a priority-flood fill raises, counted as 8-connected components.
 
-Our Perlin noise is not the authors', so which field the control shows matters
-(a field with a minimum inside the rectangle gives the terrain a closed basin
-there): ``--control-seed matched`` (default) gives seed s's terrain the control
-``perlin(seed=s)``, ten fields in all; ``--control-seed N`` uses one control
-field for all seeds, as the paper's table varies only the Dendry seed.
+Our Perlin noise is not the authors', so which field the control shows matters: a
+field with a minimum inside the rectangle gives the terrain a closed basin there,
+and so can a valley too flat along its floor for the jitter (a level-1 key point
+on it may lie below all 8 of its neighbours: a sink). The paper's drainage
+guarantee holds "provided that the control function c does not include too low
+local minima", so by default (``--control-seed draining``) seed s's terrain takes
+the s-th control field, in seed order, on which water runs to the border: a 257^2
+sampling of ``perlin(seed=k)`` over the rectangle has no depression. The fields
+are chosen from the control alone, before any terrain is made. Other choices:
+``--control-seed matched`` gives seed s the field ``perlin(seed=s)`` (ten fields,
+most with an interior minimum), ``--control-seed N`` one field for all seeds.
 The baselines (fBm and ridged multifractal, 8 octaves, frequency 4) use the same
-seeds and size.
+seeds and size. ``--sinks`` adds a column with the level-1 sinks inside the
+domain (key points lower than their 8 neighbours, whose segments have length
+zero, so the rivers around end in a closed basin): every large Dendry depression
+we measured sits around one.
 
 ``--drained`` fills the control's interior minima first (wdendrite.control.drained):
 a variant, not the paper's setup. ``--search paper`` links with the paper's 3 x 3
 cells (as the authors' code does) instead of our exact default (DendryParams.search).
 
-Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--control-seed matched|N] [--frequency 1.0]
-       [--drained] [--search exact|paper]
+Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--control-seed draining|matched|N]
+       [--frequency 1.0] [--drained] [--search exact|paper] [--sinks]
 """
 
 from __future__ import annotations
@@ -37,13 +46,50 @@ PAPER = {"Multifractal (paper)": (35.9, 1352), "Ridged (paper)": (24.5, 2058), "
          "Dendry (authors' code, measured)": (1.10, 70), "Alps DEM (paper)": (3.3, 798)}
 
 
+RECTANGLE = ((-0.2, -0.4), (1.4, 0.7))  # the control's rectangle, onto which the noise domain maps
+DOMAIN = ((0.0, 0.0), (4.0, 4.0))
+
+
+def _control(control_seed: int, frequency: float, drained: bool) -> control.Control:
+    ctl = control.perlin(seed=control_seed, frequency=frequency, domain=RECTANGLE)
+    return control.drained(ctl) if drained else ctl
+
+
+def _params(seed: int, search: str) -> DendryParams:
+    return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=seed, search=search)
+
+
 def dendry_terrain(size: int, seed: int, control_seed: int, frequency: float = 1.0, drained: bool = False,
                    search: str = "exact") -> np.ndarray:
-    ctl = control.perlin(seed=control_seed, frequency=frequency, domain=((-0.2, -0.4), (1.4, 0.7)))
-    if drained:
-        ctl = control.drained(ctl)
-    p = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=seed, search=search)
-    return dendry((size, size), domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl, output="elevation")
+    return dendry((size, size), domain=DOMAIN, params=_params(seed, search),
+                  control=_control(control_seed, frequency, drained), output="elevation")
+
+
+def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
+    """The first ``count`` control seeds whose field drains to the border: a 257^2 sampling of it
+    over the rectangle has no depression (water anywhere on it runs off an edge)."""
+    found, seed = [], 0
+    while len(found) < count:
+        if seed >= 100 * count + 100:
+            raise RuntimeError(f"fewer than {count} draining fields among control seeds 0-{seed - 1}")
+        if hydrology.depressions(_control(seed, frequency, False).grid((257, 257))).count == 0:
+            found.append(seed)
+        seed += 1
+    return found
+
+
+def level1_sinks(seed: int, control_seed: int, frequency: float = 1.0, drained: bool = False,
+                 search: str = "exact") -> list[tuple[int, int]]:
+    """Level-1 cells inside the domain whose key point lies below those of its 8 neighbours
+    (their segments have length zero: the rivers around end there), as (column, row)."""
+    from wdendrite.dendry import _cached_tree  # (the cached mode's cells: a diagnostic, not public API)
+
+    cells, keyp, _ = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search),
+                                  control=_control(control_seed, frequency, drained))[0]
+    z = {(int(i), int(j)): float(k[2]) for (i, j), k in zip(cells, keyp)}
+    lo, hi = int(DOMAIN[0][0]), int(DOMAIN[1][0])
+    return [(i, j) for (i, j), zc in z.items() if lo <= min(i, j) and max(i, j) < hi
+            and all(z[(i + dx, j + dy)] > zc for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy)]
 
 
 def _largest_percent(mask: np.ndarray) -> float:
@@ -58,15 +104,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--control-seed", default="matched", help="'matched' or an integer")
+    ap.add_argument("--control-seed", default="draining", help="'draining' (default), 'matched' or an integer")
     ap.add_argument("--frequency", type=float, default=1.0, help="Perlin control frequency (features per unit)")
     ap.add_argument("--drained", action="store_true", help="fill the control's interior minima first (not the paper's setup)")
     ap.add_argument("--search", default="exact", choices=["exact", "paper"], help="link neighbourhoods")
+    ap.add_argument("--sinks", action="store_true", help="list each terrain's level-1 sinks (cells inside the domain)")
     args = ap.parse_args()
     if args.size < 2 or args.seeds < 1:
         ap.error(f"--size must be at least 2 and --seeds at least 1, got {args.size} and {args.seeds}")
-    if args.control_seed != "matched" and not (args.control_seed.isdigit() and int(args.control_seed) < 2**32):
-        ap.error(f"--control-seed must be 'matched' or an integer in [0, 2**32), got {args.control_seed!r}")
+    named = ("matched", "draining")
+    if args.control_seed not in named and not (args.control_seed.isdigit() and int(args.control_seed) < 2**32):
+        ap.error(f"--control-seed must be 'matched', 'draining' or an integer in [0, 2**32), got {args.control_seed!r}")
     if not (np.isfinite(args.frequency) and args.frequency > 0):
         ap.error(f"--frequency must be a positive number, got {args.frequency}")
     wp.config.quiet = True
@@ -75,23 +123,34 @@ def main() -> None:
     rows = {"Dendry (ours)": [], "fBm (ours)": [], "Ridged (ours)": []}
     print(f"# Table 1 reproduction, {args.size}^2, seeds 0-{args.seeds - 1}, control seed {args.control_seed}, "
           f"control frequency {args.frequency}{', drained control' if args.drained else ''}, {args.search} search")
-    print("| seed | Dendry % | Dendry # | largest Dendry depression % | fBm % | fBm # | ridged % | ridged # |")
-    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    if args.control_seed == "matched":
+        fields = list(range(args.seeds))
+    elif args.control_seed == "draining":
+        fields = draining_fields(args.seeds, args.frequency)
+        print(f"# draining control fields (control seeds) for Dendry seeds 0-{args.seeds - 1}: {fields}")
+    else:
+        fields = [int(args.control_seed)] * args.seeds
+    extra = (" level-1 sinks |", " --- |") if args.sinks else ("", "")
+    print("| seed | control seed | Dendry % | Dendry # | largest Dendry depression % | fBm % | fBm # | ridged % | ridged # |"
+          + extra[0])
+    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |" + extra[1])
     t0 = time.perf_counter()
-    for seed in range(args.seeds):
-        cseed = seed if args.control_seed == "matched" else int(args.control_seed)
+    for seed, cseed in enumerate(fields):
         terrains = {
             "Dendry (ours)": dendry_terrain(args.size, seed, cseed, args.frequency, args.drained, args.search),
             "fBm (ours)": hydrology.fbm_terrain((args.size, args.size), seed=seed),
             "Ridged (ours)": hydrology.ridged_terrain((args.size, args.size), seed=seed),
         }
-        cells = []
+        cells = [str(cseed)]
         for name, z in terrains.items():
             d = hydrology.depressions(z)
             rows[name].append((d.percent, d.count))
             cells += [f"{d.percent:.2f}", str(d.count)]
             if name == "Dendry (ours)":
                 cells.append(f"{_largest_percent(d.mask):.2f}")
+        if args.sinks:
+            sinks = level1_sinks(seed, cseed, args.frequency, args.drained, args.search)
+            cells.append(" ".join(f"({i}, {j})" for i, j in sinks) or "-")
         print(f"| {seed} | " + " | ".join(cells) + " |")
     print()
     print("| method | depression surface | # of depressions |")
