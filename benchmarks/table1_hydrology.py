@@ -81,7 +81,8 @@ def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
 def level1_sinks(seed: int, control_seed: int, frequency: float = 1.0, drained: bool = False,
                  search: str = "exact") -> list[tuple[int, int]]:
     """Level-1 cells inside the domain whose key point lies below those of its 8 neighbours
-    (their segments have length zero: the rivers around end there), as (column, row)."""
+    (their segments have length zero: the rivers around end there), as (column, row).
+    Neighbours beyond a bounded control's domain (``drained``) count by their values too."""
     from wdendrite.dendry import _cached_tree  # (the cached mode's cells: a diagnostic, not public API)
 
     cells, keyp, _ = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search),
