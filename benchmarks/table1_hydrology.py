@@ -59,10 +59,8 @@ def _params(seed: int, search: str) -> DendryParams:
     return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=seed, search=search)
 
 
-def dendry_terrain(size: int, seed: int, control_seed: int, frequency: float = 1.0, drained: bool = False,
-                   search: str = "exact") -> np.ndarray:
-    return dendry((size, size), domain=DOMAIN, params=_params(seed, search),
-                  control=_control(control_seed, frequency, drained), output="elevation")
+def dendry_terrain(size: int, seed: int, ctl: control.Control, search: str = "exact") -> np.ndarray:
+    return dendry((size, size), domain=DOMAIN, params=_params(seed, search), control=ctl, output="elevation")
 
 
 def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
@@ -78,15 +76,13 @@ def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
     return found
 
 
-def level1_sinks(seed: int, control_seed: int, frequency: float = 1.0, drained: bool = False,
-                 search: str = "exact") -> list[tuple[int, int]]:
+def level1_sinks(seed: int, ctl: control.Control, search: str = "exact") -> list[tuple[int, int]]:
     """Level-1 cells inside the domain whose key point lies below those of its 8 neighbours
     (their segments have length zero: the rivers around end there), as (column, row).
-    Neighbours beyond a bounded control's domain (``drained``) count by their values too."""
+    Neighbours beyond a bounded control's domain (a drained one) count by their values too."""
     from wdendrite.dendry import _cached_tree  # (the cached mode's cells: a diagnostic, not public API)
 
-    cells, keyp, _ = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search),
-                                  control=_control(control_seed, frequency, drained))[0]
+    cells, keyp, _ = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search), control=ctl)[0]
     z = {(int(i), int(j)): float(k[2]) for (i, j), k in zip(cells, keyp)}
     lo, hi = int(DOMAIN[0][0]), int(DOMAIN[1][0])
     return [(i, j) for (i, j), zc in z.items() if lo <= min(i, j) and max(i, j) < hi
@@ -137,8 +133,9 @@ def main() -> None:
     print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |" + extra[1])
     t0 = time.perf_counter()
     for seed, cseed in enumerate(fields):
+        ctl = _control(cseed, args.frequency, args.drained)  # (one control per seed: a drained one is a fill)
         terrains = {
-            "Dendry (ours)": dendry_terrain(args.size, seed, cseed, args.frequency, args.drained, args.search),
+            "Dendry (ours)": dendry_terrain(args.size, seed, ctl, args.search),
             "fBm (ours)": hydrology.fbm_terrain((args.size, args.size), seed=seed),
             "Ridged (ours)": hydrology.ridged_terrain((args.size, args.size), seed=seed),
         }
@@ -150,7 +147,7 @@ def main() -> None:
             if name == "Dendry (ours)":
                 cells.append(f"{_largest_percent(d.mask):.2f}")
         if args.sinks:
-            sinks = level1_sinks(seed, cseed, args.frequency, args.drained, args.search)
+            sinks = level1_sinks(seed, ctl, args.search)
             cells.append(" ".join(f"({i}, {j})" for i, j in sinks) or "-")
         print(f"| {seed} | " + " | ".join(cells) + " |")
     print()
