@@ -6,8 +6,8 @@
 
 Neither of the other profiles measures time per stage. ``profile_dendry.py --count`` counts
 instructions, and on this machine those have not predicted time: session 28 removed 7 % of
-them and gained 1-3 %. Its sampling mode attributes time through ``addr2line``, which is unreliable
-where LLVM merged code: it put 17 % of a single-octave Perlin control's time under
+them and gained 1-3 %. Its sampling mode attributes time through ``addr2line``, which is
+unreliable where LLVM merged code: it put 17 % of a single-octave Perlin control's time under
 ``ridged``. This script takes the plain way: it makes one copy of the checkout's package per
 stage, each with the per-pixel kernel returning right after that stage, and times the copies
 in turns on the same window. The difference between two cuts is the time of the stage between
@@ -23,9 +23,9 @@ them, with everything before it kept as it is. The cuts (in ``kernels/dendry.py`
 A cut leaves the compiler free to drop whatever the later stages alone would need, so a stage's
 time is what it costs once the rest is gone. Each copy is compiled on its own, and the compiler
 lays each one out differently, so a small stage can come out a little below zero: the paper
-search's distances gave -0.06 us for the build stage, whose single query cell costs little. The copies live in a temporary directory. The
-values of cut copies mean nothing, but the last copy is the whole pipeline, and its rate is
-printed next to the others.
+search's distances gave -0.06 us for the build stage, whose single query cell costs little.
+The copies live in a temporary directory. The values of the cut copies mean nothing; the last
+copy is the whole pipeline, and its rate heads the table.
 """
 
 from __future__ import annotations
