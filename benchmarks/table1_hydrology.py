@@ -77,16 +77,16 @@ def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
 
 
 def level1_sinks(seed: int, ctl: control.Control, search: str = "exact") -> list[tuple[int, int]]:
-    """Level-1 cells inside the domain whose key point lies below those of its 8 neighbours
-    (their segments have length zero: the rivers around end there), as (column, row).
-    Neighbours beyond a bounded control's domain (a drained one) count by their values too."""
+    """Level-1 cells inside the domain that the kernels link to themselves: no key point of their
+    8 neighbours lies lower, so their segments have length zero and the rivers around end there.
+    As (column, row), read from the cached mode's level-1 segments (ends equal)."""
     from wdendrite.dendry import _cached_tree  # (the cached mode's cells: a diagnostic, not public API)
+    from wdendrite.kernels import dendry as _kd
 
-    cells, keyp, _ = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search), control=ctl)[0]
-    z = {(int(i), int(j)): float(k[2]) for (i, j), k in zip(cells, keyp)}
+    cells, keyp, verts = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search), control=ctl)[0]
+    still = (keyp[:, 3] == float(_kd.STATE_SEGMENT)) & np.all(verts[:, 0, :2] == verts[:, int(_kd.PIECES), :2], axis=1)
     lo, hi = int(DOMAIN[0][0]), int(DOMAIN[1][0])
-    return [(i, j) for (i, j), zc in z.items() if lo <= min(i, j) and max(i, j) < hi
-            and all(z[(i + dx, j + dy)] > zc for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy)]
+    return [(int(i), int(j)) for (i, j) in cells[still] if lo <= min(i, j) and max(i, j) < hi]
 
 
 def _largest_percent(mask: np.ndarray) -> float:
