@@ -34,11 +34,18 @@ def _is_checkout(root) -> bool:
     return (Path(root) / "wdendrite").is_dir() and (Path(root) / "kernels").is_dir()
 
 
-def _load(root: Path, name: str, into: Path):
-    """The checkout at ``root`` as package ``name`` (its ``wdendrite`` with ``kernels`` inside)."""
+def _copy(root: Path, name: str, into: Path) -> Path:
+    """Copy the checkout at ``root`` into ``into`` as package ``name`` (its ``wdendrite`` with
+    ``kernels`` inside); return the package's folder."""
     pkg = into / name
     shutil.copytree(root / "wdendrite", pkg, symlinks=False, ignore=shutil.ignore_patterns("kernels", "__pycache__"))
     shutil.copytree(root / "kernels", pkg / "kernels", ignore=shutil.ignore_patterns("__pycache__"))
+    return pkg
+
+
+def _load(root: Path, name: str, into: Path):
+    """The checkout at ``root`` as package ``name``: its ``dendry`` and ``control`` modules."""
+    _copy(root, name, into)
     return importlib.import_module(f"{name}.dendry"), importlib.import_module(f"{name}.control")
 
 

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import shutil
 import sys
 import tempfile
 import time
@@ -42,7 +41,7 @@ import numpy as np
 
 SCRIPTS = Path(__file__).resolve().parent
 sys.path.insert(0, str(SCRIPTS))
-from ab_dendry import _case, _is_checkout  # noqa: E402  (the same workloads as the A/B timings)
+from ab_dendry import _case, _copy, _is_checkout  # noqa: E402  (the same workloads as the A/B timings)
 
 STAGES = ["plan", "points", "level-1 segments", "build", "finish", "whole"]
 
@@ -67,10 +66,7 @@ _CUTS = [
 def _cut_copy(root: Path, into: Path, k: int):
     """The checkout at ``root`` as package ``wd_stage{k}``, its per-pixel kernel stopping after stage ``k``."""
     name = f"wd_stage{k}"
-    pkg = into / name
-    shutil.copytree(root / "wdendrite", pkg, ignore=shutil.ignore_patterns("kernels", "__pycache__"))
-    shutil.copytree(root / "kernels", pkg / "kernels", ignore=shutil.ignore_patterns("__pycache__"))
-    f = pkg / "kernels" / "dendry.py"
+    f = _copy(root, name, into) / "kernels" / "dendry.py"
     src = f.read_text()
     for anchor, cut in _CUTS:
         if src.count(anchor) != 1:
