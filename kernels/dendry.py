@@ -998,8 +998,18 @@ def shortlist(
         l = s.levels - i
         bi = slot * SLOT + l
         b = blocks[nonneg(bi)]
-        for cy in range(b[3]):
-            for cx in range(b[2]):
+        # only cells within limit of u, widened by the level's overhang, can hold a box within
+        # limit (the others would all fail the cell_far test below)
+        reach = limit + keyp[nonneg(bases[nonneg(bi)] - 1)][0] + coord_margin(u)
+        lo = cell_of(u - wp.vec2(reach, reach), l)
+        hi = cell_of(u + wp.vec2(reach, reach), l)
+        x0 = wp.max(lo[0] - b[0], 0)
+        x1 = wp.min(hi[0] - b[0] + 1, b[2])
+        y1 = wp.min(hi[1] - b[1] + 1, b[3])
+        cy = wp.max(lo[1] - b[1], 0)
+        while cy < y1:
+            cx = x0
+            while cx < x1:
                 o = bases[nonneg(bi)] + cy * b[2] + cx
                 # (pending level-1 cells lie outside every primitive's query neighbourhood)
                 if keyp[nonneg(o)][3] == STATE_SEGMENT:
@@ -1017,6 +1027,8 @@ def shortlist(
                                 nearby_out[nonneg(k)] = wp.vec4i(o, j + 8 * l, b[0] + cx, b[1] + cy)
                                 gaps_out[nonneg(k)] = gap
                                 n += 1
+                cx += 1
+            cy += 1
     return n
 
 
