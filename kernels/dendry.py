@@ -291,8 +291,10 @@ def write_polyline(
         longest = wp.max(longest, wp.length_sq(pos - prev))
         prev = pos
     longest = wp.max(longest, wp.length_sq(pb - prev))
-    for j in range(pieces, PIECES + 1):
-        verts_out[nonneg(vi * NV + j)] = b  # zero-length padding pieces at the end (searches take 4 pieces per cell)
+    # the last vertex, then zero-length padding pieces up to it (searches take 4 pieces per cell)
+    verts_out[nonneg(vi * NV + PIECES)] = b
+    for j in range(pieces, PIECES):
+        verts_out[nonneg(vi * NV + j)] = b
     # the polyline's bounding box, widened against rounding (relative to its size and to the
     # coordinates), lets searches skip the cell exactly; the longest piece bounds how far a
     # finer key point's link can land from the point of the piece nearest to it (see link_span)
@@ -428,10 +430,15 @@ def draw_around1(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, t: wp.vec2i,
     pts1: wp.array(dtype=wp.vec4),
 ):
-    """Per-pixel mode: draw the level-1 points of the 3 x 3 around ``t`` that :func:`build` left undrawn."""
+    """Per-pixel mode: draw the level-1 points of the 3 x 3 around ``t`` that :func:`build` left undrawn.
+
+    ``t`` lies within a cell of the level-1 block, so the point block holds its whole 3 x 3 (as
+    for :func:`lowest1`) at fixed offsets from it."""
+    w = blocks[nonneg(slot * SLOT)][2]
+    centre = block_index(blocks, bases, slot * SLOT, t)
     for dy in range(-1, 2):
         for dx in range(-1, 2):
-            o = block_index(blocks, bases, slot * SLOT, wp.vec2i(t[0] + dx, t[1] + dy))
+            o = centre + dy * w + dx
             if pts1[nonneg(o)][3] < 0.0:
                 pts1[nonneg(o)] = point1(s, ctl, wp.vec2i(t[0] + dx, t[1] + dy))
 
@@ -1597,12 +1604,20 @@ def build(
     b1 = blocks[nonneg(slot * SLOT + 1)]
     lazy = b1[2] * b1[3] <= 64  # fill_links1 then draws the outer ring's points it needs
     base = bases[nonneg(slot * SLOT)]
-    for j in range(b[3]):
+    ring = int(0)
+    if lazy:
+        ring = 1
+        undrawn = wp.vec4(0.0, 0.0, 0.0, -1.0)
+        last = (b[3] - 1) * b[2]
         for i in range(b[2]):
-            if lazy and (i == 0 or j == 0 or i == b[2] - 1 or j == b[3] - 1):
-                pts1[nonneg(base + j * b[2] + i)] = wp.vec4(0.0, 0.0, 0.0, -1.0)  # not drawn yet
-            else:
-                fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
+            pts1[nonneg(base + i)] = undrawn
+            pts1[nonneg(base + last + i)] = undrawn
+        for j in range(1, b[3] - 1):
+            pts1[nonneg(base + j * b[2])] = undrawn
+            pts1[nonneg(base + j * b[2] + b[2] - 1)] = undrawn
+    for j in range(ring, b[3] - ring):
+        for i in range(ring, b[2] - ring):
+            fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
     # with 2 levels, only the finest level's links read the level-1 segments beyond the query
     # neighbourhoods of the query's cells (at most rl <= r1 cells from their ancestors): those
     # are deferred (see fill_links1). They make the block's outer ring (with rl = r1 = 2), and

@@ -52,7 +52,7 @@ _CUTS = [
      "        if STAGE == 0:\n            first = float(qlo[0])\n            for k0 in range(25):\n"
      "                first += prim.pr2[k0]  # (so that the primitives' key points are drawn)\n"
      "            return first\n"),
-    ("                fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)\n",
+    ("            fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)\n",
      "    if STAGE == 1:\n        return wp.vec2(pts1[nonneg(base)][0], 0.0)\n"),
     ("    fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)\n",
      "    if STAGE == 2:\n        return wp.vec2(keyp[nonneg(bases[nonneg(slot * SLOT + 1)])][0], 0.0)\n"),
