@@ -432,8 +432,9 @@ def draw_around1(
 ):
     """Per-pixel mode: draw the level-1 points of the 3 x 3 around ``t`` that :func:`build` left undrawn.
 
-    ``t`` lies within a cell of the level-1 block, so the point block holds its whole 3 x 3 (as
-    for :func:`lowest1`) at fixed offsets from it."""
+    ``t`` is the target of a cell of the level-1 block, so it lies at most one cell outside that
+    block, and the point block (two cells wider) holds its whole 3 x 3 at fixed offsets from it,
+    as for :func:`lowest1`."""
     w = blocks[nonneg(slot * SLOT)][2]
     centre = block_index(blocks, bases, slot * SLOT, t)
     for dy in range(-1, 2):
@@ -1006,8 +1007,10 @@ def shortlist(
         bi = slot * SLOT + l
         b = blocks[nonneg(bi)]
         # only cells within limit of u, widened by the level's overhang, can hold a box within
-        # limit (the others would all fail the cell_far test below)
+        # limit (the others would all fail the cell_far test below); u lies in the block, so a
+        # reach beyond the block's extent takes the whole block (and keeps the cell indices small)
         reach = limit + keyp[nonneg(bases[nonneg(bi)] - 1)][0] + coord_margin(u)
+        reach = wp.min(reach, float(b[2] + b[3]) * cell_size(l))
         lo = cell_of(u - wp.vec2(reach, reach), l)
         hi = cell_of(u + wp.vec2(reach, reach), l)
         x0 = wp.max(lo[0] - b[0], 0)
