@@ -29,7 +29,8 @@ pixel's answer is bounded, a finest segment proved to lie beyond that bound is
 not drawn, which changes no value (the finest level links nothing). With two
 levels, the level-1 segments that only the finest level's links can read are
 left pending, as boxes that hold them (:func:`defer1`), and drawn only when a
-link search comes near one (:func:`nearest_on_tree`).
+link search comes near one (:func:`nearest_on_tree`) or, where links are narrower
+than queries, the pixel's answer does (:func:`draw_near1`).
 The module is longer than most because both modes must share every function
 that decides a value: that sharing is what makes them agree bit for bit.
 """
@@ -112,6 +113,9 @@ class Setup:
     r1: int  # query neighbourhood radius at level 1 (see wdendrite.dendry.DendryParams.radii)
     rq: int  # query neighbourhood radius at levels 2..n
     rl: int  # link neighbourhood radius: new key points join pieces owned within rl cells of their ancestors
+    # per-pixel mode, 2 levels: pending level-1 cells whose boxes come within near1 grid units of the
+    # pixel are drawn at once instead (see fill_links1; wdendrite.dendry._setup chooses it)
+    near1: float
     need_z: int  # 0: elevations of finer key points are not needed (distance, level), skip the control there
     # query domain -> control coordinates: c = c_lo + (x - d_lo) * scale
     d_lo: wp.vec2
@@ -415,12 +419,13 @@ def fill_segment1(
 @wp.func
 def defers1(s: Setup, blocks: wp.array(dtype=wp.vec4i), slot: int) -> int:
     """1 when the per-pixel mode leaves some level-1 segments of ``slot`` pending: with 2 levels,
-    in level-1 blocks of up to 64 cells (see :func:`fill_links1`), where links reach as far as
-    queries (``rl == r1``), so a cell farther out: the ancestors of the finest block lie a cell
-    beyond the query's level-1 cells. :func:`build`'s own links (those of the query's cells)
-    then stay within the queries' reach, which needs ``rl <= r1`` (DendryParams.radii)."""
+    in level-1 blocks of up to 64 cells (see :func:`fill_links1`). Those are the cells of the
+    block's outer ring more than ``rl`` cells from the query's level-1 cells (the ancestors of the
+    finest block lie a cell farther out). The links of the finest level's other cells may read
+    them, and where links are narrower than queries (``rl < r1``, the paper's 3 x 3) the queries
+    too (:func:`draw_near1`); :func:`build`'s own links (those of the query's cells) never do."""
     b = blocks[nonneg(slot * SLOT + 1)]
-    if s.levels == 2 and s.rl == s.r1 and b[2] * b[3] <= 64:
+    if s.levels == 2 and b[2] * b[3] <= 64:
         return 1
     return 0
 
@@ -442,6 +447,38 @@ def draw_around1(
             o = centre + dy * w + dx
             if pts1[nonneg(o)][3] < 0.0:
                 pts1[nonneg(o)] = point1(s, ctl, wp.vec2i(t[0] + dx, t[1] + dy))
+
+
+@wp.func
+def draw_near1(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
+    limit: float, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
+):
+    """Per-pixel mode, links narrower than queries (``rl < r1``), at the end of :func:`finish`:
+    draw the pending level-1 cells (of the block's outer ring, see :func:`defers1`) whose boxes lie
+    within ``limit`` of ``u`` (all of them when ``limit`` < 0), as :func:`fill_links1` would have.
+
+    Those cells lie within the queries' neighbourhoods, and only pieces within ``limit`` can
+    answer the pixel or its primitives (see :func:`answer`), so the queries and the shortlist
+    then see every piece that can answer them. :func:`finish` calls this only when the nearest
+    pending box (kept by :func:`fill_links1`) lies within ``limit``."""
+    bp = slot * SLOT
+    b = blocks[nonneg(bp + 1)]
+    o0 = bases[nonneg(bp + 1)]
+    lim2 = limit * limit
+    for j in range(b[3]):
+        step = b[2] - 1
+        if j == 0 or j == b[3] - 1:
+            step = 1
+        i = int(0)
+        while i < b[2]:
+            o = o0 + j * b[2] + i
+            if keyp[nonneg(o)][3] == STATE_PENDING:
+                if limit < 0.0 or box_gap2(u, verts, o) <= lim2:
+                    c = wp.vec2i(b[0] + i, b[1] + j)
+                    draw_around1(s, ctl, blocks, bases, slot, lowest1(pts1, blocks, bases, bp, c), pts1)
+                    fill_segment1(s, blocks, bases, slot, o - o0, c, pts1, keyp, verts)
+            i += step
 
 
 @wp.func
@@ -750,7 +787,7 @@ def parent_reach(parent: wp.vec4, q: wp.vec2) -> float:
 @wp.func
 def nearest_on_tree(
     s: Setup, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int, c: wp.vec2i,
-    q: wp.vec2, far: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
+    q: wp.vec2, far: float, longest: float, pending: float, keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3),
 ) -> wp.mat33:
     """Nearest polyline piece to ``q`` among the segments of levels < ``level`` owned within
@@ -764,8 +801,9 @@ def nearest_on_tree(
     far (the parent cell's, then its 3 x 3's) shows that the new polyline stays within less than
     ``far`` of ``q`` (no piece of the coarser levels being longer than ``longest``).
 
-    With ``pending`` 1 (level-1 cells may be pending, see :func:`defer1`): code -3, with the
-    search's reach ``sb`` in the first entry, when the box of a pending cell lies within that
+    ``pending`` is a lower bound on the distance from ``q`` to the box of any pending level-1
+    cell (see :func:`defer1`; inf when there is none). Once the search's reach ``sb`` is at least
+    that: code -3, with ``sb`` in the first entry, when the box of a pending cell lies within that
     reach: the caller draws those (:func:`draw_pending1`) and searches again. Pending cells
     beyond the reach of the search over the others cannot hold the nearest piece, so the
     answer, the first piece in the search's order at the least distance, is the one a search
@@ -792,7 +830,7 @@ def nearest_on_tree(
             k1 = cells
             if k0 == 1:
                 k1 = wp.min(9, cells)
-        if pending != 0 and l == 1:
+        if l == 1 and hit.sb >= pending:
             # (<=: a pending piece at distance 0 earlier in the search's order would win a tie)
             if pending_gap(blocks, bases, slot, anc, s.rl, q, keyp, verts) <= hit.sb * hit.sb:
                 return wp.mat33(hit.sb, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -3.0)
@@ -820,7 +858,7 @@ def inherits(parent: wp.vec4, level: int, c: wp.vec2i) -> bool:
 @wp.func
 def fill_levelk(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, level: int,
-    k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, pending: int, keyp: wp.array(dtype=wp.vec4),
+    k: int, c: wp.vec2i, u: wp.vec2, limit: float, longest: float, pending: float, keyp: wp.array(dtype=wp.vec4),
     verts: wp.array(dtype=wp.vec3),
 ) -> float:
     """Cell ``c`` (position ``k`` of its block) of ``level`` >= 2: inherit the parent's key point, or
@@ -832,8 +870,9 @@ def fill_levelk(
     ``longest`` bounds the pieces of the coarser levels (see :func:`link_span`).
 
     Returns -1, or (leaving the cell untouched) the reach of its link search when that search
-    must first see pending level-1 segments drawn (``pending`` 1: some may be, see
-    :func:`nearest_on_tree`; only :func:`finish`'s cells can reach them).
+    must first see pending level-1 segments drawn (``pending``: the distance from ``u`` to the
+    nearest pending box, inf when none is pending; see :func:`nearest_on_tree`; only
+    :func:`finish`'s cells can reach them).
     """
     bi = slot * SLOT + level
     vi = bases[nonneg(bi)] + k
@@ -855,7 +894,10 @@ def fill_levelk(
         if link_stays_far(s, level, parent_reach(parent, q), longest, far):
             keyp[nonneg(vi)] = wp.vec4(q[0], q[1], 0.0, STATE_FAR)
             return -1.0
-    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, pending, keyp, verts)
+    pgap = pending
+    if pending < wp.inf:
+        pgap = pending - wp.length(u - q) - coord_margin(u)
+    m = nearest_on_tree(s, blocks, bases, slot, level, c, q, far, longest, pgap, keyp, verts)
     if m[2, 2] < -2.5:
         return m[0, 0]
     if m[2, 2] < -1.5:
@@ -1021,7 +1063,8 @@ def shortlist(
             cx = x0
             while cx < x1:
                 o = bases[nonneg(bi)] + cy * b[2] + cx
-                # (pending level-1 cells lie outside every primitive's query neighbourhood)
+                # (no pending level-1 cell can answer a query here: it lies beyond the queries'
+                # neighbourhoods where links reach as far as queries, else beyond limit: finish)
                 if keyp[nonneg(o)][3] == STATE_SEGMENT:
                     if not cell_far(u, verts, o, limit):
                         for j in range(PIECES):
@@ -1326,8 +1369,8 @@ def plan(
 @wp.func
 def fill_links1(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int,
-    clo: wp.vec2i, chi: wp.vec2i, pts1: wp.array(dtype=wp.vec4), keyp_out: wp.array(dtype=wp.vec4),
-    verts_out: wp.array(dtype=wp.vec3),
+    clo: wp.vec2i, chi: wp.vec2i, u: wp.vec2, near: float, pts1: wp.array(dtype=wp.vec4),
+    keyp_out: wp.array(dtype=wp.vec4), verts_out: wp.array(dtype=wp.vec3),
 ):
     """Per-pixel mode: every level-1 segment of ``slot``, as :func:`fill_segment1` makes them.
 
@@ -1337,7 +1380,10 @@ def fill_links1(
     :func:`build` leaves the outer ring of level-1 points undrawn: only a target outside the
     block looks there, and its 3 x 3 is drawn here when one does. In those blocks too, the
     segments of cells outside ``clo..chi`` are left ``STATE_PENDING`` (:func:`defer1`), for
-    link searches to draw if they come near (:func:`nearest_on_tree`).
+    link searches to draw if they come near (:func:`nearest_on_tree`), unless their boxes come
+    within ``near`` of ``u`` (``Setup.near1``). The least squared distance from ``u`` to a box
+    left pending goes to the second entry of level 1's header record (1e30: none), which
+    :func:`finish` reads to skip every check that cannot find one.
     """
     b = blocks[nonneg(slot * SLOT + 1)]
     if b[2] * b[3] > 64:
@@ -1345,6 +1391,7 @@ def fill_links1(
             for i in range(b[2]):
                 fill_segment1(s, blocks, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1, keyp_out, verts_out)
     else:
+        gmin2 = float(1.0e30)
         low = vec64i()
         for j in range(b[3]):
             for i in range(b[2]):
@@ -1359,7 +1406,10 @@ def fill_links1(
                 c = wp.vec2i(b[0] + i, b[1] + j)
                 if c[0] < clo[0] or c[1] < clo[1] or c[0] > chi[0] or c[1] > chi[1]:
                     defer1(s, blocks, bases, slot, k, c, t, pts1, keyp_out, verts_out)
-                    continue
+                    g2 = box_gap2(u, verts_out, bases[nonneg(slot * SLOT + 1)] + k)
+                    if g2 >= near * near:
+                        gmin2 = wp.min(gmin2, g2)
+                        continue
                 tt = wp.vec2i(0, 0)
                 if rx >= 1 and ry >= 1 and rx <= b[2] and ry <= b[3]:
                     ct = low[(ry - 1) * b[2] + rx - 1]
@@ -1369,6 +1419,11 @@ def fill_links1(
                     draw_around1(s, ctl, blocks, bases, slot, t, pts1)
                     tt = lowest1(pts1, blocks, bases, slot * SLOT, t)
                 link1(s, blocks, bases, slot, k, c, t, tt, pts1, keyp_out, verts_out)
+        # the least squared distance from u to a pending box, in the level's header record (whose
+        # first entry is the overhang; note_overhang raises it component by component, with 0 here)
+        hb = nonneg(bases[nonneg(slot * SLOT + 1)] - 1)
+        head = keyp_out[hb]
+        keyp_out[hb] = wp.vec4(head[0], gmin2, head[2], head[3])
 
 
 @wp.func
@@ -1621,16 +1676,16 @@ def build(
     for j in range(ring, b[3] - ring):
         for i in range(ring, b[2] - ring):
             fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)
-    # with 2 levels, only the finest level's links read the level-1 segments beyond the query
-    # neighbourhoods of the query's cells (at most rl <= r1 cells from their ancestors): those
-    # are deferred (see fill_links1). They make the block's outer ring (with rl = r1 = 2), and
-    # only that ring is ever deferred (pending_gap reads no other cell)
+    # with 2 levels, the level-1 segments more than rl cells from the query's level-1 cells (the
+    # links of the query's cells stay within rl) are deferred (see defers1, fill_links1). They
+    # make the block's outer ring, and only that ring is ever deferred (pending_gap reads no
+    # other cell); where links are narrower than queries, those near the pixel are drawn anyway
     clo = wp.vec2i(b1[0], b1[1])
     chi = wp.vec2i(b1[0] + b1[2] - 1, b1[1] + b1[3] - 1)
     if defers1(s, blocks, slot) != 0:
-        clo = wp.vec2i(wp.min((qlo[0] >> 1) - s.r1, b1[0] + 1), wp.min((qlo[1] >> 1) - s.r1, b1[1] + 1))
-        chi = wp.vec2i(wp.max((qhi[0] >> 1) + s.r1, chi[0] - 1), wp.max((qhi[1] >> 1) + s.r1, chi[1] - 1))
-    fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)
+        clo = wp.vec2i(wp.min((qlo[0] >> 1) - s.rl, b1[0] + 1), wp.min((qlo[1] >> 1) - s.rl, b1[1] + 1))
+        chi = wp.vec2i(wp.max((qhi[0] >> 1) + s.rl, chi[0] - 1), wp.max((qhi[1] >> 1) + s.rl, chi[1] - 1))
+    fill_links1(s, ctl, blocks, bases, slot, clo, chi, u, s.near1, pts1, keyp, verts)
     nowhere = wp.vec2(0.0, 0.0)
     demand = int(0)
     # (with the paper's 3 x 3 links a pixel needs most of those cells: the bounds would cost more
@@ -1689,7 +1744,7 @@ def build(
                         # (no pending level-1 cell lies within reach of these: their parents are the query's)
                         fill_levelk(
                             s, ctl, blocks, bases, slot, level, k, wp.vec2i(b[0] + i, b[1] + j), nowhere, -1.0, 0.0,
-                            0, keyp, verts,
+                            wp.inf, keyp, verts,
                         )
     return wp.vec2(limit, float(demand))
 
@@ -1708,12 +1763,15 @@ def finish(
     without drawing them, from their parent's key point where that proves it (:func:`parent_reach`),
     else after as little of their link search as proves it. The finest level
     links nothing, so no other cell depends on them; the cells that stay have exactly the
-    values the cached mode gives them.
+    values the cached mode gives them. Where links are narrower than queries, it then draws the
+    pending level-1 cells within ``limit`` (:func:`draw_near1`), for the queries.
     """
     n = s.levels
     if n < 2:
         return
-    pending = defers1(s, blocks, slot)
+    pending = float(wp.inf)
+    if defers1(s, blocks, slot) != 0:
+        pending = wp.sqrt(keyp[nonneg(bases[nonneg(slot * SLOT + 1)] - 1)][1])
     longest = float(0.0)
     if limit >= 0.0 and s.rule == 0:
         for level in range(1, n):
@@ -1748,7 +1806,12 @@ def finish(
                         # then search again; the new search reaches no farther, so it asks no more
                         if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1),
                                          jitter(s, n, c), sb, pts1, keyp, verts) == 0:
-                            pend = 0  # (never expected) search without asking rather than leave the cell unwritten
+                            pend = wp.inf  # (never expected) search without asking rather than leave the cell unwritten
+    if s.rl < s.r1 and pending < wp.inf:
+        # the queries come next: links narrower than queries leave pending cells within them (the
+        # test of draw_near1 on the nearest pending box, in the header since fill_links1)
+        if limit < 0.0 or keyp[nonneg(bases[nonneg(slot * SLOT + 1)] - 1)][1] <= limit * limit:
+            draw_near1(s, ctl, blocks, bases, slot, u, limit, pts1, keyp, verts)
 
 
 @wp.func
@@ -1845,7 +1908,7 @@ def levelk_kernel(
     """Cached mode: key points and segments of ``level`` >= 2 (reads the coarser levels)."""
     k = wp.tid()
     fill_levelk(
-        s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), wp.vec2(0.0, 0.0), -1.0, 0.0, 0,
+        s, ctl, blocks, bases, 0, level, k, block_cell(blocks, level, k), wp.vec2(0.0, 0.0), -1.0, 0.0, wp.inf,
         keyp_inout, verts_inout,
     )
 

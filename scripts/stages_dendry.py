@@ -54,7 +54,7 @@ _CUTS = [
      "            return first\n"),
     ("            fill_point1(s, ctl, bases, slot, j * b[2] + i, wp.vec2i(b[0] + i, b[1] + j), pts1)\n",
      "    if STAGE == 1:\n        return wp.vec2(pts1[nonneg(base)][0], 0.0)\n"),
-    ("    fill_links1(s, ctl, blocks, bases, slot, clo, chi, pts1, keyp, verts)\n",
+    ("    fill_links1(s, ctl, blocks, bases, slot, clo, chi, u, s.near1, pts1, keyp, verts)\n",
      "    if STAGE == 2:\n        return wp.vec2(keyp[nonneg(bases[nonneg(slot * SLOT + 1)])][0], 0.0)\n"),
     ("        built = build(s, ctl, blocks, bases, slot, u, output, qlo, qhi, prim, pts1, keyp, verts)\n",
      "        if STAGE < 4:\n            return built[0]\n"),
