@@ -122,9 +122,9 @@ class DendryParams:
     (``eps = 0, delta = 0.5``) and 0.55 % at ``delta = 1``; queries at ``eps = 0, delta = 1``
     0.05 % of pixels at 4 levels, 0.65 % at 5 and 1.6 % at 6; the Lichtenberg rule at 6
     levels 1 pixel in 10 000. Wider searches cost the cached mode up to about half its rate
-    at 4-6 levels; the per-pixel mode builds more cells per pixel: 5 x 5 links take about 1.2x
-    the time of 3 x 3 at 2 levels (where it draws the level-1 segments beyond its queries' reach
-    only when a link search comes near them) and 2.3-3.8x at 4-6, 7 x 7 about 3x that of
+    at 4-6 levels; the per-pixel mode builds more cells per pixel: 5 x 5 links take about 1.2-1.3x
+    the time of 3 x 3 at 2 levels (where both draw the level-1 segments far from the pixel only
+    when a link search comes near them) and 2.3-3.8x at 4-6, 7 x 7 about 3x that of
     5 x 5, and 7 x 7 queries 1.3-1.4x those of 5 x 5 at 4-5 levels.
     ``search="paper"`` keeps the authors' 3 x 3 links (and 5 x 5 queries, 7 x 7 at one level)
     everywhere: faster per pixel, at the miss rates above.
