@@ -467,7 +467,8 @@ def draw_near1(
     o0 = bases[nonneg(bp + 1)]
     lim2 = limit * limit
     for j in range(b[3]):
-        step = b[2] - 1
+        # (the first and last rows whole, the others' two ends; blocks are at least 3 cells wide)
+        step = wp.max(b[2] - 1, 1)
         if j == 0 or j == b[3] - 1:
             step = 1
         i = int(0)
