@@ -450,6 +450,25 @@ def draw_around1(
 
 
 @wp.func
+def draw_if_pending1(
+    s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, c: wp.vec2i,
+    o: int, q: wp.vec2, reach2: float, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4),
+    verts: wp.array(dtype=wp.vec3),
+) -> int:
+    """Per-pixel mode: draw level-1 cell ``c`` (at ``o`` in ``keyp``) with :func:`fill_segment1`,
+    as :func:`fill_links1` would have, when it is ``STATE_PENDING`` and its box lies within
+    ``sqrt(reach2)`` of ``q`` (``<=``); return 1 when drawn, else 0."""
+    if keyp[nonneg(o)][3] == STATE_PENDING:
+        if box_gap2(q, verts, o) <= reach2:
+            bp = slot * SLOT
+            # the points around its target first (the block's outer ring may be undrawn)
+            draw_around1(s, ctl, blocks, bases, slot, lowest1(pts1, blocks, bases, bp, c), pts1)
+            fill_segment1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, pts1, keyp, verts)
+            return 1
+    return 0
+
+
+@wp.func
 def draw_near1(
     s: Setup, ctl: Control, blocks: wp.array(dtype=wp.vec4i), bases: wp.array(dtype=int), slot: int, u: wp.vec2,
     limit: float, pts1: wp.array(dtype=wp.vec4), keyp: wp.array(dtype=wp.vec4), verts: wp.array(dtype=wp.vec3),
@@ -462,10 +481,11 @@ def draw_near1(
     answer the pixel or its primitives (see :func:`answer`), so the queries and the shortlist
     then see every piece that can answer them. :func:`finish` calls this only when the nearest
     pending box (kept by :func:`fill_links1`) lies within ``limit``."""
-    bp = slot * SLOT
-    b = blocks[nonneg(bp + 1)]
-    o0 = bases[nonneg(bp + 1)]
-    lim2 = limit * limit
+    b = blocks[nonneg(slot * SLOT + 1)]
+    o0 = bases[nonneg(slot * SLOT + 1)]
+    reach2 = float(wp.inf)
+    if limit >= 0.0:
+        reach2 = limit * limit
     for j in range(b[3]):
         # (the first and last rows whole, the others' two ends; blocks are at least 3 cells wide)
         step = wp.max(b[2] - 1, 1)
@@ -473,12 +493,8 @@ def draw_near1(
             step = 1
         i = int(0)
         while i < b[2]:
-            o = o0 + j * b[2] + i
-            if keyp[nonneg(o)][3] == STATE_PENDING:
-                if limit < 0.0 or box_gap2(u, verts, o) <= lim2:
-                    c = wp.vec2i(b[0] + i, b[1] + j)
-                    draw_around1(s, ctl, blocks, bases, slot, lowest1(pts1, blocks, bases, bp, c), pts1)
-                    fill_segment1(s, blocks, bases, slot, o - o0, c, pts1, keyp, verts)
+            draw_if_pending1(s, ctl, blocks, bases, slot, wp.vec2i(b[0] + i, b[1] + j), o0 + j * b[2] + i, u, reach2,
+                             pts1, keyp, verts)
             i += step
 
 
@@ -573,18 +589,13 @@ def draw_pending1(
     """Draw the ``STATE_PENDING`` level-1 cells among the (2 rl + 1)^2 around ``anc`` whose boxes
     lie within ``sb`` of ``q`` (see :func:`defer1`; ``<=``, as :func:`nearest_on_tree` asks), with
     :func:`fill_segment1`, as :func:`fill_links1` would have; return how many."""
-    bp = slot * SLOT
     drawn = int(0)
     for dy in range(-s.rl, s.rl + 1):
         for dx in range(-s.rl, s.rl + 1):
             c = wp.vec2i(anc[0] + dx, anc[1] + dy)
-            o = block_index(blocks, bases, bp + 1, c)
+            o = block_index(blocks, bases, slot * SLOT + 1, c)
             if o >= 0:
-                if keyp[nonneg(o)][3] == STATE_PENDING and box_gap2(q, verts, o) <= sb * sb:
-                    # the points around its target first (the block's outer ring may be undrawn)
-                    draw_around1(s, ctl, blocks, bases, slot, lowest1(pts1, blocks, bases, bp, c), pts1)
-                    fill_segment1(s, blocks, bases, slot, o - bases[nonneg(bp + 1)], c, pts1, keyp, verts)
-                    drawn += 1
+                drawn += draw_if_pending1(s, ctl, blocks, bases, slot, c, o, q, sb * sb, pts1, keyp, verts)
     return drawn
 
 
@@ -1770,9 +1781,12 @@ def finish(
     n = s.levels
     if n < 2:
         return
-    pending = float(wp.inf)
+    # the least squared distance from u to a pending box (see fill_links1; no cell drawn here
+    # makes it wrong, only loose), and its root, which bounds the searches' pending checks
+    gap2 = float(wp.inf)
     if defers1(s, blocks, slot) != 0:
-        pending = wp.sqrt(keyp[nonneg(bases[nonneg(slot * SLOT + 1)] - 1)][1])
+        gap2 = keyp[nonneg(bases[nonneg(slot * SLOT + 1)] - 1)][1]
+    pending = wp.sqrt(gap2)
     longest = float(0.0)
     if limit >= 0.0 and s.rule == 0:
         for level in range(1, n):
@@ -1808,10 +1822,10 @@ def finish(
                         if draw_pending1(s, ctl, blocks, bases, slot, wp.vec2i(c[0] >> 1, c[1] >> 1),
                                          jitter(s, n, c), sb, pts1, keyp, verts) == 0:
                             pend = wp.inf  # (never expected) search without asking rather than leave the cell unwritten
-    if s.rl < s.r1 and pending < wp.inf:
+    if s.rl < s.r1 and gap2 < wp.inf:
         # the queries come next: links narrower than queries leave pending cells within them (the
-        # test of draw_near1 on the nearest pending box, in the header since fill_links1)
-        if limit < 0.0 or keyp[nonneg(bases[nonneg(slot * SLOT + 1)] - 1)][1] <= limit * limit:
+        # test of draw_near1, on the nearest pending box)
+        if limit < 0.0 or gap2 <= limit * limit:
             draw_near1(s, ctl, blocks, bases, slot, u, limit, pts1, keyp, verts)
 
 
