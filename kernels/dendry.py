@@ -993,10 +993,14 @@ def primitive(s: Setup, ctl: Control, c: wp.vec2i, q: wp.vec2, r: wp.vec3) -> wp
     """Terrain primitive of cell ``c`` (level ``levels + steps``) at its key point ``q``, given the
     query ``r`` = (distance, tree elevation, level) there: (x, y, height), eq. 4 and 7."""
     pl = s.levels + s.steps
-    if r[2] == 0.0:
-        # no branch near (outside a bounded control's domain): the control, within the range it
-        # takes on its domain (the Lichtenberg bowl's 16 * scale outside its square is not counted)
-        return wp.vec3(q[0], q[1], wp.clamp(control_value(ctl, to_control(s, q)), ctl.vmin, ctl.vmax))
+    cq = to_control(s, q)
+    if r[2] == 0.0 or not control_inside(ctl, cq):
+        # outside a bounded control's domain (no key point lies there), or no branch near: the
+        # control, within the range it takes on its domain (the Lichtenberg bowl's 16 * scale
+        # outside its square is not counted: its maximum). Branches inside would otherwise raise
+        # the primitives beyond the edge with their distance, past that maximum, until they fall
+        # out of the query's reach
+        return wp.vec3(q[0], q[1], wp.clamp(control_value(ctl, cq), ctl.vmin, ctl.vmax))
     # eq. 7: a smooth step from the control's minimum to its maximum, evaluated at h^beta
     # (the paper's control takes values in [0, 1]; lower values count as 0)
     t = float(0.0)

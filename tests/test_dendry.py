@@ -483,6 +483,26 @@ def test_lichtenberg_branches_join_at_45_degrees(device):
     assert unclamped > 150
 
 
+@pytest.mark.parametrize("mode", ["cached", "pixel"])
+def test_lichtenberg_terrain_takes_the_bowls_maximum_outside_its_square(mode):
+    # no key point lies outside the bowl's square, and a primitive there takes the bowl's maximum
+    # (5 * scale), not the height of a branch inside plus the slope times its distance (which
+    # reached 3.4 here): two primitive cells (the blend's radius) beyond the edge the terrain is
+    # that maximum; inside, branches still carve it
+    p = DendryParams(levels=3, rule="lichtenberg", seed=1)
+    dom = ((-4.0, -4.0), (4.0, 4.0))
+    n = 128
+    z = dendry((n, n), domain=dom, control_domain=dom, params=p, control=control.lichtenberg(0.2),
+               output="elevation", mode=mode)
+    centre = -4.0 + (np.arange(n) + 0.5) * 8.0 / n
+    edge = np.maximum(np.abs(centre)[:, None], np.abs(centre)[None, :]) - 1.0  # Chebyshev, beyond the square
+    radius = 2.0 * 2.0 ** (1 - p.levels - p.primitive_steps) / p.resolution  # the blend's, in domain units
+    far, outside, inside = edge > 1.01 * radius, edge > 0.0, edge < -radius
+    assert far.sum() > 0.5 * n * n and (outside & ~far).sum() > 100  # (the square is 32 pixels wide)
+    np.testing.assert_allclose(z[far], 1.0, rtol=1e-6)
+    assert z[inside].min() < 0.25 and z[inside].std() > 0.05
+
+
 @pytest.mark.parametrize(
     "seed, size, kw",
     [

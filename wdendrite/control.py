@@ -308,8 +308,9 @@ def lichtenberg(scale: float = 1.0) -> Control:
     function, so Dendry drops their segments. ``scale`` (> 0) keeps the order of the values
     (up to float32 rounding, which could make two nearly equal key points tie), so the tree is
     the paper's; terrains (``output="elevation"``) take controls in [0, 1], which ``scale=0.2``
-    gives. Outside the square a terrain has no branches, and its height there is the bowl's
-    maximum, ``5 * scale``.
+    gives. Outside the square a terrain has no branches, and its primitives take the bowl's
+    maximum, ``5 * scale``: the elevation rises to it within two primitive cells of the edge
+    (the blend's radius) and stays there.
     """
     scale = positive("scale", scale)
     # (16 * scale, its value outside the square, must fit float32 too)
