@@ -440,6 +440,10 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["dendry", "--size", "32", "--frequency", "1e308"], None, ["'frequency' = 1e+308", "2**22"]),
     (["terrain", "--size", "32", "-o", "t.png", "-o", "t.npz"], None, ["'terrain' makes no dendrite"]),
     (["rock", "--size", "16", "-o", "r.svg"], None, ["'rock' makes no dendrite", "or a mesh"]),
+    # the formats named are the preset's own (dendry had been told to write .npz, .json or .svg)
+    (["dendry", "--size", "16", "-o", "d.obj"], None, ["'dendry' makes no mesh (it is 2D); write .png or .npy"]),
+    (["lightning", "--size", "16", "-o", "l.stl"], None, ["'lightning' makes no mesh (it is 2D); write .png, .npy, "
+                                                           ".npz, .json or .svg"]),
     (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
     (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["'seed'"]),
     (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),

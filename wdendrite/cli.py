@@ -242,6 +242,20 @@ def _need(result, attr: str, preset: str):
     return value
 
 
+def _formats(preset) -> tuple[str, ...]:
+    """The output suffixes ``preset`` writes: its picture and field always, then meshes, dendrite
+    graphs and (for a 2D dendrite) SVG polylines as it makes them."""
+    out = PICTURE + FIELD + (MESH if preset.meshes else ())
+    if preset.dendrite:
+        out += DENDRITE + (() if preset.meshes else SVG)
+    return out
+
+
+def _listed(suffixes) -> str:
+    """``.a, .b or .c``."""
+    return ", ".join(suffixes[:-1]) + " or " + suffixes[-1] if len(suffixes) > 1 else suffixes[0]
+
+
 def _makes_no(preset: str, what: str, meshes: bool) -> UsageError:
     """The error for an output a preset cannot make, naming the outputs it can."""
     return UsageError(f"preset {preset!r} makes no {what}; write .png or .npy"
@@ -314,12 +328,12 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     paths = check_outputs(outputs, force=force)
     for p in paths:
         if p.suffix.lower() in MESH and not preset.meshes:
-            raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write .png, .npy, .npz, .json or .svg")
+            raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write {_listed(_formats(preset))}")
         if p.suffix.lower() in DENDRITE + SVG and not preset.dendrite:
             raise _makes_no(name, "dendrite", preset.meshes)
         if p.suffix.lower() in SVG and preset.meshes:
             raise UsageError(f"preset {name!r} makes a 3D dendrite, which SVG cannot draw; "
-                             "write .png, .obj, .ply, .stl, .glb, .npz or .json")
+                             f"write {_listed(_formats(preset))}")
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
     with _Ticker(1 + len(paths), name, quiet) as bar:
@@ -375,15 +389,16 @@ def _add_common(p, preset) -> None:
     g.add_argument("--device", default=argparse.SUPPRESS, metavar="DEV",
                    help="Warp device: cpu, cuda, cuda:N (default: CUDA if present, else cpu)")
     g.add_argument("-o", "--out", action="append", default=argparse.SUPPRESS, metavar="FILE",
-                   help=f"output file, repeatable; format from the suffix: {', '.join(SUFFIXES)} "
+                   help=f"output file, repeatable; format from the suffix: {', '.join(_formats(preset))} "
                         f"(default: {preset.name}.png)")
     g.add_argument("--heightmap", action="store_true", default=argparse.SUPPRESS,
                    help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture "
                         "(its finite minimum to its maximum; +inf, such as no branch in reach, as white)")
     if preset.name in ("dendry", "terrain") and preset.func.__module__ == "wdendrite._models":
         g.add_argument("--tile", type=int, default=argparse.SUPPRESS, metavar="N",
-                       help="compute the field in N x N tiles straight into .npy (or .zarr) outputs, never the "
-                            "whole image in memory; a killed run resumes (default: whole image) [pixels]")
+                       help="compute the field in N x N tiles (N at least 8) straight into .npy (or .zarr) "
+                            "outputs, never the whole image in memory; a killed run resumes (default: whole "
+                            "image) [pixels]")
     g.add_argument("--config", metavar="FILE.toml", default=argparse.SUPPRESS,
                    help="TOML file whose keys are this preset's parameters (options given here override it)")
     g.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite existing outputs")
