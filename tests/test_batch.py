@@ -706,6 +706,11 @@ def test_zarr_chunks_fit_the_image_and_the_suffix_is_read_in_any_case(tmp_path):
 def test_tile_windows_name_a_bad_tile_and_write_tiled_a_missing_folder_before_any_tile(tmp_path):
     with pytest.raises(ValueError, match=r"'tile' >= 1, but got 0"):
         batch.tile_windows((10, 13), 0)
+    # tiles are how an image outgrows int32 indices (2^32 pixels here); each side must still fit one
+    tiles = batch.tile_windows((65536, 65536), 16384)
+    assert len(tiles) == 16 and tiles[-1] == (49152, 49152, 16384, 16384)
+    with pytest.raises(ValueError, match=r"'shape' \(2147483648, 8\) has a size of 2147483648"):
+        batch.tile_windows((2**31, 8), 8)
     calls = []
     missing = tmp_path / "missing" / "x.npy"
     with pytest.raises(ValueError, match=rf"'path' {re.escape(repr(str(missing)))}: the folder .*missing' does not "

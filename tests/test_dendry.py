@@ -1151,6 +1151,20 @@ def test_modes_and_windows_agree_just_inside_the_coordinate_bound(device, levels
         dendry_points([[0.0, 0.0], [-edge * 1.001, 0.0]], domain=dom, **kw)
 
 
+def test_a_window_of_an_image_too_large_to_make_whole_equals_its_points():
+    # 65536^2 pixels (2^32) overflow int32 as a whole image, but each window is indexed on its own:
+    # the one at (30000, 40000) equals the points at its pixel centres (made independently)
+    p = DendryParams(levels=3, seed=2)
+    dom = ((0.0, 0.0), (64.0, 64.0))
+    kw = dict(params=p, control=CTL, control_domain=((0.0, 0.0), (2.0, 2.0)))
+    got = dendry((65536, 65536), domain=dom, window=(30000, 40000, 12, 16), **kw)
+    rows, cols = np.mgrid[30000:30012, 40000:40016]
+    pts = np.stack([(cols + 0.5) * 64.0 / 65536, (rows + 0.5) * 64.0 / 65536], -1).reshape(-1, 2)
+    want = dendry_points(pts, domain=dom, **kw).reshape(12, 16)
+    assert np.isfinite(want).all() and np.ptp(want) > 0.0
+    assert np.array_equal(got, want)
+
+
 def test_far_coordinates_are_refused_not_crashed_on():
     # cell indices near 3e9 overflow int32: the per-pixel mode wrote outside its blocks
     far = ((3.0e9, 3.0e9), (3.0e9 + 4.0, 3.0e9 + 4.0))
@@ -1405,7 +1419,12 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(params=None), "params"),
         (dict(control=np.zeros((4, 4))), "control"),
         (dict(shape=(0, 16)), "shape"),
-        (dict(shape=(4, 4, 4)), "shape"),
+        (dict(shape=(4, 4, 4)), r"'shape' of rank 2 \(H, W\), but got \(4, 4, 4\)"),
+        (dict(shape=(2**31, 16), window=(0, 0, 4, 4)), r"'shape' \(2147483648, 16\) has a size of 2147483648"),
+        # an image computed whole must fit int32 indices; a window of it need not be (below)
+        (dict(shape=(65536, 65536)), r"'shape' \(65536, 65536\) has 4294967296 pixels.*window by window"),
+        (dict(window=(0, 0, 0, 4)), r"'window' \(0, 0, 0, 4\) is empty"),
+        (dict(window=(8, 0, 9, 4)), r"'window' \(8, 0, 9, 4\) reaches outside .*rows 8..16"),
         (dict(domain=((0.0, 0.0), (5.0e6, 1.0))), "domain"),
         (dict(domain=((0.0, 0.0), (5.0e6, 1.0)), window=(0, 15, 1, 1)), "window"),
         (dict(domain=((0.0, 0.0), (6.0e5, 1.0)), output="elevation"), "domain"),

@@ -15,22 +15,31 @@ import numpy as np
 import warp as wp
 
 
-def lattice_shape(shape) -> tuple[int, ...]:
-    """Return ``shape`` as a tuple of 2 or 3 positive ints."""
+def lattice_shape(shape, *, ranks: tuple[int, ...] = (2, 3), whole: bool = True) -> tuple[int, ...]:
+    """Return ``shape`` as a tuple of positive ints, of one of the ``ranks`` (2: (H, W), 3: (D, H, W)).
+
+    Every size must fit an int32. With ``whole`` (a lattice, made at once) the number of nodes
+    must too; an image made window by window can hold more pixels.
+    """
+    names = {2: "rank 2 (H, W)", 3: "rank 3 (D, H, W)"}
+    want = " or ".join(names[r] for r in ranks)
     try:
         dims = tuple(shape)
     except TypeError:
-        raise TypeError(f"Expected a tuple (H, W) or (D, H, W) for 'shape', but got {shape!r}") from None
-    if len(dims) not in (2, 3):
-        raise ValueError(f"Expected 'shape' of rank 2 (H, W) or 3 (D, H, W), but got {shape!r} (rank {len(dims)})")
+        raise TypeError(f"Expected a tuple {' or '.join(names[r][7:] for r in ranks)} for 'shape', but got "
+                        f"{shape!r}") from None
+    if len(dims) not in ranks:
+        raise ValueError(f"Expected 'shape' of {want}, but got {shape!r} (rank {len(dims)})")
     out = []
     for n in dims:
         if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)):
             raise TypeError(f"Expected integer sizes in 'shape', but got {shape!r}")
         if n <= 0:
             raise ValueError(f"Expected positive sizes in 'shape', but got {shape!r}")
+        if n >= 2**31:
+            raise ValueError(f"'shape' {shape!r} has a size of {int(n)}; at most 2**31 - 1 is supported")
         out.append(int(n))
-    if math.prod(out) >= 2**31:
+    if whole and math.prod(out) >= 2**31:
         raise ValueError(f"'shape' {shape!r} has {math.prod(out)} nodes; at most 2**31 - 1 are supported")
     return tuple(out)
 

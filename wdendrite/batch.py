@@ -483,10 +483,8 @@ def _tiling(shape, tile) -> tuple[tuple[int, int], int]:
     """``shape`` as (H, W) positive ints and ``tile`` as a positive int, or an error naming them."""
     from ._checks import integer, lattice_shape
 
-    dims = lattice_shape(shape)
-    if len(dims) != 2:
-        raise ValueError(f"Expected a 2D image shape (H, W) for 'shape', but got {shape!r}")
-    return dims, integer("tile", tile, low=1)
+    # (tiles are what lets an image exceed 2**31 pixels: only each size must fit an int32)
+    return lattice_shape(shape, ranks=(2,), whole=False), integer("tile", tile, low=1)
 
 
 def tile_windows(shape, tile: int) -> list[tuple[int, int, int, int]]:

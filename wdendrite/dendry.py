@@ -535,8 +535,12 @@ def _window(window, shape) -> tuple[int, int, int, int]:
         raise TypeError(f"Expected 'window' as (row0, col0, h, w), but got {window!r}") from None
     if any(isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) for v in (r0, c0, h, w)):
         raise TypeError(f"Expected integers in 'window', but got {window!r}")
-    if h <= 0 or w <= 0 or r0 < 0 or c0 < 0 or r0 + h > shape[0] or c0 + w > shape[1]:
-        raise ValueError(f"'window' {tuple(window)!r} is empty or reaches outside the image of shape {shape}")
+    if h <= 0 or w <= 0:
+        raise ValueError(f"'window' {tuple(window)!r} is empty: its height h and width w must be positive")
+    if r0 < 0 or c0 < 0 or r0 + h > shape[0] or c0 + w > shape[1]:
+        raise ValueError(f"'window' {tuple(window)!r} reaches outside the image of shape {shape}: rows "
+                         f"{r0}..{r0 + h - 1} and columns {c0}..{c0 + w - 1} must lie in 0..{shape[0] - 1} and "
+                         f"0..{shape[1] - 1}")
     return (int(r0), int(c0), int(h), int(w))
 
 
@@ -789,9 +793,7 @@ def dendry(
             a domain near the origin keeps the full precision. Also for a domain so narrow
             that two neighbouring pixels would share one float32 centre.
     """
-    shape = lattice_shape(shape)
-    if len(shape) != 2:
-        raise ValueError(f"Expected a 2D 'shape' (H, W), but got {shape!r}")
+    shape = lattice_shape(shape, ranks=(2,), whole=False)  # (a window of a larger image may be asked for)
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
     _check_elevation_control(control, output, control_domain)
@@ -804,6 +806,10 @@ def dendry(
     _check_pixels_apart(params, domain, shape)
     device = _device(device)
     stop_if_checking()  # (every argument is checked: a check of a whole model stops here)
+    if h * w >= 2**31:  # (as the memory, a limit of one call: a tiled model checks its whole image above)
+        what = f"'shape' {shape!r}" if window is None else f"'window' {tuple(window)!r}"
+        raise ValueError(f"{what} has {h * w} pixels; at most 2**31 - 1 are computed in one call: compute the "
+                         "image window by window ('window'; --tile on the command line)")
     control = default_control() if control is None else control  # (its range is sampled with kernels)
     # the image on the device, and its copy on the host when the device is a GPU
     fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
