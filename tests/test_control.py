@@ -247,6 +247,30 @@ def test_drained_control_has_no_interior_minimum(device):
         control.drained(base, samples=2)
 
 
+def test_drained_control_stays_in_its_bases_range():
+    # a pit ringed by the base's maximum drains only by filling above that maximum: the samples
+    # are first scaled towards their minimum instead, so a control in [0, 1] stays a terrain's
+    # control (a drained map in [0, 1] had spanned [0.15, 1.0001] and been refused)
+    import wdendrite as wd
+
+    a = np.full((9, 9), 0.5)
+    a[1:-1, 1:-1] = 1.0
+    a[2:-2, 2:-2] = 0.0
+    base = control.image(a)
+    g = base.grid((33, 33))
+    assert g.max() == base.maximum == 1.0 and g[16, 16] == 0.0
+    d = control.drained(base, samples=33)
+    v = d.values
+    assert base.minimum <= d.minimum and d.maximum <= base.maximum
+    assert _interior_drains(v) and v[16, 16] > 0.99  # the pit filled to its rim, and drains
+    # the scale is the least that does it: the rim's samples moved by about the fill's rise
+    rim = g == 1.0
+    assert 0.0 < (g - v)[rim].max() < 0.01
+    z = wd.dendry((16, 16), domain=((0.0, 0.0), (1.0, 1.0)), params=wd.DendryParams(levels=2), control=d,
+                  output="elevation")
+    assert np.isfinite(z).all()
+
+
 @pytest.mark.parametrize(
     "shape, exc, match",
     [

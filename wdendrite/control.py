@@ -264,6 +264,8 @@ def perlin(*, seed: int = 0, frequency: float = 1.0, octaves: int = 1, gain: flo
         seed: selects the noise field, in [0, 2**32).
         frequency: features per unit of the control coordinates.
         octaves: number of summed octaves, each ``lacunarity`` times finer and ``gain`` times weaker.
+        gain: amplitude of each octave relative to the one before (> 0; 0.5 halves it).
+        lacunarity: frequency of each octave relative to the one before (> 0; 2 doubles it).
         domain: the rectangle Dendry's query maps onto; minimum and maximum are found there
             by sampling a 257 x 257 grid and zooming in around the best samples.
     """
@@ -281,7 +283,14 @@ def ridged(*, seed: int = 0, frequency: float = 1.0, octaves: int = 8, gain: flo
 
 
 def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
-    """The plane ``offset + gx * x + gy * y``; its extremes are at the corners of ``domain``."""
+    """The plane ``offset + gx * x + gy * y``; its extremes are at the corners of ``domain``.
+
+    Args:
+        gradient: (gx, gy), the rise per unit of the control coordinates along x and y.
+        offset: the value at (0, 0).
+        domain: ((x0, y0), (x1, y1)), the rectangle of control coordinates Dendry's domain maps
+            onto by default; the range (minimum, maximum) is the plane's over it.
+    """
     gx, gy = _pair("gradient", gradient)
     off = finite("offset", offset)
     dom = rectangle("domain", domain)
@@ -290,7 +299,15 @@ def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0,
 
 
 def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
-    """The radial ramp ``|p - center| / radius`` (low at ``center``)."""
+    """The radial ramp ``|p - center| / radius`` (low at ``center``).
+
+    Args:
+        center: (x, y) of the minimum, 0, in control coordinates.
+        radius: the distance from ``center`` at which the ramp reaches 1 (> 0).
+        domain: ((x0, y0), (x1, y1)), the rectangle of control coordinates Dendry's domain maps
+            onto by default; the range is the ramp's over it (from the point nearest to
+            ``center`` to the farthest corner).
+    """
     cx, cy = _pair("center", center)
     r = positive("radius", radius)
     dom = rectangle("domain", domain)
@@ -324,6 +341,12 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     Values are clamped to the array's own minimum and maximum, so the Catmull-Rom
     overshoot never leaves that range. Outside ``domain`` the border values continue. A masked
     array (a DEM's nodata cells) is refused: fill its masked cells first.
+
+    Args:
+        values: (h, w) finite real array (any unit; a terrain's control must lie in [0, 1],
+            so scale a DEM in metres first, e.g. ``(dem - dem.min()) / np.ptp(dem)``).
+        domain: ((x0, y0), (x1, y1)), the rectangle of control coordinates the array covers:
+            column 0 at x0, row 0 at y0 (y grows down the rows, as in :func:`wdendrite.dendry`).
     """
     if np.ma.isMaskedArray(values) and np.ma.getmaskarray(values).any():
         raise ValueError(f"'values' is a masked array with {int(np.ma.getmaskarray(values).sum())} masked cells "
@@ -334,6 +357,38 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     arr.flags.writeable = False
     dom = rectangle("domain", domain)
     return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
+
+
+def _flood(z0: np.ndarray, rise: np.float32) -> np.ndarray:
+    """``z0`` (float32, square) filled by a priority flood from its border, each filled cell at
+    least ``rise`` (or one float32 step, when ``rise`` > 0) above the cell it drains into."""
+    import heapq
+
+    z = z0.copy()
+    up = np.float32(np.inf)
+    n = z.shape[0]
+    done = np.zeros(z.shape, bool)
+    heap = []
+    for r in range(n):
+        for c in range(n):
+            if r in (0, n - 1) or c in (0, n - 1):
+                heap.append((z[r, c], r, c))
+                done[r, c] = True
+    heapq.heapify(heap)
+    while heap:
+        v, r, c = heapq.heappop(heap)
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                rr, cc = r + dr, c + dc
+                if 0 <= rr < n and 0 <= cc < n and not done[rr, cc]:
+                    done[rr, cc] = True
+                    # the lowest value it may keep: above the cell it drains into, by the rise or at
+                    # least one float32 step (level with it when there is no rise)
+                    floor = max(v + rise, np.nextafter(v, up)) if rise > 0 else v
+                    if z[rr, cc] < floor:
+                        z[rr, cc] = floor
+                    heapq.heappush(heap, (z[rr, cc], rr, cc))
+    return z
 
 
 def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Control:
@@ -357,10 +412,11 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
         slope: rise per filled cell, relative to the base's range (0 to 1; 0 leaves filled basins flat).
 
     Returns:
-        An image :class:`Control` over ``base.domain``.
+        An image :class:`Control` over ``base.domain``, whose values stay within ``base``'s range:
+        where a basin's rim holds the maximum, so that filling it would rise above, the samples
+        are first scaled towards their minimum by just that much (a control in [0, 1] stays a
+        terrain's control).
     """
-    import heapq
-
     if not isinstance(base, Control):
         raise TypeError(f"Expected a Control for 'base', but got {type(base).__name__}")
     samples = integer("samples", samples, low=3)
@@ -368,28 +424,17 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     if slope > 1.0:
         raise ValueError(f"Expected 'slope' in [0, 1] (a rise per filled cell, relative to the range), but got {slope!r}")
     rise = np.float32(slope * max(base.maximum - base.minimum, 1e-12))
-    up = np.float32(np.inf)
-    z = base.grid((samples, samples))  # (float32, the image's own values: every rise is one it keeps)
-    n = samples
-    done = np.zeros(z.shape, bool)
-    heap = []
-    for r in range(n):
-        for c in range(n):
-            if r in (0, n - 1) or c in (0, n - 1):
-                heap.append((z[r, c], r, c))
-                done[r, c] = True
-    heapq.heapify(heap)
-    while heap:
-        v, r, c = heapq.heappop(heap)
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                rr, cc = r + dr, c + dc
-                if 0 <= rr < n and 0 <= cc < n and not done[rr, cc]:
-                    done[rr, cc] = True
-                    # the lowest value it may keep: above the cell it drains into, by the rise or at
-                    # least one float32 step (level with it when there is no rise)
-                    floor = max(v + rise, np.nextafter(v, up)) if rise > 0 else v
-                    if z[rr, cc] < floor:
-                        z[rr, cc] = floor
-                    heapq.heappush(heap, (z[rr, cc], rr, cc))
+    z0 = base.grid((samples, samples))  # (float32, the image's own values: every rise is one it keeps)
+    z = _flood(z0, rise)
+    # a basin whose rim holds the maximum fills above it, out of the base's range (a terrain's [0, 1]
+    # then refused the result): scale the samples towards their minimum by the excess, keeping the
+    # rises, and fill again (a scale that keeps the order: the same basins fill)
+    lo, top, k = float(z0.min()), float(base.maximum), 1.0
+    for _ in range(8):
+        over = float(z.max()) - top
+        if over <= 0.0 or top <= lo:
+            break
+        k -= 1.1 * over / (top - lo)
+        z = _flood((lo + (z0.astype(np.float64) - lo) * max(k, 0.0)).astype(np.float32), rise)
+    z = np.minimum(z, np.float32(top)) if top > lo else z  # (never expected to bind: the loop converges in one or two)
     return image(z, domain=base.domain)
