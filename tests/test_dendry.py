@@ -1550,6 +1550,10 @@ def test_no_points_are_checked_like_some(launches):
         dendry_points(np.zeros((0, 2)), domain=((0.0, 0.0), (1e-300, 1e-300)), params=DendryParams(), control=CTL)
     assert launches == []
     assert dendry_points(np.zeros((0, 2)), domain=DOMAIN, params=DendryParams(), control=CTL).shape == (0,)
+    # an empty list too (it had been refused as shape (0,)); other shapes of no points still are not
+    assert dendry_points([], domain=DOMAIN, params=DendryParams(), control=CTL).shape == (0,)
+    with pytest.raises(ValueError, match=r"shape \(N, 2\), but got shape \(0, 3\)"):
+        dendry_points(np.zeros((0, 3)), domain=DOMAIN, params=DendryParams(), control=CTL)
 
 
 @pytest.mark.parametrize("mode", ["cached", "pixel"])
@@ -1575,7 +1579,10 @@ def test_an_image_too_big_for_memory_raises_before_any_kernel(monkeypatch, launc
 
 
 def test_default_control_is_the_authors_interactive_perlin(device):
+    import wdendrite as wd
     from wdendrite.dendry import default_control
+
+    assert wd.default_control is default_control  # (wd.dendry is the function, not the module)
 
     p = DendryParams(levels=2)
     a = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, device=device)

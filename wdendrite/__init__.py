@@ -7,7 +7,7 @@ per-pixel branching function and terrain.
 
 from . import control, endpoints, geometry, hydrology, io, presets, render, weights
 from .dendrite import Dendrite, trace
-from .dendry import DendryParams, dendry, dendry_points
+from .dendry import DendryParams, default_control, dendry, dendry_points
 from .growth import FractalParams, grow
 from .lattice import Lattice
 from .refine import refine
@@ -35,6 +35,7 @@ __all__ = [
     "FractalParams",
     "Lattice",
     "control",
+    "default_control",
     "dendry",
     "dendry_points",
     "endpoints",

@@ -416,7 +416,12 @@ _DEFAULT_CONTROL_DOMAIN = ((-0.2, -0.5), (1.4, 0.7))
 
 @functools.lru_cache(maxsize=1)
 def default_control() -> Control:
-    """Perlin noise on x in [-0.2, 1.4], y in [-0.5, 0.7]: the authors' interactive default control."""
+    """Perlin noise on x in [-0.2, 1.4], y in [-0.5, 0.7]: the authors' interactive default control.
+
+    What :func:`dendry` and :func:`dendry_points` use when given no control (one object, made
+    once); also ``wdendrite.default_control`` (``import wdendrite.dendry`` gives the function
+    :func:`dendry`, which the package exports under the module's name).
+    """
     return perlin(domain=_DEFAULT_CONTROL_DOMAIN)
 
 
@@ -767,7 +772,7 @@ def dendry(
             a map whose north is y1).
         params: the :class:`DendryParams`.
         control: a control function from :mod:`wdendrite.control`; None uses
-            :func:`default_control` (the authors' interactive default).
+            ``wdendrite.default_control()`` (the authors' interactive default).
         output: ``"distance"`` (domain units, inf where no branch exists), ``"elevation"``
             (control units) or ``"level"`` (1..n of the nearest branch, 0 where none).
         window: (row0, col0, h, w) to compute only that region; None for the whole image.
@@ -871,7 +876,7 @@ def dendry_points(
     """Evaluate Dendry at arbitrary points.
 
     Args:
-        points: (N, 2) x, y in domain units.
+        points: (N, 2) x, y in domain units (an empty list: no points).
         domain: ((x0, y0), (x1, y1)) rectangle that maps onto ``control_domain`` (the
             points may lie anywhere).
         mode: ``"pixel"`` rebuilds the cells around each point; ``"cached"`` groups the
@@ -899,6 +904,8 @@ def dendry_points(
         pts = np.asarray(points)
     except ValueError:  # ragged rows
         raise ValueError(f"Expected 'points' of shape (N, 2), but got rows of different lengths: {points!r:.200}") from None
+    if pts.shape == (0,):  # ([] has no columns to count: no points)
+        pts = np.zeros((0, 2))
     if pts.dtype.kind not in "fiu" or pts.dtype == np.bool_:
         raise TypeError(f"Expected real-valued 'points', but got dtype {pts.dtype}")
     if pts.ndim != 2 or pts.shape[1] != 2:
