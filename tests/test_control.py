@@ -124,6 +124,19 @@ def test_perlin_equals_a_numpy_gradient_noise(device):
     np.testing.assert_allclose(c.evaluate(lattice, device=device), 0.5, atol=1e-7)
 
 
+def test_fbm_equals_a_numpy_fractal_sum(device):
+    # octaves with their own gain and lacunarity (the one-octave test above takes another path)
+    from wdendrite.control import _permutation
+
+    perm = _permutation(9)
+    c = control.perlin(seed=9, frequency=1.7, octaves=4, gain=0.6, lacunarity=2.3, domain=((-1.0, 0.0), (2.0, 2.0)))
+    pts = np.random.default_rng(2).uniform((-1, 0), (2, 2), (400, 2)).astype(np.float32)
+    q = 1.7 * pts.astype(float)
+    total = sum(0.6**o * _perlin_reference(perm, 2.3**o * q + _octave_shift(o)) for o in range(4))
+    want = 0.5 + 0.5 * total / sum(0.6**o for o in range(4))
+    np.testing.assert_allclose(c.evaluate(pts, device=device), want, atol=3e-5)
+
+
 def _octave_shift(o):
     # the kernels' per-octave offset (golden ratio and sqrt(2) - 1 fractions, times 7)
     return np.array([o * 0.6180339887, o * 0.4142135624]) * 7.0
@@ -193,11 +206,11 @@ def test_grid_equals_evaluate_at_pixel_centres(device):
 @pytest.mark.parametrize(
     "make, match",
     [
-        (lambda: control.image(np.zeros((0, 4))), "non-empty"),
-        (lambda: control.image(np.zeros((4,))), "2D"),
-        (lambda: control.image(np.zeros((2, 2, 2))), "2D"),
-        (lambda: control.image(np.array([[0.0, np.nan]])), "finite"),
-        (lambda: control.image(np.array([["a"]])), None),
+        (lambda: control.image(np.zeros((0, 4))), r"non-empty 2D .* for 'values', but got shape \(0, 4\)"),
+        (lambda: control.image(np.zeros((4,))), r"2D .* for 'values', but got shape \(4,\)"),
+        (lambda: control.image(np.zeros((2, 2, 2))), r"2D .* for 'values', but got shape \(2, 2, 2\)"),
+        (lambda: control.image(np.array([[0.0, np.nan]])), r"'values' must be finite.*first at \(0, 1\): nan"),
+        (lambda: control.image(np.array([["a"]])), r"real-valued .* for 'values', but got dtype <U1"),
         (lambda: control.perlin(domain=((1, 0), (0, 1))), "domain"),
         (lambda: control.perlin(domain=((0, 0), (0, 1))), "domain"),
         (lambda: control.perlin(octaves=0), "octaves"),
@@ -243,6 +256,17 @@ def test_drained_control_has_no_interior_minimum(device):
     v = d.values
     assert (v >= g - 1e-6).all() and d.domain == base.domain
     assert _interior_drains(v)  # water reaches the border
+    # with no rise it is the plain depression fill, which scikit-image's reconstruction gives apart
+    from wdendrite import hydrology
+
+    flat = control.drained(base, samples=65, slope=0.0).values
+    np.testing.assert_array_equal(flat, hydrology.fill(g).astype(np.float32))
+    # the rises tilt the filled pit (and the gentle slopes below its outlet) towards the border: at
+    # most a rise per step of the way out, so fewer than the grid's side of them
+    pit = flat > g
+    rise = 1e-4 * (base.maximum - base.minimum)
+    assert pit.sum() > 1000 and (v[pit] > flat[pit]).mean() > 0.9
+    assert (v - flat).max() <= 65 * rise * 1.001
     with pytest.raises(ValueError, match="samples"):
         control.drained(base, samples=2)
 

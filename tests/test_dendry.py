@@ -401,12 +401,24 @@ def test_level2_distance_matches_global_tree(device):
     np.testing.assert_allclose(got, _terrain(p, tree, pts), atol=5e-5)
 
 
-@pytest.mark.parametrize("beta", [0.7, 0.5])
-def test_level1_elevation_equals_bruteforce_primitives(device, beta):
-    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=beta, noise=0.2, primitive_steps=2)
+@pytest.mark.parametrize("beta, steps", [(0.7, 2), (0.5, 2), (0.5, 1), (0.5, 3), (0.5, 4)])
+def test_level1_elevation_equals_bruteforce_primitives(device, beta, steps):
+    p = _straight(levels=1, eps=0.25, resolution=2.0, seed=5, beta=beta, noise=0.2, primitive_steps=steps)
     pts = np.random.default_rng(1).uniform(0.3, 1.7, (25, 2))
     got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output="elevation", device=device)
     np.testing.assert_allclose(got, _terrain(p, _tree(p), pts), atol=5e-5)
+
+
+@pytest.mark.parametrize("steps, eps", [(3, 0.25), (3, (0.25, 0.0)), (1, (0.25, 0.5))])
+def test_level2_elevation_equals_bruteforce_primitives(device, steps, eps):
+    # the default primitive step (3) and others, and one eps per level: the primitives take the
+    # finest level's (the reference draws them so), their noise the primitives' own level
+    p = _straight(levels=2, eps=eps, resolution=2.0, seed=1, beta=0.5, noise=0.1, primitive_steps=steps)
+    tree = _tree(p)
+    tree.add_level(2, DendryParams.min_slopes()[1])
+    pts = np.random.default_rng(6).uniform(0.3, 1.7, (25, 2))
+    got = dendry_points(pts, domain=DOMAIN, params=p, control=CTL, output="elevation", device=device)
+    np.testing.assert_allclose(got, _terrain(p, tree, pts), atol=5e-5)
 
 
 def test_level1_polylines_are_displaced_chordal_catmull_rom_splines(device):
@@ -520,11 +532,14 @@ def test_lichtenberg_terrain_takes_the_bowls_maximum_outside_its_square(mode):
         # 3 x 3 links this seed missed some)
         (146, 14, dict(eps=(0.25, 0.0, 0.0), delta=0.1)),
         (4, 12, dict(eps=(0.25, 0.0, 0.0), delta=0.0, smoothing=False, subdivision=False)),
+        # from 4 levels the searches widen (and the finer levels' minimum slopes come into play)
+        (2, 10, dict(levels=4, eps=0.25, delta=0.1)),
+        (5, 10, dict(levels=4, eps=0.0, delta=0.3)),
     ],
 )
 def test_links_join_the_nearest_piece_of_the_whole_tree(device, seed, size, kw):
     # a brute-force reference over every piece of the region: no key point may miss its nearest piece
-    p = DendryParams(levels=3, seed=seed, **kw)
+    p = DendryParams(seed=seed, **{"levels": 3, **kw})
     checked, missed = _check_tree(p, size)
     assert checked > 900 and missed == 0, (checked, missed)
 
@@ -645,7 +660,9 @@ def test_search_order_covers_each_ring_once_and_ranks_invert_it(device):
 def test_cached_equals_per_pixel_bit_for_bit(device, output):
     for levels, rule in ((1, "terrain"), (3, "terrain"), (4, "lichtenberg")):
         p = DendryParams(levels=levels, eps=0.2, delta=0.1, beta=0.5, noise=0.05, rule=rule, seed=7)
-        a = dendry((40, 40), domain=((0.1, 0.3), (2.1, 1.9)), params=p, control=CTL, output=output, device=device)
+        # (explicitly cached: "auto" would pick the per-pixel mode where its cost estimate says so)
+        a = dendry((40, 40), domain=((0.1, 0.3), (2.1, 1.9)), params=p, control=CTL, output=output, mode="cached",
+                   device=device)
         b = dendry((40, 40), domain=((0.1, 0.3), (2.1, 1.9)), params=p, control=CTL, output=output, mode="pixel",
                    device=device)
         assert np.array_equal(a, b, equal_nan=True), (levels, np.abs(a - b).max())
@@ -666,7 +683,7 @@ def test_cached_equals_per_pixel_in_adversarial_setups(device, levels, search):
         p = DendryParams(levels=levels, eps=eps, delta=delta, beta=0.5, noise=0.05, rule=rule, seed=11, search=search)
         for output in ("distance", "elevation", "level"):
             kw = dict(domain=((0.3, 0.2), (1.9, 1.8)), params=p, control=CTL, output=output, device=device)
-            a = dendry((18, 18), **kw)
+            a = dendry((18, 18), mode="cached", **kw)  # ("auto" chose the per-pixel mode for 6 levels)
             b = dendry((18, 18), mode="pixel", **kw)
             assert np.array_equal(a, b, equal_nan=True), (eps, delta, rule, output)
             assert np.array_equal(dendry((18, 18), window=(5, 9, 7, 6), mode="pixel", **kw), a[5:12, 9:15])
@@ -1093,7 +1110,7 @@ def test_per_pixel_cells_left_undrawn_never_change_a_value(device, trial):
         for output in ("distance", "elevation", "level"):
             kw = dict(domain=dom, control_domain=((-1.0, -1.0), (3.0, 3.0)), params=p, control=CTL, output=output,
                       device=device)
-            a = dendry((14, 14), **kw)
+            a = dendry((14, 14), mode="cached", **kw)
             b = dendry((14, 14), mode="pixel", **kw)
             assert np.array_equal(a, b, equal_nan=True), (p, output, np.nanmax(np.abs(a - b)))
 
@@ -1264,9 +1281,18 @@ def test_dem_amplification_follows_the_coarse_map(device):
     assert np.isfinite(fine).all()
     down = fine.reshape(16, 16, 16, 16).mean(axis=(1, 3))
     assert np.corrcoef(down.ravel(), coarse.ravel())[0, 1] > 0.7
-    # and it adds detail the bicubic DEM does not have: valleys cut below it
+    # and it adds detail the bicubic DEM does not have: valleys cut below it, and twice its
+    # roughness from pixel to pixel (a DEM merely shifted down would pass the first test alone)
     smooth = dem.grid((256, 256), device=device)
     assert np.mean(fine < smooth - 0.01) > 0.05
+    assert np.abs(np.diff(fine, axis=1)).mean() > 1.5 * np.abs(np.diff(smooth, axis=1)).mean()
+    # the tree stands on the DEM: every level-1 key point's elevation is the DEM's value there
+    # (the domain's 16 units map onto the DEM's 1)
+    cells, keyp, _ = _cached_tree((256, 256), domain=((0.0, 0.0), (16.0, 16.0)), params=p, control=dem,
+                                  device=device)[0]
+    inside = keyp[:, 3] != 0
+    assert inside.sum() > 250
+    np.testing.assert_array_equal(keyp[inside, 2], dem.evaluate(keyp[inside, :2] / 16.0, device=device))
 
 
 def test_a_scaled_lichtenberg_bowl_grows_the_same_tree(device):
@@ -1588,7 +1614,18 @@ def test_default_control_is_the_authors_interactive_perlin(device):
     a = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, device=device)
     b = dendry((16, 16), domain=((0, 0), (4, 4)), params=p, control=default_control(), device=device)
     assert np.array_equal(a, b)
-    assert default_control().domain == ((-0.2, -0.5), (1.4, 0.7))
+    # what it is, checked apart from the code that makes it: single-octave Perlin noise of seed 0
+    # at frequency 1 on the authors' rectangle
+    from test_control import _perlin_reference
+
+    from wdendrite.control import _permutation
+
+    c = default_control()
+    assert (c.kind, c.seed, c.octaves, c.params[0]) == ("perlin", 0, 1, 1.0)
+    assert c.domain == ((-0.2, -0.5), (1.4, 0.7))
+    pts = np.random.default_rng(3).uniform((-0.2, -0.5), (1.4, 0.7), (200, 2)).astype(np.float32)
+    np.testing.assert_allclose(c.evaluate(pts, device=device), 0.5 + 0.5 * _perlin_reference(_permutation(0), pts),
+                               atol=2e-6)
 
 
 def test_one_eps_per_level_keeps_each_levels_key_points_in_its_band(device):
