@@ -218,6 +218,37 @@ for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=
 d8 = hydrology.flow_accumulation(z, filled=True)
 dinf = hydrology.flow_accumulation(z, filled=True, method="dinf")
 show(np.concatenate([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], axis=1))'''),
+        ("md", "## The Lichtenberg figure, levels and points\n\nThe Lichtenberg variant joins each new branch 45 "
+               "degrees downstream of the point nearest to it, on the paper's bowl control (lowest at its edge's "
+               "middle, here the bottom). `output=\"level\"` gives the level of the nearest branch (1: the trunk); "
+               "below it sets each branch's width and brightness. `wd.dendry_points` evaluates any (N, 2) points, "
+               "a mesh's vertices say, with the values an image gives its pixel centres."),
+        ("code", '''\
+pl = wd.DendryParams(levels=3 if SMALL else 5, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, seed=3)
+bowl = dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=pl, control=control.lichtenberg())
+d = wd.dendry((n, n), output="distance", **bowl)
+lv = wd.dendry((n, n), output="level", **bowl)
+weight = (pl.levels + 1 - lv) / pl.levels                      # 1 on the trunk, 1 / levels on the finest
+bolt = np.exp(-(np.where(np.isfinite(d), d, np.inf) / (1.5 / n * pl.levels * weight)) ** 2) * weight
+show(bolt[::-1])                                                 # rows flipped: y up, the root at the bottom'''),
+        ("code", '''\
+pts = np.random.default_rng(0).uniform(0.0, 4.0, (4, 2))               # any points of the domain
+print(wd.dendry_points(pts, output="elevation", **kw))'''),
+        ("md", "## DEM amplification\n\nA low-resolution elevation map as the control of a 16 times larger "
+               "terrain. A 16 x 16 fBm map stands in for the DEM here; scale a real DEM to [0, 1] first, as below "
+               "(terrains take controls in [0, 1]), and `control.drained` fills its pits so that its valleys lead "
+               "to the border. One level-1 cell per map pixel: the main valleys follow the map's low ground and the "
+               "finer levels add the branches it cannot hold. Left: the map as the control reads it (bicubic); "
+               "right: the terrain."),
+        ("code", '''\
+coarse = hydrology.fbm_terrain((16, 16), seed=4)
+coarse = (coarse - coarse.min()) / np.ptp(coarse)                      # scaled to [0, 1]
+dem = control.drained(control.image(coarse, domain=((0.0, 0.0), (1.0, 1.0))))
+pa = wd.DendryParams(levels=3, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2)
+big = wd.dendry((256, 256), domain=((0.0, 0.0), (16.0, 16.0)), params=pa, control=dem, output="elevation")
+smooth = dem.grid((256, 256))
+print("correlation with the map:", round(float(np.corrcoef(smooth.ravel(), big.ravel())[0, 1]), 3))
+show(np.concatenate([smooth, (big - big.min()) / np.ptp(big)], axis=1))'''),
         ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 --levels 3 "
                "--seed 1 -o terrain.png`."),
         ("code", '''\
