@@ -554,7 +554,7 @@ def test_a_tiled_output_whose_partial_file_name_would_be_too_long_is_refused(tmp
     "model, kw, exc, match",
     [
         # each was refused only after the noise control's range had been sampled with kernels, or not at all
-        ("dendry", dict(extent=1e7), ValueError, "'domain' reaches coordinate"),
+        ("dendry", dict(extent=1e7), ValueError, r"'extent' = 10000000.0 takes the image's pixel centres beyond .*below about 2.1648e\+06 domain units"),
         ("dendry", dict(params={}), TypeError, "DendryParams for 'params', but got dict"),
         ("dendry", dict(output="height"), ValueError, "'output'"),
         ("dendry", dict(control="radial", frequency=-1), ValueError, "'frequency', but got -1"),
@@ -562,7 +562,7 @@ def test_a_tiled_output_whose_partial_file_name_would_be_too_long_is_refused(tmp
         ("dendry", dict(drained="no"), TypeError, "'drained', but got 'no'"),
         ("dendry", dict(seed=-1), ValueError, "'seed'"),
         ("terrain", dict(rivers="no"), TypeError, "'rivers', but got 'no'"),
-        ("terrain", dict(extent=1e6), ValueError, "'domain' reaches coordinate"),
+        ("terrain", dict(extent=1e6), ValueError, r"'extent' = 1000000.0 .*below about 270600 domain units at size 16"),
     ],
 )
 def test_dendry_models_check_everything_before_any_kernel(model, kw, exc, match, launches):
@@ -624,3 +624,27 @@ def test_the_summary_counts_in_words(tmp_path):
     assert ", 1 endpoint in " in out, out
     code, out, err = wd("simple-dendrite", "--size", 32, "--endpoints", 2, "-o", "t.png", "--quiet", cwd=tmp_path)
     assert ", 2 endpoints in " in out, out
+
+
+def test_a_models_extent_is_refused_exactly_where_the_image_would_refuse_its_domain():
+    from wdendrite import _models
+    from wdendrite.control import plane
+    from wdendrite.dendry import dendry as image
+
+    params, size = _models.TABLE1, 8
+    for output, limit in (("elevation", 262144.0), ("distance", 2.0**21)):  # 2**22 over the finest cells per unit
+        edge = limit * size / (size - 0.5)  # the extent whose last pixel centre lies at the limit
+        for extent in (float(np.nextafter(edge, 0.0)), edge):
+            try:
+                image((size, size), domain=((0.0, 0.0), (extent, extent)), params=params,
+                      control=plane((0.0, 1.0)), output=output, window=(size - 1, size - 1, 1, 1))
+            except ValueError as e:
+                assert "reaches coordinate" in str(e)
+                with pytest.raises(ValueError, match=f"'extent' = {extent!r} takes the image's pixel centres"):
+                    _models.dendry_setup(size, params, extent=extent, control="plane", frequency=1.0,
+                                         drained=False, seed=0, output=output)
+                assert extent == edge
+            else:
+                _models.dendry_setup(size, params, extent=extent, control="plane", frequency=1.0, drained=False,
+                                     seed=0, output=output)
+                assert extent < edge

@@ -464,6 +464,17 @@ def _check_elevation_control(control: Control | None, output: str, control_domai
 _GRID_LIMIT = 2**22
 
 
+def _finest_scale(params: DendryParams, output: str) -> tuple[int, float]:
+    """The finest level ``output`` uses and its cells per domain unit."""
+    finest = params.levels + (params.primitive_steps if output == "elevation" else 0)
+    return finest, params.resolution * 2.0 ** (finest - 1)
+
+
+def coordinate_limit(params: DendryParams, output: str) -> float:
+    """The largest |coordinate| (domain units) whose finest cells float32 and int32 resolve."""
+    return _GRID_LIMIT / _finest_scale(params, output)[1]
+
+
 def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, hi, what: str) -> None:
     """Refuse regions whose cells float32 and int32 cannot hold exactly (no kernel runs).
 
@@ -478,8 +489,7 @@ def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, 
     key points collapse onto cell corners, neighbouring cells share indices, and indices
     overflow int32 from 2^31 on.
     """
-    finest = params.levels + (params.primitive_steps if output == "elevation" else 0)
-    scale = params.resolution * 2.0 ** (finest - 1)
+    finest, scale = _finest_scale(params, output)
     reach = max(abs(v) for v in (*lo, *hi)) * scale
     if not reach < _GRID_LIMIT:
         largest = max(abs(v) for v in (*lo, *hi))
@@ -487,7 +497,7 @@ def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, 
             f"{what} reaches coordinate {largest:.7g}, where the finest cells (level {finest}: "
             f"|x| * resolution * 2**{finest - 1} = {reach:.4g}) exceed the 2**22 = {_GRID_LIMIT} that "
             f"float32 key points and int32 cell indices resolve; use coordinates below "
-            f"{_GRID_LIMIT / scale:.6g} (a domain nearer the origin, a lower resolution or fewer levels)"
+            f"{coordinate_limit(params, output):.6g} (a domain nearer the origin, a lower resolution or fewer levels)"
         )
     _check_mapping(domain, control_domain, lo, hi, what)
 
