@@ -76,17 +76,21 @@ def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
     return found
 
 
-def level1_sinks(seed: int, ctl: control.Control, search: str = "exact") -> list[tuple[int, int]]:
-    """Level-1 cells inside the domain that the kernels link to themselves: no key point of their
-    8 neighbours lies lower, so their segments have length zero and the rivers around end there.
-    As (column, row), read from the cached mode's level-1 segments (ends equal)."""
+def level1_sinks(params: DendryParams, ctl: control.Control, domain=DOMAIN, *, points: bool = False) -> list[tuple]:
+    """Level-1 cells inside ``domain`` (whose corners lie on level-1 cell corners) that the kernels
+    link to themselves: no key point of their 8 neighbours lies lower, so their segments have
+    length zero and the rivers around end there. As (column, row), read from the cached mode's
+    level-1 segments (ends equal); with ``points``, their key points (x, y) in domain units."""
     from wdendrite.dendry import _cached_tree  # (the cached mode's cells: a diagnostic, not public API)
     from wdendrite.kernels import dendry as _kd
 
-    cells, keyp, verts = _cached_tree((8, 8), domain=DOMAIN, params=_params(seed, search), control=ctl)[0]
+    cells, keyp, verts = _cached_tree((8, 8), domain=domain, params=params, control=ctl)[0]
     still = (keyp[:, 3] == float(_kd.STATE_SEGMENT)) & np.all(verts[:, 0, :2] == verts[:, int(_kd.PIECES), :2], axis=1)
-    lo, hi = int(DOMAIN[0][0]), int(DOMAIN[1][0])
-    return [(int(i), int(j)) for (i, j) in cells[still] if lo <= min(i, j) and max(i, j) < hi]
+    (x0, y0), (x1, y1) = ((round(v * params.resolution) for v in corner) for corner in domain)
+    inside = still & (cells[:, 0] >= x0) & (cells[:, 0] < x1) & (cells[:, 1] >= y0) & (cells[:, 1] < y1)
+    if points:
+        return [(float(x) / params.resolution, float(y) / params.resolution) for x, y in keyp[inside, :2]]
+    return [(int(i), int(j)) for i, j in cells[inside]]
 
 
 def _largest_percent(mask: np.ndarray) -> float:
@@ -147,7 +151,7 @@ def main() -> None:
             if name == "Dendry (ours)":
                 cells.append(f"{_largest_percent(d.mask):.2f}")
         if args.sinks:
-            sinks = level1_sinks(seed, ctl, args.search)
+            sinks = level1_sinks(_params(seed, args.search), ctl)
             cells.append(" ".join(f"({i}, {j})" for i, j in sinks) or "-")
         print(f"| {seed} | " + " | ".join(cells) + " |")
     print()

@@ -243,21 +243,26 @@ def _drained_flats_reference(surface, rec):
     return out
 
 
-def _serpentine(h: int, w: int) -> np.ndarray:
-    """The benchmark's worst case for the flat drainer (benchmarks/bench_hydrology.py)."""
+def _benchmark(name: str):
+    """The module ``benchmarks/<name>.py`` (with its folder importable: some import ``_measure``)."""
     import importlib.util
     import sys
     from pathlib import Path
 
     folder = Path(__file__).resolve().parent.parent / "benchmarks"
-    spec = importlib.util.spec_from_file_location("bench_hydrology", folder / "bench_hydrology.py")
+    spec = importlib.util.spec_from_file_location(name, folder / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
-    sys.path.insert(0, str(folder))  # (it imports its folder's _measure)
+    sys.path.insert(0, str(folder))
     try:
         spec.loader.exec_module(module)
     finally:
         sys.path.remove(str(folder))
-    return module.serpentine(h, w)
+    return module
+
+
+def _serpentine(h: int, w: int) -> np.ndarray:
+    """The benchmark's worst case for the flat drainer (benchmarks/bench_hydrology.py)."""
+    return _benchmark("bench_hydrology").serpentine(h, w)
 
 
 @pytest.mark.parametrize("make", [lambda rng: rng.random((14, 17)),
@@ -364,13 +369,7 @@ def test_table1_on_draining_fields_meets_the_papers_figures():
     # the paper's Table 1 (benchmarks/table1_hydrology.py's default run, about 6 s): seeds 0-9 at
     # 512^2 on control fields that drain to the border; the mean depression surface and count
     # must meet the paper's 0.8 % and 52, and the fBm baseline be far worse, as in the paper
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "table1_hydrology.py"
-    spec = importlib.util.spec_from_file_location("table1_hydrology", path)
-    table1 = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(table1)
+    table1 = _benchmark("table1_hydrology")
     fields = table1.draining_fields(10)
     ours, fbm = [], []
     for seed, cseed in enumerate(fields):
@@ -449,3 +448,36 @@ def test_drainage_image_names_an_area_below_one():
     # log-scaled: each tenfold area one step up
     np.testing.assert_allclose(hydrology.drainage_image(np.array([[1.0, 10.0], [100.0, 1000.0]])),
                                [[0.0, 1 / 3], [2 / 3, 1.0]], rtol=1e-6)
+
+
+def test_dem_terrains_basins_sit_around_level1_sinks_that_a_steeper_fill_removes():
+    # benchmarks/dem_hydrology.py's finding, at 256^2 and 2 levels: the DEM-amplified terrain's large
+    # basins (above 1 % of the surface) each hold a level-1 sink's key point, and the drained
+    # control's steeper tilt leaves no sink and little depression; the sinks themselves are checked
+    # against the key points' own values (a sink: none of its 8 neighbours strictly lower)
+    from scipy.ndimage import label
+
+    from wdendrite.dendry import _cached_tree
+
+    dem = _benchmark("dem_hydrology")
+    params = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2)
+    for slope in (1e-4, 1e-2):
+        ctl = control.drained(dem.dem_map(), slope=slope)
+        cells, keyp, _ = _cached_tree((8, 8), domain=dem.DOMAIN, params=params, control=ctl)[0]
+        z = {(int(i), int(j)): float(v) for (i, j), v in zip(cells, keyp[:, 2])}
+        brute = sorted((i, j) for (i, j), v in z.items() if 0 <= i < 16 and 0 <= j < 16
+                       and all(z[i + di, j + dj] >= v for di in (-1, 0, 1) for dj in (-1, 0, 1)))
+        assert sorted(dem.level1_sinks(params, ctl, dem.DOMAIN)) == brute
+        points = dem.level1_sinks(params, ctl, dem.DOMAIN, points=True)
+        assert len(points) == len(brute)
+        terrain = dendry((256, 256), domain=dem.DOMAIN, params=params, control=ctl, output="elevation")
+        d = hydrology.depressions(terrain)
+        if slope == 1e-4:
+            assert len(brute) >= 3 and d.percent > 4.0
+            lab, n = label(d.mask, structure=np.ones((3, 3), int))
+            sizes = np.bincount(lab.ravel())[1:]
+            held = {int(lab[int(y * 16), int(x * 16)]) for x, y in points}
+            large = {k + 1 for k in range(n) if sizes[k] > 0.01 * terrain.size}
+            assert large and large <= held, (large, held)
+        else:
+            assert brute == [] and d.percent < 2.0
