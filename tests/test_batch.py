@@ -287,7 +287,7 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "weight-distributions"\nsize = 32\nparams = { ns = [0, -1] }\n',
      ["job 1 (weight-distributions)", "'ns'", "-1"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "terrain"\nsize = 256\n'
-     'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'domain' reaches coordinate"]),
+     'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'extent' = 1000000.0 takes the image's pixel centres beyond"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "weight-distributions"\nsize = 32\n'
      'params = { endpoints = 0 }\n', ["job 2 (weight-distributions)", "'endpoints'"]),
     ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 100000\n', ["job 1 (fractal)", "2**31"]),
