@@ -27,8 +27,8 @@ import logging
 import numpy as np
 import warp as wp
 
+from table1_hydrology import level1_sinks  # (this folder, on the path when run as a script)
 from wdendrite import control, hydrology
-from table1_hydrology import level1_sinks  # (this folder: run as a script, it is on the path)
 from wdendrite.dendry import DendryParams, dendry
 
 DOMAIN = ((0.0, 0.0), (16.0, 16.0))

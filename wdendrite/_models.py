@@ -138,12 +138,12 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
         raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
     params = dataclasses.replace(params, seed=seed)
     # the image's own check of its last pixel centre, which would name its 'domain' (never written by a model's user)
-    limit = coordinate_limit(params, output) * size / (size - 0.5)
-    if not (size - 0.5) * (extent / size) < coordinate_limit(params, output):
+    reach = coordinate_limit(params, output)
+    if not (size - 0.5) * (extent / size) < reach:
         raise ValueError(
             f"'extent' = {extent!r} takes the image's pixel centres beyond the coordinates float32 key points "
-            f"resolve at these params' finest level (an extent below about {limit:.6g} domain units at "
-            f"size {size}); lower 'extent', the resolution or the levels")
+            f"resolve at these params' finest level (an extent below about {reach * size / (size - 0.5):.6g} "
+            f"domain units at size {size}); lower 'extent', the resolution or the levels")
     shape, domain = (size, size), ((0.0, 0.0), (extent, extent))
     try:  # the image's own checks (output, params, coordinate reach), which stop before any kernel runs
         with _checks.checking_only():
