@@ -379,3 +379,36 @@ def test_drained_rises_survive_float32_and_slope_is_bounded():
     for slope in (1e40, 1.5):
         with pytest.raises(ValueError, match=r"'slope' in \[0, 1\]"):
             control.drained(control.plane(), slope=slope)
+
+
+@pytest.mark.parametrize("slope", [0.01, 0.015, 0.03])
+def test_a_steep_drained_slope_keeps_its_promise_or_is_refused(slope):
+    # 0.015 and 0.03 had left a flat 61 x 61 plateau at the maximum (the rescaling gave up after 8
+    # rounds and the values were clipped): every interior sample must keep a strictly lower
+    # neighbour and the range, else the slope is refused by name
+    base = control.perlin(seed=1, frequency=4, octaves=4)
+    if slope == 0.03:  # its rises alone climb past the range
+        with pytest.raises(ValueError, match=r"'slope' = 0.03 tilts the filled basins"):
+            control.drained(base, slope=slope)
+        return
+    d = control.drained(base, slope=slope)
+    v = d.values
+    assert _interior_drains(v) and base.minimum <= d.minimum and d.maximum <= base.maximum
+    assert (v == v.max()).sum() < 10
+
+
+def test_drained_refuses_a_constant_base_and_keeps_a_bounded_ones_domain():
+    import wdendrite as wd
+
+    # a constant base had come back 1 + 7.6e-6 (its rises above its only value), which a terrain refused
+    with pytest.raises(ValueError, match="'base' takes the one value 1.0 at all 129 x 129 samples"):
+        control.drained(control.image(np.ones((4, 4))))
+    # the Lichtenberg bowl is bounded: beyond its square there is no tree, drained or not
+    bowl = control.lichtenberg(scale=0.2)
+    d = control.drained(bowl)
+    assert bowl.bounded and d.bounded and d.domain == bowl.domain
+    kw = dict(domain=((-6.0, -6.0), (6.0, 6.0)), control_domain=((-6.0, -6.0), (6.0, 6.0)),
+              params=wd.DendryParams(levels=1))
+    for c in (bowl, d):
+        z = wd.dendry((24, 24), control=c, **kw)
+        assert np.isinf(z[:3]).all() and np.isfinite(z[9:15, 9:15]).all()

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import warp as wp
@@ -420,10 +420,15 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
         slope: rise per filled cell, relative to the base's range (0 to 1; 0 leaves filled basins flat).
 
     Returns:
-        An image :class:`Control` over ``base.domain``, whose values stay within ``base``'s range:
-        where a basin's rim holds the maximum, so that filling it would rise above, the samples
-        are first scaled towards their minimum by just that much (a control in [0, 1] stays a
-        terrain's control).
+        An image :class:`Control` over ``base.domain``, bounded where ``base`` is, whose values
+        stay within ``base``'s range: where a basin's rim holds the maximum, so that filling it
+        would rise above, the samples are first scaled towards their minimum by just that much
+        (a control in [0, 1] stays a terrain's control; a large ``slope`` can flatten the base
+        that way, or, where the rises alone pass the range, is refused).
+
+    Raises:
+        ValueError: a ``base`` that takes one value at every sample, or a ``slope`` whose rises
+            alone climb past the base's range.
     """
     if not isinstance(base, Control):
         raise TypeError(f"Expected a Control for 'base', but got {type(base).__name__}")
@@ -433,16 +438,37 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
         raise ValueError(f"Expected 'slope' in [0, 1] (a rise per filled cell, relative to the range), but got {slope!r}")
     rise = np.float32(slope * max(base.maximum - base.minimum, 1e-12))
     z0 = base.grid((samples, samples))  # (float32, the image's own values: every rise is one it keeps)
+    if not z0.max() > z0.min():
+        raise ValueError(f"'base' takes the one value {float(z0.min())!r} at all {samples} x {samples} samples: there is "
+                         "no slope to drain along and no range for the fill's rises; use the base as it is")
     z = _flood(z0, rise)
     # a basin whose rim holds the maximum fills above it, out of the base's range (a terrain's [0, 1]
     # then refused the result): scale the samples towards their minimum by the excess, keeping the
     # rises, and fill again (a scale that keeps the order: the same basins fill)
-    lo, top, k = float(z0.min()), float(base.maximum), 1.0
+    lo, top = float(z0.min()), float(base.maximum)
+
+    def scaled(k: float) -> np.ndarray:  # the samples scaled towards their minimum by k, filled
+        return _flood((lo + (z0.astype(np.float64) - lo) * k).astype(np.float32), rise)
+
+    k = 1.0
     for _ in range(8):
         over = float(z.max()) - top
-        if over <= 0.0 or top <= lo:
+        if over <= 0.0:
             break
-        k -= 1.1 * over / (top - lo)
-        z = _flood((lo + (z0.astype(np.float64) - lo) * max(k, 0.0)).astype(np.float32), rise)
-    z = np.minimum(z, np.float32(top)) if top > lo else z  # (never expected to bind: the loop converges in one or two)
-    return image(z, domain=base.domain)
+        k = max(k - 1.1 * over / (top - lo), 0.0)
+        z = scaled(k)
+    if float(z.max()) > top:
+        fits, z = 0.0, scaled(0.0)
+        if float(z.max()) > top:  # the rises alone climb past the range: no scale fits
+            raise ValueError(
+                f"'slope' = {slope!r} tilts the filled basins of this base beyond its range at {samples} samples "
+                f"(the rises alone climb {float(z.max()) - lo:.3g} over a range of {top - lo:.3g}); lower 'slope' "
+                "or 'samples'")
+        for _ in range(24):  # (slow to converge from above: the largest scale that fits, by bisection)
+            mid = 0.5 * (fits + k)
+            zm = scaled(mid)
+            if float(zm.max()) > top:
+                k = mid
+            else:
+                fits, z = mid, zm
+    return replace(image(z, domain=base.domain), bounded=base.bounded)
