@@ -481,3 +481,12 @@ def test_dem_terrains_basins_sit_around_level1_sinks_that_a_steeper_fill_removes
             assert large and large <= held, (large, held)
         else:
             assert brute == [] and d.percent < 2.0
+
+
+def test_a_masked_elevation_is_refused():
+    # a DEM's nodata cells had been used as real values (a -9999 pit that 13 cells drained into)
+    dem = np.ma.masked_equal(np.array([[5.0, 5.0, 5.0], [5.0, -9999.0, 5.0], [5.0, 5.0, 5.0]]), -9999.0)
+    for call in (hydrology.fill, hydrology.depressions, hydrology.flow_accumulation):
+        with pytest.raises(ValueError, match=r"'elevation' is a masked array with 1 masked cells .*elevation.filled"):
+            call(dem)
+    assert hydrology.fill(np.ma.masked_array(dem.data, mask=False))[1, 1] == 5.0  # nothing masked: an array

@@ -93,6 +93,14 @@ def float32_note(value) -> str:
     return ""
 
 
+def unmasked(name: str, value) -> None:
+    """Refuse a NumPy masked array with masked cells (a DEM's nodata): converting it would drop the
+    mask silently and use whatever the masked cells hold."""
+    if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+        raise ValueError(f"'{name}' is a masked array with {int(np.ma.getmaskarray(value).sum())} masked cells "
+                         f"(nodata?), which have no value to use; fill them first, e.g. {name}.filled(fill_value)")
+
+
 def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
     """``value`` as a C-contiguous ``dtype`` array that is non-empty, finite and of a shape ``shape_ok`` accepts.
 
@@ -106,8 +114,10 @@ def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu",
 
     Raises:
         TypeError: a dtype outside ``kinds`` (text, objects).
-        ValueError: ragged nested sequences, an empty array, a shape ``shape_ok`` refuses, NaN or inf entries.
+        ValueError: ragged nested sequences, an empty array, a shape ``shape_ok`` refuses, NaN or inf
+            entries, a masked array with masked cells (see :func:`unmasked`).
     """
+    unmasked(name, value)
     try:
         raw = np.asarray(value)
     except ValueError:  # nested sequences of different lengths

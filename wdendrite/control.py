@@ -348,10 +348,6 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
         domain: ((x0, y0), (x1, y1)), the rectangle of control coordinates the array covers:
             column 0 at x0, row 0 at y0 (y grows down the rows, as in :func:`wdendrite.dendry`).
     """
-    if np.ma.isMaskedArray(values) and np.ma.getmaskarray(values).any():
-        raise ValueError(f"'values' is a masked array with {int(np.ma.getmaskarray(values).sum())} masked cells "
-                         "(nodata?), which an image control has no value for; fill them first, e.g. "
-                         "values.filled(fill_value)")
     arr = finite_array("values", values, "2D (h, w)", lambda shape: len(shape) == 2)
     arr = np.array(arr, dtype=np.float32, order="C")  # a copy: later changes to the caller's array do not reach it
     arr.flags.writeable = False

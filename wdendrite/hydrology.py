@@ -33,6 +33,7 @@ __all__ = ["Depressions", "depressions", "drainage_image", "fbm_terrain", "fill"
 
 def _elevation(name: str, value) -> np.ndarray:
     """``value`` as a finite, non-empty (H, W) float64 array (integers only where float64 holds them)."""
+    _checks.unmasked(name, value)  # (before the conversion below drops a mask)
     try:
         raw = np.asarray(value)
     except ValueError:  # ragged nested lists: finite_array names them
