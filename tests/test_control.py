@@ -219,8 +219,8 @@ def test_grid_equals_evaluate_at_pixel_centres(device):
         (lambda: control.image([[0.0, 1.0], [1.0]]), "'values', but got rows of different lengths"),
         (lambda: control.image(np.array([[1e39, 1.0]])), r"'values'.*1e\+39 \(too large for float32\)"),
         # ranges that float32 cannot hold: the kernels would give inf or NaN everywhere
-        (lambda: control.perlin(gain=1e6, octaves=8), "'gain' or 'octaves'"),
-        (lambda: control.ridged(gain=1e10), "'gain' or 'octaves' or 'offset'"),
+        (lambda: control.perlin(gain=1e6, octaves=8), "a smaller 'gain' or fewer 'octaves'"),
+        (lambda: control.ridged(gain=1e10), "a smaller 'gain' or fewer 'octaves', or a smaller 'offset'"),
         (lambda: control.ridged(offset=1e30), "'offset'"),
         (lambda: control.plane((1e200, 0.0)), "'gradient'"),
         (lambda: control.radial(radius=1e-44), "'radius'"),
@@ -301,9 +301,10 @@ def test_drained_control_stays_in_its_bases_range():
         ((0, 0), ValueError, r"positive sizes in 'shape', but got \(0, 0\)"),
         ((-2, 3), ValueError, r"positive sizes in 'shape', but got \(-2, 3\)"),
         ((2.7, 3), TypeError, r"integer sizes in 'shape', but got \(2\.7, 3\)"),
-        ((4, 4, 4), ValueError, r"2D grid shape \(H, W\) for 'shape', but got \(4, 4, 4\)"),
+        ((4, 4, 4), ValueError, r"'shape' of rank 2 \(H, W\), but got \(4, 4, 4\)"),
         ((4,), ValueError, r"'shape'.*\(4,\)"),
         (None, TypeError, "'shape', but got None"),
+        (5, TypeError, r"Expected a tuple \(H, W\) for 'shape', but got 5$"),  # (had offered (D, H, W) too)
     ],
 )
 def test_bad_grid_shape_names_shape(shape, exc, match):

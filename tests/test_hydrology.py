@@ -408,7 +408,7 @@ def test_ragged_elevation_and_a_text_flag_are_named():
     "shape, exc, match",
     [
         ((0, 0), ValueError, r"'shape', but got \(0, 0\)"),
-        ((4, 4, 4), ValueError, r"'shape', but got \(4, 4, 4\)"),
+        ((4, 4, 4), ValueError, r"'shape' of rank 2 \(H, W\), but got \(4, 4, 4\)"),
         ((-5, 5), ValueError, r"'shape', but got \(-5, 5\)"),
         ((2.7, 3), TypeError, r"'shape', but got \(2\.7, 3\)"),
         (None, TypeError, "'shape', but got None"),

@@ -64,9 +64,7 @@ def rectangle(name: str, value) -> Rect:
 
 def _grid_shape(shape, device) -> tuple[int, int]:
     """Return ``shape`` as (H, W) positive ints whose float32 grid fits on ``device``."""
-    dims = lattice_shape(shape)
-    if len(dims) != 2:
-        raise ValueError(f"Expected a 2D grid shape (H, W) for 'shape', but got {shape!r}")
+    dims = lattice_shape(shape, ranks=(2,))
     fits_in_memory(4 * dims[0] * dims[1], device, f"A grid of 'shape' {dims}")
     return dims
 
@@ -196,7 +194,7 @@ def _fits(control: Control, names: str) -> Control:
     if not (math.isfinite(lo) and math.isfinite(hi) and max(abs(lo), abs(hi)) <= _FLOAT32_MAX):
         raise ValueError(
             f"The {control.kind} control's values on its domain {control.domain} do not fit float32 (minimum "
-            f"{lo!r}, maximum {hi!r}; the kernels evaluate it in float32): choose smaller {names}")
+            f"{lo!r}, maximum {hi!r}; the kernels evaluate it in float32): choose {names}")
     return control
 
 
@@ -210,7 +208,7 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
         reach = float(np.max(np.abs(np.asarray(dom, np.float64))) * params[0] * np.float64(params[2]) ** (octaves - 1))
     if not reach <= 2**22:
         raise ValueError(
-            f"'frequency' = {frequency!r} (with 'lacunarity' = {lacunarity!r} over {octaves} octaves) samples the "
+            f"'frequency' = {frequency!r} (with 'lacunarity' = {lacunarity!r} over {octaves} octave{'s' if octaves != 1 else ''}) samples the "
             f"noise at coordinates up to {reach:.3g} over 'domain' {dom}, beyond the 2**22 = 4194304 that float32 "
             "resolves (the noise would be flat, then NaN); lower 'frequency', 'lacunarity' or 'octaves'")
     probe = Control(kind, dom, 0.0, 1.0, params, seed, octaves)
@@ -219,7 +217,7 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
     lo, hi = _extremes(probe, samples=513, keep=32) if kind == "ridged" else _extremes(probe)
     # (a large gain over many octaves overflows the octaves' float32 sum, which then gives NaN)
     return _fits(Control(kind, dom, lo, hi, params, seed, octaves),
-                 "'gain' or 'octaves'" + (" or 'offset'" if kind == "ridged" else ""))
+                 "a smaller 'gain' or fewer 'octaves'" + (", or a smaller 'offset'" if kind == "ridged" else ""))
 
 
 def _extremes(probe: Control, samples: int = 257, keep: int = 4, rounds: int = 4) -> tuple[float, float]:
@@ -277,7 +275,8 @@ def ridged(*, seed: int = 0, frequency: float = 1.0, octaves: int = 8, gain: flo
     """Ridged multifractal noise (octaves of ``(offset - |noise|)^2``, each weighted by the previous one).
 
     Its maxima lie on sharp creases (where an octave's noise is 0): the ``maximum`` found by
-    sampling and zooming may lie below the true one by about 1e-3 (never above ``offset^2``).
+    sampling and zooming may lie below the true one by about 1e-3 (the noise lies in about [-1, 1], so
+    the values stay below about ``max(offset, 1 - offset)^2``).
     """
     return _noise("ridged", seed, frequency, octaves, gain, lacunarity, offset, domain)
 
@@ -295,7 +294,7 @@ def plane(gradient=(0.0, 1.0), *, offset: float = 0.0, domain=((0.0, 0.0), (1.0,
     off = finite("offset", offset)
     dom = rectangle("domain", domain)
     corners = [off + gx * x + gy * y for x in (dom[0][0], dom[1][0]) for y in (dom[0][1], dom[1][1])]
-    return _fits(Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0)), "'gradient', 'offset' or 'domain'")
+    return _fits(Control("plane", dom, min(corners), max(corners), (off, gx, gy, 0.0)), "a smaller 'gradient', 'offset' or 'domain'")
 
 
 def radial(center=(0.5, 0.5), *, radius: float = 1.0, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
@@ -331,7 +330,7 @@ def lichtenberg(scale: float = 1.0) -> Control:
     """
     scale = positive("scale", scale)
     # (16 * scale, its value outside the square, must fit float32 too)
-    _fits(Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 16.0 * scale), "'scale'")
+    _fits(Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 16.0 * scale), "a smaller 'scale'")
     return Control("lichtenberg", ((-1.0, -1.0), (1.0, 1.0)), 0.0, 5.0 * scale, (scale, 0.0, 0.0, 0.0), bounded=True)
 
 
