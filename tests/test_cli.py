@@ -563,6 +563,7 @@ def test_a_tiled_output_whose_partial_file_name_would_be_too_long_is_refused(tmp
         ("dendry", dict(seed=-1), ValueError, "'seed'"),
         ("terrain", dict(rivers="no"), TypeError, "'rivers', but got 'no'"),
         ("terrain", dict(extent=1e6), ValueError, r"'extent' = 1000000.0 .*below about 270600 domain units at size 16"),
+        ("terrain", dict(extent=1e-44), ValueError, r"'extent' = 1e-44 makes a 'domain' .* the image refuses: The mapping"),
     ],
 )
 def test_dendry_models_check_everything_before_any_kernel(model, kw, exc, match, launches):

@@ -150,6 +150,10 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
             _dendry(shape, domain=domain, params=params, control_domain=_CONTROL_DOMAINS[control], output=output)
     except _checks.Checked:
         pass
+    except ValueError as e:  # the square the model made of 'extent' (too small for float32, ...): name it
+        if "'domain'" not in str(e):
+            raise
+        raise ValueError(f"'extent' = {extent!r} makes a 'domain' {domain!r} the image refuses: {e}") from None
     _checks.stop_if_checking()  # (a batch checking its tasks stops here, before the control's kernels)
     if control in ("perlin", "ridged"):
         c = getattr(ctl, control)(seed=seed, frequency=frequency, domain=_CONTROL_DOMAINS[control])
