@@ -413,3 +413,25 @@ def test_drained_refuses_a_constant_base_and_keeps_a_bounded_ones_domain():
     for c in (bowl, d):
         z = wd.dendry((24, 24), control=c, **kw)
         assert np.isinf(z[:3]).all() and np.isfinite(z[9:15, 9:15]).all()
+
+
+def test_evaluate_checks_its_points_as_the_rest_of_the_api_does():
+    c = control.perlin()
+    assert c.evaluate([]).shape == (0,) and c.evaluate(np.zeros((0, 2))).shape == (0,)  # as dendry_points([])
+    for pts, exc, match in [
+        # a noise sampled beyond float32's reach had come back flat (0.5) or NaN without a word
+        ([[1e8, 0.3]], ValueError, r"'points' reaches 1e\+08 in the perlin control's coordinates"),
+        ([[1.0, 2.0], [3.0]], ValueError, r"\(N, 2\) array for 'points', but got rows of different lengths"),
+        ([[1e39, 1.0]], ValueError, r"'points' must fit in float32.*1e\+39"),
+        ([[np.nan, 1.0]], ValueError, r"'points' must be finite"),
+        (np.zeros((3, 3)), ValueError, r"\(N, 2\) array for 'points', but got shape \(3, 3\)"),
+    ]:
+        with pytest.raises(exc, match=match):
+            c.evaluate(pts)
+    with pytest.raises(ValueError, match=r"ridged control's coordinates.*over 8 octaves"):
+        control.ridged().evaluate([[3e38, 1.0]])
+    with pytest.raises(ValueError, match=r"frequency 1e\+07.*lower 'frequency', 'lacunarity' or 'octaves'"):
+        control.perlin(frequency=1e7)
+    # just inside the reach the noise still varies
+    v = control.perlin(frequency=1.0).evaluate([[4.0e6 + 0.25, 0.25], [4.0e6 + 0.5, 0.5]])
+    assert np.isfinite(v).all() and v[0] != v[1]

@@ -1455,6 +1455,10 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(domain=((0.0, 0.0), (5.0e6, 1.0)), window=(0, 15, 1, 1)), "window"),
         (dict(domain=((0.0, 0.0), (6.0e5, 1.0)), output="elevation"), "domain"),
         (dict(control_domain=((0.0, 0.0), (1.0e39, 1.0))), "control_domain"),
+        # a noise control read far from the origin is flat in float32 (it had run, one value throughout)
+        (dict(control=control.perlin(frequency=3.0), control_domain=((5e6, 5e6), (5e6 + 1.0, 5e6 + 1.0))),
+         r"'control_domain' \(\(5000000.0, 5000000.0\), .*noise \(frequency 3, .*sampled at up to 1.5e\+07"),
+        (dict(control=None, control_domain=((5e6, 0.0), (5e6 + 1.0, 1.0))), r"reaches 5e\+06 in the perlin control"),
         (dict(device="cuda:9"), "device"),
         # terrains take control values in [0, 1] (eq. 7); a DEM in metres is refused with the fix
         (dict(control=control.image(np.array([[120.0, 340.0], [80.0, 95.0]])), output="elevation"),

@@ -114,26 +114,38 @@ class Control:
         s.grads = wp.array(np.concatenate([grad[:-1], grad[1:]], axis=1), dtype=wp.vec4, device=device)
         return s
 
+    def check_reach(self, lo, hi, what: str, fix: str) -> None:
+        """Refuse evaluating a noise control between the corners ``lo`` and ``hi`` (x, y in its own
+        coordinates) where float32 cannot resolve its noise: lattice coordinates (point times
+        frequency, and lacunarity per octave) beyond 2**22 turn it flat, then NaN. Other kinds
+        pass. ``what`` names the points in the error, ``fix`` says what to change."""
+        if self.kind not in ("perlin", "ridged"):
+            return
+        freq, lac = self.params[0], self.params[2]
+        with np.errstate(over="ignore"):
+            top = float(np.max(np.abs(np.asarray([lo, hi], np.float64))))
+            reach = top * freq * max(1.0, np.float64(lac) ** (self.octaves - 1))
+        if not reach <= _NOISE_REACH:
+            octaves = f"{self.octaves} octave{'s' if self.octaves != 1 else ''}"
+            raise ValueError(
+                f"{what} reaches {top:.4g} in the {self.kind} control's coordinates, where its noise (frequency "
+                f"{freq:g}, lacunarity {lac:g} over {octaves}) is sampled at up to {reach:.3g}, beyond the "
+                f"2**22 = {_NOISE_REACH} that float32 resolves (the noise would be flat, then NaN); {fix}")
+
     def evaluate(self, points, *, device=None) -> np.ndarray:
-        """The function at ``points`` ((N, 2) x, y in its own coordinates) as (N,) float32."""
-        pts = np.asarray(points)
-        if pts.dtype.kind not in "fiu":
-            raise TypeError(f"Expected real-valued 'points', but got dtype {pts.dtype}")
-        pts = pts.astype(np.float32)
-        if pts.ndim != 2 or pts.shape[1] != 2:
-            raise ValueError(f"Expected 'points' of shape (N, 2), but got shape {pts.shape}")
-        if not np.isfinite(pts).all():
-            raise ValueError("'points' must be finite, but has NaN/inf entries")
+        """The function at ``points`` ((N, 2) x, y in its own coordinates; an empty list: none) as (N,) float32."""
+        try:
+            none = np.shape(points) in ((0,), (0, 2))
+        except ValueError:  # ragged: finite_array names it
+            none = False
+        if none:
+            return np.zeros(0, np.float32)
+        pts = finite_array("points", points, "(N, 2)", lambda shape: len(shape) == 2 and shape[1] == 2)
+        self.check_reach(pts.min(axis=0), pts.max(axis=0), "'points'", "evaluate it nearer the origin")
         device = _device(device)
         out = wp.zeros(len(pts), dtype=float, device=device)
-        if len(pts):
-            wp.launch(
-                _kn.control_points_kernel,
-                dim=len(pts),
-                inputs=[self.struct(device), wp.array(pts, dtype=wp.vec2, device=device)],
-                outputs=[out],
-                device=device,
-            )
+        wp.launch(_kn.control_points_kernel, dim=len(pts), inputs=[self.struct(device), wp.array(pts, dtype=wp.vec2, device=device)],
+                  outputs=[out], device=device)
         return out.numpy()
 
     def grid(self, shape, *, device=None) -> np.ndarray:
@@ -185,6 +197,7 @@ def _permutation(seed: int) -> np.ndarray:
 
 
 _FLOAT32_MAX = float(np.finfo(np.float32).max)
+_NOISE_REACH = 2**22  # noise lattice coordinates float32 resolves (see Control.check_reach)
 
 
 def _fits(control: Control, names: str) -> Control:
@@ -204,14 +217,9 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
     params = (positive("frequency", frequency), positive("gain", gain), positive("lacunarity", lacunarity),
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
-    with np.errstate(over="ignore"):
-        reach = float(np.max(np.abs(np.asarray(dom, np.float64))) * params[0] * np.float64(params[2]) ** (octaves - 1))
-    if not reach <= 2**22:
-        raise ValueError(
-            f"'frequency' = {frequency!r} (with 'lacunarity' = {lacunarity!r} over {octaves} octave{'s' if octaves != 1 else ''}) samples the "
-            f"noise at coordinates up to {reach:.3g} over 'domain' {dom}, beyond the 2**22 = 4194304 that float32 "
-            "resolves (the noise would be flat, then NaN); lower 'frequency', 'lacunarity' or 'octaves'")
     probe = Control(kind, dom, 0.0, 1.0, params, seed, octaves)
+    probe.check_reach(*dom, f"'domain' {dom}", "lower 'frequency', 'lacunarity' or 'octaves', or a 'domain' nearer "
+                      "the origin")
     # ridged maxima sit on creases (where an octave's noise crosses 0), which a coarse grid
     # straddles: a finer grid and more starting points for the zoom find them
     lo, hi = _extremes(probe, samples=513, keep=32) if kind == "ridged" else _extremes(probe)

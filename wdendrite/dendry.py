@@ -475,7 +475,8 @@ def coordinate_limit(params: DendryParams, output: str) -> float:
     return _GRID_LIMIT / _finest_scale(params, output)[1]
 
 
-def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, hi, what: str) -> None:
+def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, hi, what: str,
+                 control: Control | None) -> None:
     """Refuse regions whose cells float32 and int32 cannot hold exactly (no kernel runs).
 
     ``lo``, ``hi``: (x, y) corners of the points that will be evaluated, in domain units;
@@ -499,12 +500,18 @@ def _check_reach(params: DendryParams, output: str, domain, control_domain, lo, 
             f"float32 key points and int32 cell indices resolve; use coordinates below "
             f"{coordinate_limit(params, output):.6g} (a domain nearer the origin, a lower resolution or fewer levels)"
         )
-    _check_mapping(domain, control_domain, lo, hi, what)
+    _check_mapping(domain, control_domain, lo, hi, what, control)
 
 
-def _check_mapping(domain, control_domain, lo, hi, what: str) -> None:
+# the default control's noise (frequency 1, one octave), to check its reach without making it
+# (default_control samples its range with kernels); a probe, never evaluated
+_DEFAULT_NOISE = Control("perlin", _DEFAULT_CONTROL_DOMAIN, 0.0, 1.0, (1.0, 0.5, 2.0, 0.0))
+
+
+def _check_mapping(domain, control_domain, lo, hi, what: str, control: Control | None) -> None:
     """The kernels map ``domain`` onto ``control_domain`` in float32: refuse a mapping float32
-    cannot hold, or one that takes the points between corners ``lo`` and ``hi`` beyond it."""
+    cannot hold, or one that takes the points between corners ``lo`` and ``hi`` beyond it, or
+    to control coordinates where ``control``'s noise is flat (None: the default control)."""
     (dx0, dy0), (dx1, dy1) = domain
     (cx0, cy0), (cx1, cy1) = control_domain
     sx, sy = (cx1 - cx0) / (dx1 - dx0), (cy1 - cy0) / (dy1 - dy0)
@@ -517,6 +524,10 @@ def _check_mapping(domain, control_domain, lo, hi, what: str) -> None:
             f"{sy:.4g}) does not fit float32 over the {what} evaluated (control coordinates "
             f"{[float(v) for v in corners]})"
         )
+    (_DEFAULT_NOISE if control is None else control).check_reach(
+        (min(corners[:2]), min(corners[2:])), (max(corners[:2]), max(corners[2:])),
+        f"The mapping of 'domain' {domain!r} onto 'control_domain' {control_domain!r} over the {what} evaluated",
+        "use a 'control_domain' nearer the origin, or a control with a lower frequency")
 
 
 def _check_pixels_apart(params: DendryParams, domain, shape) -> None:
@@ -738,7 +749,7 @@ def _cached_tree(shape, *, domain, params: DendryParams, control: Control | None
     """
     shape = lattice_shape(shape)
     domain, control_domain = _check_common(params, control, domain, control_domain)
-    _check_reach(params, "distance", domain, control_domain, *domain, "'domain'")
+    _check_reach(params, "distance", domain, control_domain, *domain, "'domain'", control)
     control = default_control() if control is None else control
     device = wp.get_device(device)
     s = _setup(params, domain, control_domain, "elevation")
@@ -817,7 +828,7 @@ def dendry(
     dx, dy = (x1 - x0) / shape[1], (y1 - y0) / shape[0]
     what = "'domain'" if window is None else f"'window' {tuple(window)!r} of 'domain' {domain!r}"
     _check_reach(params, output, domain, control_domain, (x0 + (c0 + 0.5) * dx, y0 + (r0 + 0.5) * dy),
-                 (x0 + (c0 + w - 0.5) * dx, y0 + (r0 + h - 0.5) * dy), what)
+                 (x0 + (c0 + w - 0.5) * dx, y0 + (r0 + h - 0.5) * dy), what, control)
     _check_pixels_apart(params, domain, shape)
     device = _device(device)
     stop_if_checking()  # (every argument is checked: a check of a whole model stops here)
@@ -932,11 +943,11 @@ def dendry_points(
     device = _device(device)
     if n == 0:
         # no coordinates to bound, but the mapping itself must be one float32 holds
-        _check_mapping(domain, control_domain, domain[0], domain[0], "'domain'")
+        _check_mapping(domain, control_domain, domain[0], domain[0], "'domain'", control)
         return np.zeros(0, np.float32)
     row = int(np.argmax(np.abs(pts).max(axis=1)))
     _check_reach(params, output, domain, control_domain, pts.min(axis=0).tolist(), pts.max(axis=0).tolist(),
-                 f"'points' (row {row}: {pts[row].tolist()})")
+                 f"'points' (row {row}: {pts[row].tolist()})", control)
     control = default_control() if control is None else control
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
