@@ -218,8 +218,8 @@ def _noise(kind: str, seed, frequency, octaves, gain, lacunarity, offset, domain
               nonnegative("offset", offset, allow_none=False))
     dom = rectangle("domain", domain)
     probe = Control(kind, dom, 0.0, 1.0, params, seed, octaves)
-    probe.check_reach(*dom, f"'domain' {dom}", "lower 'frequency', 'lacunarity' or 'octaves', or a 'domain' nearer "
-                      "the origin")
+    probe.check_reach(*dom, f"'domain' {dom} (with 'frequency' = {frequency!r})",
+                      "lower 'frequency', 'lacunarity' or 'octaves', or a 'domain' nearer the origin")
     # ridged maxima sit on creases (where an octave's noise crosses 0), which a coarse grid
     # straddles: a finer grid and more starting points for the zoom find them
     lo, hi = _extremes(probe, samples=513, keep=32) if kind == "ridged" else _extremes(probe)
