@@ -288,6 +288,11 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
      ["job 1 (weight-distributions)", "'ns'", "-1"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "terrain"\nsize = 256\n'
      'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'extent' = 1000000.0 takes the image's pixel centres beyond"]),
+    # TOML's numbers are numbers: text for one is refused (it had been read as the number)
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 16\nparams = { levels = "3" }\n',
+     ["job 1 (terrain) params 'levels' expects an integer, but got '3'", "without quotes"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 16\ngrid = { eps = ["0.1", 0.2] }\n',
+     ["job 1 (terrain) grid 'eps' expects a number or numbers", "but got '0.1'"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "weight-distributions"\nsize = 32\n'
      'params = { endpoints = 0 }\n', ["job 2 (weight-distributions)", "'endpoints'"]),
     ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 100000\n', ["job 1 (fractal)", "2**31"]),

@@ -137,6 +137,17 @@ def test_config_file_and_command_line_override(tmp_path):
     (tmp_path / "half.toml").write_text("size = 64.5\n")
     bad(["fractal", "--config", "half.toml", "-o", "c.png"], tmp_path, "config key 'size'", "64.5")
     assert not (tmp_path / "c.png").exists()
+    # TOML has numbers and booleans: text for them is refused, as 'size = "32"' always was ('levels =
+    # "3"' and 'drained = "false"' had been read as 3 and False, while 'levels = 3.0' was refused)
+    for text, key in (('levels = "3"', "levels"), ('eps = "0.1"', "eps"), ('drained = "false"', "drained"),
+                      ("levels = 3.0", "levels")):
+        (tmp_path / "text.toml").write_text(text + "\n")
+        words = ["without quotes"] if '"' in text else []
+        bad(["terrain", "--size", "16", "--config", "text.toml", "-o", "t.png"], tmp_path, f"config key '{key}'",
+            *words)
+    (tmp_path / "typed.toml").write_text("levels = 3\neps = 0.1\ndrained = false\ncontrol = \"ridged\"\n")
+    assert cli.main(["terrain", "--size", "16", "--config", str(tmp_path / "typed.toml"), "-o",
+                     str(tmp_path / "t.png"), "--quiet"]) == 0
 
 
 def test_unknown_preset_and_option_suggest_the_nearest(tmp_path):

@@ -158,14 +158,15 @@ class Param:
                 "ints": "N,N,...", "floats": "X,X,...", "strs": "A,B,...", "int?": "INT|none",
                 "float?": "X|none", "float+": "X[,X,...]"}.get(self.kind, "VALUE")
 
-    def convert(self, value, *, source: str | None = None):
-        """``value`` (a string from the command line or a TOML value) as this parameter's type."""
+    def convert(self, value, *, source: str | None = None, typed: bool = False):
+        """``value`` (a string from the command line, or with ``typed`` a TOML value, whose numbers and
+        booleans must be TOML's own, not text) as this parameter's type."""
         where = source or f"'{self.name}'"
         try:
             if self.kind == "nested":
-                given = self._fields(value)
+                given = self._fields(value, typed)
             else:
-                return self._convert(value)
+                return self._convert(value, typed)
         except (TypeError, ValueError):
             pass
         else:
@@ -182,12 +183,16 @@ class Param:
                 "int?": "an integer or none", "float?": "a number or none",
                 "float+": "a number or numbers separated by commas",
                 "nested": f"{self.metavar()} (the fields of {type(self.default).__name__} in order)"}[self.kind]
+        if typed and isinstance(value, str) and self.kind not in ("str", "choice", "strs"):
+            extra += " (text: in TOML, write numbers and true/false without quotes)"
         raise UsageError(f"{where} expects {want}, but got {value!r}{extra}")
 
-    def _convert(self, v):
+    def _convert(self, v, typed: bool = False):
         k = self.kind
         if k in ("int?", "float?") and (v is None or (isinstance(v, str) and v.lower() == "none")):
             return None
+        if typed and isinstance(v, str) and k in ("int", "int?", "float", "float?", "bool"):
+            raise TypeError  # (TOML has numbers and booleans of its own: text is a mistake there)
         if k in ("int", "int?"):
             if isinstance(v, bool) or not isinstance(v, (int, str)):
                 raise TypeError
@@ -208,19 +213,19 @@ class Param:
             return v
         items = _items(v, allow_x=k == "ints")
         if k == "float+":
-            out = tuple(Param(self.name, None, "float")._convert(x) for x in items)
+            out = tuple(Param(self.name, None, "float")._convert(x, typed) for x in items)
             return out[0] if len(out) == 1 and not isinstance(v, (list, tuple)) else out
         inner = {"ints": "int", "floats": "float", "strs": "str"}[k]
-        return tuple(Param(self.name, None, inner)._convert(x) for x in items)
+        return tuple(Param(self.name, None, inner)._convert(x, typed) for x in items)
 
 
-    def _fields(self, v) -> dict:
+    def _fields(self, v, typed: bool = False) -> dict:
         """``{field: value}`` of a nested dataclass from its field values in order (the leading ones)."""
         fields = dataclasses.fields(self.default)
         items = _items(v, allow_x=False)
         if not 1 <= len(items) <= len(fields):
             raise ValueError
-        return {f.name: Param(f.name, None, _kind_of_value(getattr(self.default, f.name)))._convert(x)
+        return {f.name: Param(f.name, None, _kind_of_value(getattr(self.default, f.name)))._convert(x, typed)
                 for f, x in zip(fields, items)}
 
 
@@ -578,7 +583,7 @@ def parse_config(path, preset: Preset) -> dict:
                 raise UsageError(f"config key 'size' in {str(path)!r} expects a positive integer, "
                                  f"but got {v!r}") from None
         elif k in preset.params:
-            out[k] = preset.params[k].convert(v, source=f"config key '{k}' in {str(path)!r}")
+            out[k] = preset.params[k].convert(v, source=f"config key '{k}' in {str(path)!r}", typed=True)
         else:
             raise UsageError(f"config key {k!r} in {str(path)!r} is not a parameter of preset "
                              f"{preset.name!r}{nearest(k, list(preset.params) + ['size'])}")

@@ -212,10 +212,11 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     tasks = []
     checked = set()  # the values checked already (seeds aside)
     for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
-        values = {p: preset.params[p].convert(v, source=f"{where} params {p!r}") for p, v in fixed.items()}
-        values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}") for p, v in zip(grid, combo)})
+        values = {p: preset.params[p].convert(v, source=f"{where} params {p!r}", typed=True) for p, v in fixed.items()}
+        values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}", typed=True)
+                       for p, v in zip(grid, combo)})
         if seed is not None:
-            values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed")
+            values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed", typed=True)
             if not 0 <= values["seed"] < 2**32:
                 raise UsageError(f"{where}: 'seed'/'seeds' must be in [0, 2**32), but got {seed!r}")
         if size is not None:
