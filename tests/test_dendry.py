@@ -1449,6 +1449,9 @@ def test_the_launch_recorder_sees_dendry_kernels(launches):
         (dict(shape=(2**31, 16), window=(0, 0, 4, 4)), r"'shape' \(2147483648, 16\) has a size of 2147483648"),
         # an image computed whole must fit int32 indices; a window of it need not be (below)
         (dict(shape=(65536, 65536)), r"'shape' \(65536, 65536\) has 4294967296 pixels.*window by window"),
+        # pixel centres (col + 0.5) beyond 2**23 are not exact in float32 (it had blamed a too narrow domain)
+        (dict(shape=(8, 2**23 + 1), domain=((0.0, 0.0), (4.0e6, 1.0)), window=(0, 0, 4, 4)),
+         r"'shape' \(8, 8388609\) has 8388609 columns, beyond the 2\*\*23"),
         (dict(window=(0, 0, 0, 4)), r"'window' \(0, 0, 0, 4\) is empty"),
         (dict(window=(8, 0, 9, 4)), r"'window' \(8, 0, 9, 4\) reaches outside .*rows 8..16"),
         (dict(domain=((0.0, 0.0), (5.0e6, 1.0))), "domain"),

@@ -540,6 +540,11 @@ def _check_pixels_apart(params: DendryParams, domain, shape) -> None:
     """
     res = params.resolution
     for axis, n, name in ((0, shape[1], "columns"), (1, shape[0], "rows")):
+        if n > 2**23:  # (col + 0.5 is no longer exact in float32: no domain helps)
+            raise ValueError(
+                f"'shape' {tuple(shape)!r} has {n} {name}, beyond the 2**23 = 8388608 whose centres (index + 0.5) "
+                f"float32 holds exactly; make images of at most 8388608 {name} (several, with domains side by "
+                "side, make a wider one)")
         lo = np.float32(domain[0][axis] * res)
         step = np.float32((domain[1][axis] - domain[0][axis]) / n * res)
         centres = lo + (np.arange(n, dtype=np.float32) + np.float32(0.5)) * step
