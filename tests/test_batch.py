@@ -288,6 +288,13 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
      ["job 1 (weight-distributions)", "'ns'", "-1"]),
     ('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n[[job]]\npreset = "terrain"\nsize = 256\n'
      'params = { extent = 1000000.0 }\n', ["job 2 (terrain)", "'extent' = 1000000.0 takes the image's pixel centres beyond"]),
+    # a value listed twice (the error had blamed two jobs writing one file)
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\nseeds = [0, 1, 0]\n', ["job 1 (fractal): 'seeds' lists 0 twice"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\ngrid = { alpha = [2.0, 3.0, 2.0] }\n',
+     ["job 1 (fractal): grid 'alpha' lists 2.0 twice"]),
+    # a parameter fixed and swept: the grid's value had silently won
+    ('out = "o"\n[[job]]\npreset = "fractal"\nsize = 16\nparams = { alpha = 1.5 }\ngrid = { alpha = [2.0] }\n',
+     ["job 1 (fractal): params 'alpha' and grid 'alpha' both set it; give it in one place"]),
     # TOML's numbers are numbers: text for one is refused (it had been read as the number)
     ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 16\nparams = { levels = "3" }\n',
      ["job 1 (terrain) params 'levels' expects an integer, but got '3'", "without quotes"]),

@@ -660,3 +660,11 @@ def test_a_models_extent_is_refused_exactly_where_the_image_would_refuse_its_dom
                 _models.dendry_setup(size, params, extent=extent, control="plane", frequency=1.0, drained=False,
                                      seed=0, output=output)
                 assert extent < edge
+
+
+def test_an_option_is_taken_by_its_whole_name_only(tmp_path):
+    # argparse had read --devic as --device and --siz as --size without a word
+    bad(["fractal", "--size", "16", "--devic", "cpu", "-o", "f.png"], tmp_path, "unrecognized option '--devic'",
+        "did you mean '--device'")
+    bad(["batch", "jobs.toml", "--dry"], tmp_path, "'--dry'")
+    assert not (tmp_path / "f.png").exists()

@@ -487,3 +487,18 @@ def test_walk_tables_cost_memory_only_where_written():
     assert int(table.sum()) == 7 * 128 and grown < 16 * 2**20, grown
     small = _memory.sparse_table(10, bool)
     assert small.dtype == bool and not small.any()
+
+
+def test_a_dendrites_arrays_are_read_only_and_its_endpoints_distinct():
+    lat = wd.Lattice((16, 16), 8)
+    den = wd.trace(wd.shortest_paths(lat, [[8, 8]]), [[0, 0], [15, 15]])
+    depth = den.depth.copy()
+    for name in ("nodes", "parent", "cost", "label", "generation", "endpoints"):
+        with pytest.raises(ValueError, match="read-only"):  # (a write had left the cached depth stale)
+            getattr(den, name)[0] = 1
+    np.testing.assert_array_equal(den.depth, depth)
+    parent = den.parent.copy()
+    wd.Dendrite.from_arrays(den.shape, den.nodes, parent)
+    parent[0] = parent[0]  # the caller's own arrays stay writeable
+    with pytest.raises(ValueError, match="'endpoints' lists row 1 more than once"):  # (downstream counted it twice)
+        wd.Dendrite.from_arrays(den.shape, den.nodes, den.parent, endpoints=[1, 1])

@@ -375,3 +375,24 @@ def test_a_steep_bias_still_reaches_every_node():
     assert len(np.unique(got, axis=0)) == 3000
     first = ep.biased((1000, 3), 30, power=200, seed=1)
     assert (first[:, 0] > 900).all()  # and the draw still follows the profile
+
+
+def test_path_planning_inputs_refuse_text_flags_masked_arrays_and_costs_that_are_none():
+    lat = wd.Lattice((8, 8), 4)
+    # text for a flag had counted as true; a masked array's mask had been dropped
+    with pytest.raises(TypeError, match="Expected a bool for 'dark', but got 'no'"):
+        ep.Image(np.zeros((4, 4)), dark="no")
+    masked = np.ma.masked_array([[1, 2], [3, 4]], mask=[[0, 0], [1, 1]])
+    with pytest.raises(ValueError, match="'generators' is a masked array with 2 masked cells"):
+        wd.shortest_paths(lat, masked)
+    with pytest.raises(ValueError, match="'mask' is a masked array with 1 masked cells"):
+        wd.Lattice((2, 2), 4, mask=np.ma.masked_array(np.ones((2, 2), bool), mask=[[1, 0], [0, 0]]))
+    with pytest.raises(ValueError, match="'density' is a masked array"):
+        ep.random(lat, 2, seed=0, density=np.ma.masked_array(np.ones((8, 8)), mask=np.eye(8, dtype=bool)))
+    # a plain cost array holds path costs: NaN and negative entries had passed
+    with pytest.raises(ValueError, match=r"'cost' holds path costs .* 2 NaN or negative entries \(first at \(0, 0\): -5.0\)"):
+        ep.in_band(np.array([[-5.0, -3.0], [2.0, 3.0]]), 2, -4.0, 5.0)
+    with pytest.raises(ValueError, match="1 NaN or negative"):
+        ep.in_band(np.array([[0.0, np.nan], [2.0, 3.0]]), 1, 2.0, 1.0)
+    with pytest.raises(TypeError, match="float array for 'cost', but got str"):
+        ep.manual(lat, [[1, 1]], cost="abc")

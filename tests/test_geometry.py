@@ -57,6 +57,8 @@ def test_tubes_are_closed_and_follow_every_edge():
     assert mesh.volume == pytest.approx(polygon_area * length, rel=1e-6)
     tapered = tubes(DEN, Taper(1.0, 0.2))
     assert tapered.is_watertight and tapered.volume > 0
+    with pytest.raises(TypeError, match="Expected a bool for 'joints', but got 'no'"):  # (had counted as true)
+        tubes(DEN, 0.3, joints="no")
     assert tapered.bounds[0].min() >= -1.0 - 1e-9
 
 

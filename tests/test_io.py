@@ -492,3 +492,12 @@ def test_load_dendrite_refuses_widths_of_zero_and_integers_beyond_int64(tmp_path
     with pytest.raises(ValueError, match=r"'path' '.*u64\.npz' is not a dendrite file: 'parent' has rows "
                                          r"beyond int64: 18446744073709551615 at index"):
         load_dendrite(tmp_path / "u64.npz")
+
+
+def test_overwrite_given_as_text_is_refused_and_the_file_kept(tmp_path):
+    # overwrite="no" had counted as true and replaced the file
+    p = tmp_path / "a.png"
+    save_png(p, np.zeros((4, 4)))
+    with pytest.raises(TypeError, match="Expected a bool for 'overwrite', but got 'no'"):
+        save_png(p, np.ones((4, 4)), overwrite="no")
+    assert np.asarray(Image.open(p)).max() == 0

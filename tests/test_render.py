@@ -247,6 +247,9 @@ def test_rows_render_a_subset():
         (lambda: brightness(empty_dendrite()), "empty"),
         (lambda: node_widths(empty_dendrite(), 1.0), "empty"),
         (lambda: brightness(DEN, 2.0, metric="manhattan"), "metric"),
+        # (a lattice with the Euclidean metric had been ignored without a word, as brightness refuses it)
+        (lambda: distance_field(DEN, limit=5.0, metric="euclidean", lattice=LAT),
+         r"'lattice' is only used with metric='path', but metric is 'euclidean'"),
         (lambda: brightness(DEN, 2.0, clamp=1.5), "clamp"),
         (lambda: brightness(DEN, 2.0, reach=0), "reach"),
         (lambda: brightness(DEN, np.ones(3)), "width"),

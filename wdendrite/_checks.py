@@ -51,6 +51,7 @@ def float_array(
 
     With ``check_values=False`` only the dtype and shape are checked.
     """
+    unmasked(name, value)
     arr = np.asarray(value)
     if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
         raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
@@ -98,7 +99,7 @@ def unmasked(name: str, value) -> None:
     mask silently and use whatever the masked cells hold."""
     if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
         raise ValueError(f"'{name}' is a masked array with {int(np.ma.getmaskarray(value).sum())} masked cells "
-                         f"(nodata?), which have no value to use; fill them first, e.g. {name}.filled(fill_value)")
+                         f"(nodata?), which have no value to use; drop or fill them first, e.g. {name}.filled(fill_value)")
 
 
 def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu", dtype=np.float32) -> np.ndarray:
@@ -145,6 +146,7 @@ def finite_array(name: str, value, shapes: str, shape_ok, *, kinds: str = "fiu",
 
 def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     """Return ``value`` as a C-contiguous bool array of ``shape``."""
+    unmasked(name, value)
     arr = np.asarray(value)
     if arr.dtype != np.bool_:
         raise TypeError(f"Expected a bool array for '{name}', but got dtype {arr.dtype}")
@@ -157,6 +159,7 @@ def integer_array(name: str, value, what: str = "values") -> np.ndarray:
     """Return ``value`` as an int64 array; a non-integer dtype (bool included) is a TypeError
     naming ``what`` the integers are. Empty arrays of any dtype pass (``np.asarray([])`` is float).
     Ragged nested sequences and unsigned values beyond int64 are ValueErrors naming ``name``."""
+    unmasked(name, value)
     try:
         arr = np.asarray(value)
     except ValueError:  # nested sequences of different lengths

@@ -132,8 +132,16 @@ def _list(job: dict, one: str, many: str, where: str, default):
         v = job[many]
         if not isinstance(v, list) or not v:
             raise UsageError(f"{where}: {many!r} must be a non-empty list, but got {v!r}")
+        _no_repeats(v, repr(many), where)
         return v
     return [job.get(one, default)]
+
+
+def _no_repeats(values: list, what: str, where: str) -> None:
+    """Refuse a list that names one value twice (its tasks would write one file twice)."""
+    for i, v in enumerate(values):
+        if v in values[:i]:
+            raise UsageError(f"{where}: {what} lists {v!r} twice")
 
 
 def _formats(value, where: str) -> list[str]:
@@ -182,6 +190,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     for key, vals in grid.items():
         if not isinstance(vals, list) or not vals:
             raise UsageError(f"{where}: grid {key!r} must be a non-empty list of values, but got {vals!r}")
+        _no_repeats(vals, f"grid {key!r}", where)
     seeds = _list(job, "seed", "seeds", where, None)
     if seeds != [None] and "seed" not in preset.params:
         raise UsageError(f"{where}: preset {name!r} has no seed")
@@ -193,6 +202,9 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         for t, what in ((fixed, "params"), (grid, "grid")):
             if given != [None] and param in t:
                 raise UsageError(f"{where}: {what} {param!r} and {keys} both set it; give it in one place")
+    both = [p for p in grid if p in fixed]  # (the grid's value had silently won)
+    if both:
+        raise UsageError(f"{where}: params {both[0]!r} and grid {both[0]!r} both set it; give it in one place")
     sized = {}
     for size in sizes:
         if size is not None:

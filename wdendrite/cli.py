@@ -364,7 +364,12 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
 
 class _Parser(argparse.ArgumentParser):
     """argparse that suggests the nearest name for an unknown subcommand or choice, in one line
-    (the usage block is left to ``--help``)."""
+    (the usage block is left to ``--help``), and takes options by their whole names only (a
+    shortened one such as ``--devic`` would be read as ``--device`` without a word)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         m = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)

@@ -66,6 +66,14 @@ class Dendrite:
     def __post_init__(self):
         if self.origin is None:
             object.__setattr__(self, "origin", (0.0,) * len(self.shape))
+        # read-only views, as a Lattice's and a CostField's arrays are: a write would leave the
+        # cached properties (depth, ...) describing another dendrite (the caller's arrays stay writeable)
+        for name in ("nodes", "parent", "cost", "label", "generation", "endpoints", "_padded"):
+            value = getattr(self, name)
+            if isinstance(value, np.ndarray):
+                view = value.view()
+                view.flags.writeable = False
+                object.__setattr__(self, name, view)
 
     @property
     def positions(self) -> np.ndarray:
@@ -138,6 +146,10 @@ class Dendrite:
         endpoints = _checks.integer_array("endpoints", endpoints, "rows").reshape(-1)
         if endpoints.size and (endpoints.min() < 0 or endpoints.max() >= n):
             raise ValueError(f"'endpoints' must be rows in [0, {n}), but range over [{endpoints.min()}, {endpoints.max()}]")
+        _, first, seen = np.unique(endpoints, return_index=True, return_counts=True)
+        if (seen > 1).any():  # (downstream would count it twice; trace keeps each endpoint once)
+            row = int(endpoints[np.sort(first[seen > 1])[0]])
+            raise ValueError(f"'endpoints' lists row {row} more than once; give each endpoint once")
         if origin is not None:
             origin = tuple(_checks.finite_array("origin", origin, f"({len(shape)},)", lambda s: s == (len(shape),),
                                                 dtype=np.float64).tolist())

@@ -184,6 +184,7 @@ def tubes(
     sides = _int_arg("sides", sides, 3)
     # per edge two rings of ``sides`` vertices and their caps' centres, 4 ``sides`` faces, 3 float64
     # or int64 values each, and about as much again while the runs are joined
+    joints = _checks.flag("joints", joints)
     _checks.fits_in_memory(2 * 24 * len(den) * (6 * sides + 2), "cpu",
                            f"tubes() of {len(den)} nodes with 'sides' = {sides}")
     r = _radii(den, radius, side)

@@ -33,6 +33,7 @@ def occupied(path) -> str | None:
 
 def _target(path, overwrite: bool) -> Path:
     """``path`` as a Path, once it is known that a file may be written there."""
+    overwrite = _checks.flag("overwrite", overwrite)  # (text such as "no" would have counted as true)
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"'path' {str(path)!r} is a folder; give the name of a file to write in it")

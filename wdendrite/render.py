@@ -370,7 +370,7 @@ def distance_field(
     """
     den = _check_dendrite(dendrite)
     limit = _checks.positive("limit", limit)
-    _choice("metric", metric, _METRICS)
+    _check_metric(metric, lattice)
     sel = _check_rows(rows, len(den))
     dist, label = _nearest(den, limit, metric, lattice, sel, device)
     lab = label.numpy().reshape(den.shape)

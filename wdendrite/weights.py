@@ -6,6 +6,9 @@ weight is a function of ``(seed, node, direction)`` through a counter-based
 hash, so the same seed gives the same weights every time, and a kernel can
 recompute any single weight without a stored array (see
 :meth:`Distribution.kernel_params` and ``wdendrite.kernels.weights.edge_weight``).
+``node`` is the node's flat (row-major) index: a taller or deeper lattice keeps
+the weights of the rows it shares with a smaller one, but a lattice of another
+width gets other weights almost everywhere.
 
 The papers' distributions, each multiplied by the edge's Euclidean length
 (1, sqrt(2), sqrt(3)) so that diagonal moves cost what their length says:
