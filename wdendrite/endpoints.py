@@ -361,13 +361,18 @@ def _spaced_near(cand: np.ndarray, keys: np.ndarray, shape, count: int, spacing:
     return kept
 
 
-def _path_costs(dist: np.ndarray) -> None:
-    """Refuse a cost array that holds no path costs: NaN, or below 0 (inf is an unreachable node)."""
+def _plain_costs(cost) -> np.ndarray:
+    """A plain ``cost`` array (not a CostField) as path costs: float, >= 0, inf where unreachable."""
+    _checks.unmasked("cost", cost)
+    dist = np.asarray(cost)
+    if dist.dtype.kind != "f":
+        raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
     bad = np.isnan(dist) | (dist < 0)
     if bad.any():
         where = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ValueError(f"'cost' holds path costs (>= 0, inf where unreachable), but has {int(bad.sum())} NaN or "
                          f"negative entries (first at {where}: {float(dist[where])!r})")
+    return dist
 
 
 def _density(density, shape) -> np.ndarray:
@@ -607,14 +612,10 @@ def in_band(
     if isinstance(cost, _sssp.CostField):
         shape, mask = _space(cost.lattice)
     else:
-        _checks.unmasked("cost", cost)
-        dist = np.asarray(cost)
-        if dist.dtype.kind != "f":
-            raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
+        dist = _plain_costs(cost)
         if dist.ndim not in (2, 3) or dist.size == 0:  # (the lattice check would name a 'shape' never given)
             raise ValueError(f"Expected 'cost' as a non-empty 2D (H, W) or 3D (D, H, W) array, but got shape "
                              f"{dist.shape}")
-        _path_costs(dist)
         shape, mask = _space(dist.shape)
         cost = dist.reshape(-1)
     d = _finite("d", d)
@@ -659,14 +660,9 @@ def manual(lattice, points, *, cost=None) -> np.ndarray:
         raise ValueError(f"'points' rows {row} and {again} are the same node {tuple(pts[row].tolist())}; "
                          "endpoints must be distinct")
     if cost is not None:
-        if not hasattr(cost, "dist"):
-            _checks.unmasked("cost", cost)
-        dist = np.asarray(cost.dist if hasattr(cost, "dist") else cost)
-        if dist.dtype.kind != "f":
-            raise TypeError(f"Expected a CostField or a float array for 'cost', but got {type(cost).__name__} {dist.dtype}")
+        dist = np.asarray(cost.dist) if hasattr(cost, "dist") else _plain_costs(cost)
         if dist.shape != shape:
             raise ValueError(f"Expected 'cost' of shape {shape}, but got shape {dist.shape}")
-        _path_costs(dist)
         bad = ~np.isfinite(dist[tuple(pts.T)])
         if bad.any():
             row = int(np.argmax(bad))
