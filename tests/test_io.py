@@ -150,6 +150,12 @@ def test_svg_polylines_cover_every_edge_once(tmp_path):
     assert len(polys) == len(np.unique(branch_order(DEN2).start)) == len(svg_polylines(DEN2))
     with pytest.raises(ValueError, match="2D"):
         save_svg(tmp_path / "e.svg", DEN3)
+    # a node alone (a root with no path) is a dot: its point twice, stroked with round caps (it had drawn nothing)
+    lone = wd.Dendrite.from_arrays((8, 8), [[2, 5]], [-1])
+    polys = [el for el in ET.parse(save_svg(tmp_path / "one.svg", lone, width=1.5)).getroot().iter()
+             if el.tag.endswith("polyline")]
+    assert [el.get("points") for el in polys] == ["5,2 5,2"] and float(polys[0].get("stroke-width")) == 3.0
+    assert polys[0].get("stroke-linecap") == "round"
 
 
 def test_svg_colours_are_written_and_bad_ones_refused_before_writing(tmp_path):

@@ -439,7 +439,9 @@ def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, f
     """The branches of a 2D dendrite as ``(points (P, 2) as (x, y), stroke width)`` pairs.
 
     Each branch (see :func:`wdendrite.render.branch_order`) runs from where it
-    leaves its parent branch to its tip; its stroke is twice its mean width.
+    leaves its parent branch to its tip; its stroke is twice its mean width. A node
+    alone (a root no path reached) is its point twice, a zero-length polyline that
+    round caps draw as a dot of its width (it had left no mark).
     """
     from .render import branch_order, node_widths
 
@@ -454,8 +456,9 @@ def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, f
         s = chain[0]
         if dendrite.parent[s] >= 0:
             chain = np.concatenate([[dendrite.parent[s]], chain])
-        if len(chain) >= 2:
-            out.append((pos[chain], 2.0 * float(w[chain].mean())))
+        if len(chain) == 1:
+            chain = np.concatenate([chain, chain])
+        out.append((pos[chain], 2.0 * float(w[chain].mean())))
     return out
 
 
