@@ -144,8 +144,13 @@ class Control:
         self.check_reach(pts.min(axis=0), pts.max(axis=0), "'points'", "evaluate it nearer the origin")
         device = _device(device)
         out = wp.zeros(len(pts), dtype=float, device=device)
-        wp.launch(_kn.control_points_kernel, dim=len(pts), inputs=[self.struct(device), wp.array(pts, dtype=wp.vec2, device=device)],
-                  outputs=[out], device=device)
+        wp.launch(
+            _kn.control_points_kernel,
+            dim=len(pts),
+            inputs=[self.struct(device), wp.array(pts, dtype=wp.vec2, device=device)],
+            outputs=[out],
+            device=device,
+        )
         return out.numpy()
 
     def grid(self, shape, *, device=None) -> np.ndarray:
