@@ -297,6 +297,28 @@ def test_warm_start_relaxes_only_near_the_change():
     assert warm.dist.tobytes() == again.dist.tobytes()
 
 
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_cost_fields_pickle_and_the_copy_serves_searches_and_walks(how):
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(3)
+    mask = np.ones((15, 17), bool)
+    mask[7, 2:] = False  # a wall, so some costs go round it
+    lat = wd.Lattice((15, 17), 8, weights=rng.uniform(0.5, 9.0, (4, 15, 17)).astype(np.float32), mask=mask)
+    gens = np.array([[0, 3], [14, 16], [3, 12]])
+    cf = wd.shortest_paths(lat, gens[:2])
+    twin = pickle.loads(pickle.dumps(cf)) if how == "pickle" else copy.deepcopy(cf)
+    assert twin.lattice is not lat and twin.device == cf.device and twin.limit == cf.limit
+    _check_against_scipy(twin.lattice, gens[:2], twin)
+    ends = np.argwhere(np.isfinite(cf.dist))[::7]
+    a, b = wd.trace(cf, ends), wd.trace(twin, ends)
+    assert np.array_equal(a.parent, b.parent) and np.array_equal(a.nodes, b.nodes)
+    # a warm start from the copy (whose costs are not in any lattice's records) equals a cold search
+    warm = wd.shortest_paths(twin.lattice, gens, warm_start=twin)
+    _check_against_scipy(twin.lattice, gens, warm)
+
+
 def test_device_arrays_are_kept(device):
     lat = wd.Lattice((8, 9))
     cf = wd.shortest_paths(lat, [[0, 0]], device=device)

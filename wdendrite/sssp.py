@@ -38,7 +38,7 @@ class _Fields:
     __slots__ = ("arrays", "dist", "label", "spent", "host")
 
     def __init__(self, arrays):
-        self.arrays = arrays
+        self.arrays = arrays  # None for an unpickled field, whose own arrays are made at once
         self.dist: wp.array | None = None
         self.label: wp.array | None = None
         self.spent = False
@@ -64,6 +64,10 @@ class CostField:
     generator and the least one from another round to the same sum, the first
     may be offered or not, so such a node's label can differ with ``delta`` and,
     on a GPU, from run to run (costs never do).
+
+    A cost field pickles and deep-copies (with a copy of its lattice): its
+    costs travel as host arrays and come back on the device they were on, or on
+    the CPU in a process without that device.
     """
 
     lattice: Lattice
@@ -81,7 +85,8 @@ class CostField:
     @property
     def device(self):
         """The Warp device holding the arrays."""
-        return self._fields.arrays.aux.device
+        f = self._fields
+        return f.dist.device if f.dist is not None else f.arrays.aux.device
 
     @property
     def dist_array(self) -> wp.array:
@@ -103,6 +108,11 @@ class CostField:
         """int32 array of the lattice shape: row of the nearest generator (-1 where ``dist`` is inf)."""
         return self._host("label")
 
+    def __reduce__(self):
+        # device arrays do not pickle: the costs travel as host arrays, and the lattice rebuilds itself
+        return _rebuild, (self.lattice, self.generators, self.limit, np.array(self.dist), np.array(self.label),
+                          self.rounds, self.relaxed, str(self.device))
+
     def _host(self, name: str) -> np.ndarray:
         """The read-only host array of field ``name``: a view on the CPU; copied from a GPU once,
         then kept (the device arrays never change once made)."""
@@ -121,6 +131,16 @@ class CostField:
                 if f.dist is None:
                     _unpack(self)
         return f
+
+
+def _rebuild(lattice: Lattice, generators, limit, dist, label, rounds, relaxed, device) -> CostField:
+    """Unpickle a :class:`CostField`: its arrays go back to the device they were on when
+    this process has it, else to the CPU."""
+    device = wp.get_device(device if device in [str(d) for d in wp.get_devices()] else "cpu")
+    fields = _Fields(None)  # its records are made when a search or walk needs them
+    fields.dist = wp.array(dist, dtype=float, device=device)
+    fields.label = wp.array(label, dtype=wp.int32, device=device)
+    return CostField(lattice, generators, limit, fields, rounds, relaxed)
 
 
 def _unpack(costfield: CostField) -> None:
