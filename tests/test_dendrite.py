@@ -502,3 +502,36 @@ def test_a_dendrites_arrays_are_read_only_and_its_endpoints_distinct():
     parent[0] = parent[0]  # the caller's own arrays stay writeable
     with pytest.raises(ValueError, match="'endpoints' lists row 1 more than once"):  # (downstream counted it twice)
         wd.Dendrite.from_arrays(den.shape, den.nodes, den.parent, endpoints=[1, 1])
+
+
+@pytest.mark.parametrize("how", ["as traced", "pickled", "deep-copied"])
+def test_a_dendrites_cached_arrays_are_read_only_too(how):
+    import copy
+    import pickle
+
+    lat = wd.Lattice((16, 16), 8)
+    den = wd.trace(wd.shortest_paths(lat, [[8, 8]]), [[0, 0], [15, 15], [0, 15]])
+    den.depth  # cached before the copy, so the copy carries it
+    den = {"as traced": den, "pickled": pickle.loads(pickle.dumps(den)), "deep-copied": copy.deepcopy(den)}[how]
+    # depth and downstream against a walk of the parent pointers
+    depth = [len(den.path(r)) - 1 for r in range(len(den))]
+    down = np.zeros(len(den), int)
+    for p in den.paths():
+        down[p] += 1
+    np.testing.assert_array_equal(den.depth, depth)
+    np.testing.assert_array_equal(den.downstream, down)
+    assert repr(den) == f"Dendrite(shape=(16, 16), nodes={len(den)}, roots=1, endpoints=3, generations=1)"
+    for name in ("nodes", "parent", "cost", "label", "generation", "endpoints", "depth", "order", "downstream"):
+        with pytest.raises(ValueError, match="read-only"):  # (a write to depth had changed later renders)
+            getattr(den, name)[0] = 1
+    np.testing.assert_array_equal(den.depth, depth)
+
+
+def test_from_arrays_keeps_no_reference_to_the_callers_arrays():
+    cost = np.array([0.0, 1.0, 2.0], np.float32)  # already float32: the check had handed it back as it was
+    label = np.zeros(3, np.int32)
+    den = wd.Dendrite.from_arrays((4, 4), [[0, 0], [0, 1], [0, 2]], [-1, 0, 1], cost=cost, label=label)
+    cost[:] = 99.0
+    label[:] = 5
+    np.testing.assert_array_equal(den.cost, [0.0, 1.0, 2.0])
+    np.testing.assert_array_equal(den.label, 0)

@@ -66,14 +66,20 @@ class Dendrite:
     def __post_init__(self):
         if self.origin is None:
             object.__setattr__(self, "origin", (0.0,) * len(self.shape))
-        # read-only views, as a Lattice's and a CostField's arrays are: a write would leave the
-        # cached properties (depth, ...) describing another dendrite (the caller's arrays stay writeable)
-        for name in ("nodes", "parent", "cost", "label", "generation", "endpoints", "_padded"):
-            value = getattr(self, name)
-            if isinstance(value, np.ndarray):
-                view = value.view()
-                view.flags.writeable = False
-                object.__setattr__(self, name, view)
+        self._freeze()
+
+    def __setstate__(self, state):
+        # unpickled and deep-copied dendrites get fresh, writeable arrays: freeze them again
+        self.__dict__.update(state)
+        self._freeze()
+
+    def _freeze(self) -> None:
+        """Make every array read-only views, as a Lattice's and a CostField's arrays are: a write
+        would leave the cached properties (depth, ...) describing another dendrite, or a write to
+        one of those would change what later uses of it see (the caller's arrays stay writeable)."""
+        for name, value in list(self.__dict__.items()):
+            if isinstance(value, np.ndarray) and value.flags.writeable:
+                self.__dict__[name] = _read_only(value)
 
     @property
     def positions(self) -> np.ndarray:
@@ -129,7 +135,8 @@ class Dendrite:
             elif np.size(value) == 0:
                 arr = np.zeros(0, dtype)
             else:
-                arr = _checks.finite_array(name, value, "1D (N,)", lambda s: True, dtype=dtype).reshape(-1)
+                # a copy: finite_array hands back the caller's own array when it is already float32
+                arr = np.array(_checks.finite_array(name, value, "1D (N,)", lambda s: True, dtype=dtype).reshape(-1))
             if arr.shape != (n,):
                 raise ValueError(f"Expected '{name}' of shape ({n},), but got shape {arr.shape}")
             return arr
@@ -162,6 +169,11 @@ class Dendrite:
     def __len__(self) -> int:
         return len(self.nodes)
 
+    def __repr__(self) -> str:
+        gens = int(self.generation.max()) + 1 if len(self) else 0
+        return (f"Dendrite(shape={self.shape}, nodes={len(self)}, roots={len(self.roots)}, "
+                f"endpoints={len(self.endpoints)}, generations={gens})")
+
     @property
     def ndim(self) -> int:
         return len(self.shape)
@@ -180,7 +192,7 @@ class Dendrite:
         for _ in range(2 + int(np.log2(max(len(self), 1)))):
             live = np.flatnonzero(anc >= 0)
             if not len(live):
-                return depth
+                return _read_only(depth)
             up = anc[live]
             depth[live] = depth[live] + depth[up]
             anc[live] = anc[up]
@@ -189,7 +201,7 @@ class Dendrite:
     @cached_property
     def order(self) -> np.ndarray:
         """Rows sorted from the roots outward (every parent before its children)."""
-        return np.argsort(self.depth, kind="stable")
+        return _read_only(np.argsort(self.depth, kind="stable"))
 
     @cached_property
     def downstream(self) -> np.ndarray:
@@ -204,7 +216,7 @@ class Dendrite:
             p = self.parent[level]
             ok = p >= 0
             np.add.at(count, p[ok], count[level[ok]])
-        return count
+        return _read_only(count)
 
     def path(self, row: int) -> np.ndarray:
         """``(L,)`` int64 rows from node ``row`` to its root (both included).
@@ -224,6 +236,13 @@ class Dendrite:
         """The path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the endpoint to its root."""
         for e in self.endpoints:
             yield self.path(e)
+
+
+def _read_only(arr: np.ndarray) -> np.ndarray:
+    """A read-only view of ``arr`` (the array itself stays as it was)."""
+    view = arr.view()
+    view.flags.writeable = False
+    return view
 
 
 def _endpoint_rows(extend: Dendrite | None, rows: np.ndarray, n: int) -> np.ndarray:
