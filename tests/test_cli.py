@@ -295,6 +295,23 @@ def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):
     assert Image.open(tmp_path / "c.png").size[0] > 0
 
 
+def test_a_write_the_system_refuses_is_one_line_naming_the_output(tmp_path, monkeypatch, capsys):
+    # a full disk is no bug: one line naming the output (not a traceback), exit 1, nothing left
+    import errno
+
+    from wdendrite import io
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(io, "save_dendrite", full)
+    out = tmp_path / "c.npz"
+    assert cli.main(["fractal", "--size", "32", "-o", str(tmp_path / "c.png"), "-o", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err == f"wdendrite: error: [Errno {errno.ENOSPC}] could not write {str(out)!r}: No space left on device\n"
+    assert os.listdir(tmp_path) == []
+
+
 def test_unexpected_failure_exits_with_1(monkeypatch, capsys):
     preset = all_presets()["costs"]
 

@@ -82,6 +82,25 @@ def test_interrupted_write_leaves_no_file(tmp_path):
     assert os.listdir(tmp_path) == ["y.txt"]
 
 
+def test_a_write_the_system_refuses_names_the_file_and_leaves_nothing(tmp_path):
+    # a file-size limit makes the system refuse the write part way (as a full disk would): the
+    # error names the file asked for, not the hidden temporary one, and nothing is left
+    import errno
+    import resource
+
+    image = np.random.default_rng(0).random((256, 256))  # noise: its PNG cannot shrink below the limit
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, hard))  # (Python ignores SIGXFSZ: the write raises)
+    try:
+        with pytest.raises(OSError) as info:
+            save_png(tmp_path / "a.png", image)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert info.value.errno == errno.EFBIG
+    assert str(info.value) == f"[Errno {errno.EFBIG}] could not write {str(tmp_path / 'a.png')!r}: File too large"
+    assert os.listdir(tmp_path) == []
+
+
 def _box():
     import trimesh
 

@@ -139,13 +139,16 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
     staged = []
     try:
         for p in paths:
-            mode = io.final_mode(p)
-            tmp = io.temporary_beside(p, mode)
-            staged.append((tmp, p))
-            with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
-                _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
-            io.sync_to_disk(tmp)
-            os.chmod(tmp, mode)
+            try:
+                mode = io.final_mode(p)
+                tmp = io.temporary_beside(p, mode)
+                staged.append((tmp, p))
+                with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
+                    _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
+                io.sync_to_disk(tmp)
+                os.chmod(tmp, mode)
+            except OSError as exc:
+                raise io.write_failed(p, exc) from exc
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
             what = io.occupied(p)
             if what and not force:
@@ -557,6 +560,9 @@ def main(argv=None) -> int:
     except MemoryError as exc:
         print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # the system refused a write (disk full, file too large, permissions): no bug
+        print(f"wdendrite: error: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("wdendrite: interrupted", file=sys.stderr)
         return 130

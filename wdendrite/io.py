@@ -106,7 +106,10 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         write(str(path))
         return path
     mode = final_mode(path)
-    tmp = str(temporary_beside(path, mode))
+    try:
+        tmp = str(temporary_beside(path, mode))
+    except OSError as exc:
+        raise write_failed(path, exc) from exc
     try:
         write(tmp)
         sync_to_disk(tmp)
@@ -125,12 +128,23 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
                 os.replace(tmp, path)
             else:
                 os.unlink(tmp)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, FileExistsError):
+            raise write_failed(path, exc) from exc
         raise
     sync_folder(path.parent)
     return path
+
+
+def write_failed(path, exc: OSError) -> OSError:
+    """``exc``, raised while ``path`` was staged in a temporary file beside it, as an error of
+    the same kind (``errno``) that names ``path``: the temporary file is gone, and its hidden
+    name would only puzzle (the original stays as the cause)."""
+    why = exc.strerror or str(exc)
+    message = f"could not write {str(path)!r}: {why}"
+    return OSError(exc.errno, message) if exc.errno is not None else OSError(message)
 
 
 def sync_to_disk(path) -> None:
