@@ -53,6 +53,8 @@ def test_depressions_on_a_hand_made_dem():
     assert d.depth[2, 2] == 6.0  # 11 - 5
     assert d.depth[5, 5] == d.depth[6, 6] == 7.0
     assert not d.mask[2, 6]
+    assert repr(d) == "Depressions(count=2, percent=3.704, shape=(9, 9))"
+    assert d == d and d != hydrology.depressions(z) and len({d}) == 1  # (== and hash had raised)
 
 
 def test_fill_equals_brute_force_priority_flood():

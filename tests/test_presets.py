@@ -51,6 +51,9 @@ def test_preset_returns_a_picture_and_is_reproducible(name):
         np.testing.assert_array_equal(again.dendrite.nodes, res.dendrite.nodes)
     if name in SMALL_3D:
         assert res.mesh is not None and len(res.mesh.faces) > 0
+    # a short summary, not the picture's values (nor every node's), and identity equality (== had raised)
+    assert len(repr(res)) < 400 and f"image={img.shape} float32" in repr(res)
+    assert res == res and res != again and len({res, again}) == 2
 
 
 def test_lightning_main_stroke_runs_from_the_top_to_the_bottom():

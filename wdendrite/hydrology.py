@@ -69,7 +69,7 @@ def fill(elevation) -> np.ndarray:
     return reconstruction(seed, work, method="erosion", footprint=np.ones((3, 3), bool)).astype(np.float64, copy=False)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Depressions:
     """Depressions of a terrain."""
 
@@ -81,6 +81,9 @@ class Depressions:
     """(H, W) bool, True where the fill raised the terrain."""
     depth: np.ndarray
     """(H, W) float64, filled minus original elevation."""
+
+    def __repr__(self) -> str:
+        return f"Depressions(count={self.count}, percent={self.percent:.4g}, shape={self.mask.shape})"
 
 
 def depressions(elevation) -> Depressions:

@@ -61,7 +61,7 @@ _WOOD = (0.55, 0.45, 0.33)
 _CORAL = (0.93, 0.72, 0.6)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Result:
     """What a preset made: the picture and the data behind it."""
 
@@ -73,6 +73,11 @@ class Result:
     """A :class:`trimesh.Trimesh` for 3D models, else None."""
     parts: dict = field(default_factory=dict)
     """Everything else worth keeping (further dendrites, lattices, cost fields, per-panel data)."""
+
+    def __repr__(self) -> str:
+        mesh = "None" if self.mesh is None else f"<{len(self.mesh.vertices)} vertices, {len(self.mesh.faces)} faces>"
+        return (f"Result(image={self.image.shape} {self.image.dtype}, dendrite={self.dendrite!r}, mesh={mesh}, "
+                f"parts={sorted(self.parts)})")
 
 
 def _shape(shape, ndim: int) -> tuple[int, ...]:

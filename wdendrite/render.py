@@ -161,7 +161,7 @@ def _levels(dendrite: Dendrite) -> list[np.ndarray]:
     return np.split(rows, np.flatnonzero(np.diff(depth)) + 1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Branches:
     """A dendrite cut into branches: each node continues into the child leading to the farthest tip."""
 
