@@ -379,6 +379,17 @@ def test_warm_start_mismatches():
         wd.shortest_paths(lat, [[0, 0], [4, 4]], warm_start=capped, limit=10.0)
 
 
+def test_a_cost_fields_generators_are_its_own_and_read_only():
+    # walks and warm starts trust the rows the search checked: a write had let a warm start
+    # take a generator far outside the lattice
+    gens = np.array([[0, 0], [4, 4]])
+    cf = wd.shortest_paths(wd.Lattice((5, 5)), gens)
+    gens[0] = [3, 3]  # the caller's array stays theirs
+    np.testing.assert_array_equal(cf.generators, [[0, 0], [4, 4]])
+    with pytest.raises(ValueError, match="read-only"):
+        cf.generators[0] = [3000000, 3000000]
+
+
 def test_a_cuda_memory_check_counts_what_the_pool_lets_go_at_a_synchronization(monkeypatch):
     # a stand-in CUDA device whose pool holds 2 GiB of freed blocks until a synchronization
     gpu = type("FakeCuda", (), {"is_cuda": True, "__str__": lambda self: "cuda:0"})()

@@ -82,6 +82,12 @@ class CostField:
     relaxed: int = 0
     """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the weights."""
 
+    def __post_init__(self):
+        # a read-only copy: walks and warm starts trust these rows, checked once by the search
+        gens = np.array(self.generators, dtype=np.int64)
+        gens.flags.writeable = False
+        object.__setattr__(self, "generators", gens)
+
     @property
     def device(self):
         """The Warp device holding the arrays."""
