@@ -216,6 +216,12 @@ def test_warp_marching_cubes_branch_matches_scikit_image():
     np.testing.assert_allclose(b.bounds, a.bounds, atol=1e-4)
 
 
+def _warp_field():
+    import warp as wp
+
+    return wp.array(np.random.default_rng(0).random((4, 4, 4)), dtype=float, device="cpu")
+
+
 def _nan_warp_field():
     import warp as wp
 
@@ -239,6 +245,8 @@ def _nan_warp_field():
         (lambda: field_mesh(np.random.default_rng(0).random((4, 4, 4)), "0.5"), TypeError, "'level', but got '0.5'"),
         (lambda: field_mesh(np.zeros((4, 4, 4)), 0.5, origin=(0, 0, np.inf)), ValueError, "'origin' must be finite"),
         (lambda: field_mesh(np.zeros((4, 4, 4)), 0.5, band=-1), ValueError, "'band', but got -1"),
+        (lambda: field_mesh(_warp_field(), 0.5, device="nonsense"), ValueError, "'device'.*'nonsense'"),
+        (lambda: field_mesh(_warp_field(), 0.5, device="cuda:7"), ValueError, "'device'.*'cuda:7'"),
         (lambda: preview(spheres(DEN, 1.0), elevation=np.nan), ValueError, "'elevation', but got nan"),
         (lambda: preview(spheres(DEN, 1.0), azimuth="east"), TypeError, "'azimuth', but got 'east'"),
         (lambda: preview(spheres(DEN, 1.0), background="white"), TypeError, "'background', but got dtype <U5"),

@@ -263,6 +263,14 @@ def test_bad_growth_arguments_raise_before_any_search(kwargs, error, words, monk
     assert words in str(info.value)
 
 
+def test_a_bad_device_is_refused_before_a_hashed_lattices_weights_are_made(monkeypatch):
+    # cheap former paths give a hashed lattice its weights array first: the device came after it
+    lat = wd.Lattice((30, 30), 8, weights=wd.weights.Uniform(seed=1), store_weights=False)
+    monkeypatch.setattr(wd.Lattice, "with_weights", lambda *a, **k: pytest.fail("weights made before checking"))
+    with pytest.raises(ValueError, match="'device'.*'cuda:7'"):
+        wd.grow(lat, [[15, 15]], wd.FractalParams(count=2, d=10, epsilon=2, cheap=0.5), device="cuda:7")
+
+
 def test_progress_accepts_none_and_numpy_bools():
     a = wd.grow(LAT, [[48, 48]], PARAMS, seed=4, progress=None)
     b = wd.grow(LAT, [[48, 48]], PARAMS, seed=4, progress=np.False_)

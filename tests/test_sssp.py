@@ -671,6 +671,9 @@ def test_a_searched_lattice_is_freed_by_reference_counting():
 def test_an_absent_device_is_a_value_error_naming_it(device):
     with pytest.raises(ValueError, match="'device'"):
         wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]], device=device)
+    for ask in (wd.Lattice((8, 8)).device_arrays, wd.Lattice((8, 8)).search_bytes):  # (Warp's own error had shown)
+        with pytest.raises(ValueError, match="'device'"):
+            ask(device)
 
 
 @pytest.mark.parametrize("limit", [True, "10"])

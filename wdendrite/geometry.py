@@ -303,7 +303,7 @@ def field_mesh(
             surface crosses has its first node within ``band`` (a distance field
             with steps <= 1 per node needs ``band`` > sqrt(3)); the mesh is then the
             same, found faster (CPU only). Default: every cube.
-        device: Warp device for a NumPy field (default: the field's device, else the CPU).
+        device: Warp device for a NumPy field (default: the CPU); a Warp field is meshed on its own device.
 
     Returns:
         A :class:`trimesh.Trimesh` (vertices ``(x, y, z)``; faces point outward).
@@ -320,7 +320,10 @@ def field_mesh(
     smooth = _int_arg("smooth", smooth, 0)
     level = _checks.finite("level", level)
     band = None if band is None else _checks.positive("band", band)
-    dev = field.device if isinstance(field, wp.array) else _checks.device(device if device is not None else "cpu")
+    dev = _checks.device(device if device is not None else field.device if isinstance(field, wp.array) else "cpu")
+    if isinstance(field, wp.array) and dev != field.device:
+        raise ValueError(f"'device' {device!r} is not the device of the Warp field ({field.device}); a Warp field "
+                         "is meshed where it lies (leave 'device' out, or pass a NumPy field)")
     # _backend is a testing hook: "warp" runs Warp's marching cubes on any device; _method is
     # scikit-image's (region_mesh takes "lorensen")
     if (dev.is_cuda and _backend == "auto") or _backend == "warp":

@@ -346,8 +346,9 @@ def grow(
     elif not callable(progress):
         raise TypeError(f"Expected a bool or a callable for 'progress', but got {progress!r}")
     plan = params.schedule()
+    device = _checks.device(device)  # (before a hashed lattice's weights are made, below)
     if start is not None:
-        start = _check_start(start, lattice, len(gens), _checks.device(device), len(plan))
+        start = _check_start(start, lattice, len(gens), device, len(plan))
     if within is not None:
         within = _endpoints._within(within, lattice.shape)  # checked (and a region drawn) once, before any search
         if not (within if lattice.mask is None else within & lattice.mask).any():

@@ -457,7 +457,7 @@ class Lattice:
         for the cost field's ``dist``/``label`` (made when first read). Lattices small
         enough to keep their lists (:attr:`LatticeArrays.SCRATCH_LIMIT`) allocate nothing
         lattice-sized in later searches: 0."""
-        arrays = self._device_arrays.get(str(wp.get_device(device)))
+        arrays = self._device_arrays.get(str(_checks.device(device)))
         if arrays is not None and "search" in arrays.scratch:
             return 0
         need = 8 * self.num_nodes + 16 * self.num_usable
@@ -472,7 +472,7 @@ class Lattice:
         (with cleared search state), so every device uses the same float32
         values. Unstored: records without weights are built.
         """
-        device = wp.get_device(device)
+        device = _checks.device(device)
         key = str(device)
         if key not in self._device_arrays:
             if self.stores_weights:
