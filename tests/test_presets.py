@@ -309,6 +309,13 @@ def test_fractal_schedules_that_overflow_are_refused_by_name(kw, match, launches
     assert launches == []
 
 
+@pytest.mark.parametrize("text", [b"A", None, ["A"], 7])
+def test_letters_take_text_only(text, launches):
+    with pytest.raises(TypeError, match="Expected a str for 'text'"):  # (str() of it had been drawn)
+        presets.letters(text, height=32)
+    assert launches == []
+
+
 def test_letters_take_any_density_and_refuse_a_height_pillow_cannot_draw():
     den = presets.letters("I", height=20, paths_per_1000=1e308).dendrite
     assert len(den.endpoints) == int(presets.letters("I", height=20).parts["mask"].sum())  # every node
