@@ -396,3 +396,34 @@ def test_path_planning_inputs_refuse_text_flags_masked_arrays_and_costs_that_are
         ep.in_band(np.array([[0.0, np.nan], [2.0, 3.0]]), 1, 2.0, 1.0)
     with pytest.raises(TypeError, match="float array for 'cost', but got str"):
         ep.manual(lat, [[1, 1]], cost="abc")
+
+
+@pytest.mark.parametrize(
+    "make, plain",
+    [
+        (lambda: ep.Disc(np.array([3, 4]), np.float32(2.5)), lambda: ep.Disc((3.0, 4.0), 2.5)),
+        (lambda: ep.Box(np.array([1, 1]), [np.int64(5), 6.0]), lambda: ep.Box((1.0, 1.0), (5.0, 6.0))),
+        (lambda: ep.Triangle(np.array([0, 0]), (0, 9), [np.float32(9), 0]), lambda: ep.Triangle((0.0, 0.0), (0.0, 9.0), (9.0, 0.0))),
+        (lambda: ep.Polygon(np.array([[0, 0], [0, 9], [9, 9]])), lambda: ep.Polygon(((0.0, 0.0), (0.0, 9.0), (9.0, 9.0)))),
+    ],
+)
+def test_regions_keep_plain_values_whatever_numpy_values_made_them(make, plain):
+    # (arrays had been kept as given: the region neither hashed nor compared, and printed array(...))
+    region, ref = make(), plain()
+    assert region == ref and hash(region) == hash(ref) and repr(region) == repr(ref)
+    np.testing.assert_array_equal(region.mask((12, 12)), ref.mask((12, 12)))
+
+
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda: ep.Disc("middle", 2), "'center' as finite"),
+        (lambda: ep.Disc((1, np.nan), 2), "'center' as finite"),
+        (lambda: ep.Box((1, 1, 1, 1), (2, 2, 2, 2)), "'lo' as finite"),
+        (lambda: ep.Box((1, 1), (2, 2, 2)), "'hi' >= 'lo'"),
+        (lambda: ep.Box((3, 1), (2, 2)), "'hi' >= 'lo'"),
+    ],
+)
+def test_regions_check_their_corners_when_made(make, words):
+    with pytest.raises(ValueError, match=words):
+        make()

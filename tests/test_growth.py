@@ -471,3 +471,15 @@ def test_an_endpoint_count_overflow_names_the_schedule_that_makes_it():
     with pytest.raises(ValueError, match=r"iteration 25 of about 37 \(from 'd' = 1e\+20 down to 'epsilon' = 1\.0\); "
                                          r"lower 'beta' or 'count', or 'd'"):
         wd.FractalParams(count=6, beta=4, d=1e20, epsilon=1.0, alpha=3.5)
+
+
+def test_fractal_params_keep_plain_values_whatever_numpy_values_made_them():
+    import json
+    from dataclasses import asdict
+
+    p = wd.FractalParams(count=np.int64(4), d=np.array(300.0), alpha=np.float32(1.5), beta=np.int32(2),
+                         epsilon=np.float64(20), r=np.float32(10), cheap=np.float32(0.5), min_spacing=np.int16(2))
+    ref = wd.FractalParams(count=4, d=300.0, alpha=1.5, beta=2.0, epsilon=20.0, r=10.0, cheap=0.5, min_spacing=2.0)
+    assert p == ref and hash(p) == hash(ref) and repr(p) == repr(ref)
+    assert json.loads(json.dumps(asdict(p))) == asdict(ref)  # (a 0-d array had broken JSON records)
+    assert p.schedule() == ref.schedule()

@@ -411,3 +411,24 @@ def test_an_empty_map_is_refused():
 def test_a_distribution_class_instead_of_an_instance_is_refused():
     with pytest.raises(TypeError, match=r"class Uniform \(call it"):
         wd.Lattice((8, 8), weights=weights.Uniform)
+
+
+@pytest.mark.parametrize(
+    "make, plain",
+    [
+        (lambda: weights.Uniform(r=np.array(5.0), seed=np.uint32(3)), lambda: weights.Uniform(r=5.0, seed=3)),
+        (lambda: weights.Power(alpha=np.float32(0.5), max=np.int64(4)), lambda: weights.Power(alpha=0.5, max=4.0)),
+        (lambda: weights.Constant(np.float16(2)), lambda: weights.Constant(2.0)),
+        (lambda: weights.Polynomial(n=np.int8(2)), lambda: weights.Polynomial(n=2.0)),
+        (lambda: weights.Tropism("axis", strength=np.float32(2), center=np.array([4]), top_at_zero=np.True_),
+         lambda: weights.Tropism("axis", strength=2.0, center=(4.0,), top_at_zero=True)),
+    ],
+)
+def test_distributions_keep_plain_values_whatever_numpy_values_made_them(make, plain):
+    # (NumPy values had been kept as given: arrays made the distribution unhashable, reprs showed np.float32(...))
+    d, ref = make(), plain()
+    assert d == ref and hash(d) == hash(ref) and repr(d) == repr(ref)
+    if isinstance(d, weights.Tropism):  # a field, which biases a distribution
+        d, ref = weights.Uniform() * d, weights.Uniform() * ref
+    lat_a, lat_b = wd.Lattice((9, 10), weights=d), wd.Lattice((9, 10), weights=ref)
+    np.testing.assert_array_equal(lat_a.weights, lat_b.weights)

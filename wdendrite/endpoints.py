@@ -62,6 +62,22 @@ def _point(name: str, value, ndim: int) -> np.ndarray:
     return p
 
 
+def _keep_point(region, name: str) -> tuple[float, ...]:
+    """Check ``region``'s field ``name`` as finite ``(y, x)`` or ``(z, y, x)`` coordinates when the
+    region is made (:meth:`Region.mask` checks them against the lattice's dimension) and store
+    them as a tuple of floats, so that the region hashes, compares and prints as written."""
+    value = getattr(region, name)
+    try:
+        p = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        p = np.array([np.nan])
+    if p.shape not in ((2,), (3,)) or not np.isfinite(p).all():
+        raise ValueError(f"Expected '{name}' as finite (y, x) or (z, y, x) node coordinates, but got {value!r}")
+    kept = tuple(p.tolist())
+    object.__setattr__(region, name, kept)
+    return kept
+
+
 def _grid(shape):
     return np.ogrid[tuple(slice(0, n) for n in shape)]
 
@@ -76,7 +92,8 @@ class Disc(Region):
     """Radius in node units, > 0."""
 
     def __post_init__(self):
-        _checks.positive("radius", self.radius)
+        _keep_point(self, "center")
+        object.__setattr__(self, "radius", _checks.positive("radius", self.radius))
 
     def mask(self, shape):
         c = _point("center", self.center, len(shape))
@@ -92,6 +109,11 @@ class Box(Region):
     """Lower corner, ``(y, x)`` or ``(z, y, x)``."""
     hi: tuple[float, ...]
     """Upper corner; must be >= ``lo`` on every axis."""
+
+    def __post_init__(self):
+        lo, hi = _keep_point(self, "lo"), _keep_point(self, "hi")
+        if len(lo) != len(hi) or any(b < a for a, b in zip(lo, hi)):
+            raise ValueError(f"Expected 'hi' >= 'lo' on every axis, but got lo={self.lo!r}, hi={self.hi!r}")
 
     def mask(self, shape):
         lo, hi = _point("lo", self.lo, len(shape)), _point("hi", self.hi, len(shape))
@@ -128,6 +150,8 @@ class Triangle(Region):
 
     def __post_init__(self):
         v = _vertices("triangle", [self.a, self.b, self.c], 3)
+        for name, corner in zip("abc", v):
+            object.__setattr__(self, name, tuple(corner.tolist()))
         (ay, ax), (by, bx) = v[1] - v[0], v[2] - v[0]
         if abs(ay * bx - ax * by) < 1e-12:
             raise ValueError(f"Triangle corners {self.a!r}, {self.b!r}, {self.c!r} are collinear (zero area)")
@@ -157,7 +181,7 @@ class Polygon(Region):
     """``(V, 2)`` corners ``(y, x)`` in order, V >= 3; the last joins the first."""
 
     def __post_init__(self):
-        _vertices("vertices", self.vertices, 3)
+        object.__setattr__(self, "vertices", tuple(map(tuple, _vertices("vertices", self.vertices, 3).tolist())))
 
     def mask(self, shape):
         _need_2d(shape, "Polygon")

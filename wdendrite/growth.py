@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -60,23 +61,30 @@ class FractalParams:
     that ``d`` barely shrinks, not from any growth a lattice could hold."""
 
     def __post_init__(self):
+        # every field is checked, then stored as a plain Python value (so the parameters hash,
+        # compare and print as written, and go into JSON records, whatever NumPy scalars they were)
+        put = functools.partial(object.__setattr__, self)
         if isinstance(self.count, bool) or not isinstance(self.count, (int, np.integer)) or self.count < 1:
             raise ValueError(f"Expected an integer 'count' >= 1, but got {self.count!r}")
-        _checks.positive("d", self.d)
+        put("count", int(self.count))
+        put("d", _checks.positive("d", self.d))
         alpha = _checks.positive("alpha", self.alpha)
         if alpha <= 1:
             raise ValueError(f"'alpha' must be > 1 so that d shrinks and growth ends, but got {self.alpha!r}")
+        put("alpha", alpha)
         if _checks.nonnegative("beta", self.beta, allow_none=False) < 1:
             raise ValueError(f"'beta' must be >= 1 (the endpoint count never shrinks), but got {self.beta!r}")
-        _checks.positive("epsilon", self.epsilon)
+        put("beta", float(self.beta))
+        put("epsilon", _checks.positive("epsilon", self.epsilon))
         if self.r is not None:
-            _checks.positive("r", self.r)
+            put("r", _checks.positive("r", self.r))
         if self.min_spacing is not None:
-            _checks.positive("min_spacing", self.min_spacing)
+            put("min_spacing", _checks.positive("min_spacing", self.min_spacing))
         cheap = _checks.nonnegative("cheap", self.cheap, allow_none=False)
         if cheap > 1:
             raise ValueError(f"Expected 'cheap' (D) in [0, 1], but got {self.cheap!r}")
         _check_factor("cheap", cheap, "use 0 for new generators, or a larger D")
+        put("cheap", cheap)
         if not float(self.d) > float(self.epsilon):
             raise ValueError(
                 f"'d' ({self.d!r}) must exceed 'epsilon' ({self.epsilon!r}): growth runs while d > epsilon, "

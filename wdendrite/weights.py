@@ -54,6 +54,13 @@ _CONNECTIVITY = {(2, 2): 4, (2, 4): 8, (3, 3): 6, (3, 13): 26}
 """(ndim, number of half-offsets) -> connectivity."""
 
 
+def _keep(obj, name: str, value):
+    """Store the checked ``value`` as field ``name`` of the frozen ``obj`` (a plain Python value, so
+    that the object hashes, compares and prints as written, whatever NumPy scalar it was given)."""
+    object.__setattr__(obj, name, value)
+    return value
+
+
 def _number(name: str, value, *, low: float | None = None, low_open: bool = False) -> float:
     """``value`` as a finite float, checked against a lower bound (closed or open)."""
     x = _checks.finite(name, value)
@@ -254,7 +261,7 @@ class Constant(Distribution):
     float32 weights) and below 1e30."""
 
     def __post_init__(self):
-        x = _number("value", self.value, low=0.0, low_open=True)
+        x = _keep(self, "value", _number("value", self.value, low=0.0, low_open=True))
         tiny = float(np.finfo(np.float32).tiny)
         if x < tiny:
             raise ValueError(f"Expected 'value' >= {tiny:.4g} (float32's smallest normal number; the lattice's "
@@ -279,8 +286,8 @@ class Uniform(Distribution):
     """Seed of the hash, in [0, 2**32); the same seed gives the same weights every time."""
 
     def __post_init__(self):
-        _number("r", self.r, low=0.0)
-        _checks.seed32(self.seed)
+        _keep(self, "r", _number("r", self.r, low=0.0))
+        _keep(self, "seed", _checks.seed32(self.seed))
 
     def _base(self):
         return _kw.UNIFORM, float(self.r), 0.0, self.seed
@@ -305,9 +312,9 @@ class Power(Distribution):
     """Seed of the hash, in [0, 2**32)."""
 
     def __post_init__(self):
-        _number("alpha", self.alpha, low=0.0, low_open=True)
-        _number("max", self.max, low=1.0, low_open=True)
-        _checks.seed32(self.seed)
+        _keep(self, "alpha", _number("alpha", self.alpha, low=0.0, low_open=True))
+        _keep(self, "max", _number("max", self.max, low=1.0, low_open=True))
+        _keep(self, "seed", _checks.seed32(self.seed))
         self._check_bound()
 
     def _check_bound(self):
@@ -346,8 +353,8 @@ class Polynomial(Distribution):
     """Seed of the hash, in [0, 2**32)."""
 
     def __post_init__(self):
-        _number("n", self.n, low=0.0)
-        _checks.seed32(self.seed)
+        _keep(self, "n", _number("n", self.n, low=0.0))
+        _keep(self, "seed", _checks.seed32(self.seed))
         if not self._bound() < _MAX_WEIGHT:
             raise ValueError(f"Expected 'n' <= 14 (weights up to 1 + 100**n must stay below 1e30), but got {self.n!r}")
 
@@ -426,14 +433,15 @@ class Tropism(_Field):
     def __post_init__(self):
         if self.toward not in _TOWARD:
             raise ValueError(f"Expected 'toward' in {_TOWARD}, but got {self.toward!r}")
-        _number("strength", self.strength, low=0.0)
-        _number("exponent", self.exponent, low=0.0, low_open=True)
+        _keep(self, "strength", _number("strength", self.strength, low=0.0))
+        _keep(self, "exponent", _number("exponent", self.exponent, low=0.0, low_open=True))
         if self.center is not None:
             c = np.atleast_1d(np.asarray(self.center, dtype=float))
             if c.ndim != 1 or c.size not in (1, 2) or not np.isfinite(c).all():
                 raise ValueError(f"Expected 'center' as finite (x,) in 2D or (y, x) in 3D, but got {self.center!r}")
-        if self.top_at_zero is not None and not isinstance(self.top_at_zero, (bool, np.bool_)):
-            raise TypeError(f"Expected a bool or None for 'top_at_zero', but got {self.top_at_zero!r}")
+            _keep(self, "center", tuple(c.tolist()))
+        if self.top_at_zero is not None:
+            _keep(self, "top_at_zero", _checks.flag("top_at_zero", self.top_at_zero))
 
     def _term(self, shape, op):
         ndim = len(shape)
@@ -554,8 +562,8 @@ class Map(_Field):
     def __post_init__(self):
         if self.dark not in ("cheaper", "dearer"):
             raise ValueError(f"Expected 'dark' in ('cheaper', 'dearer'), but got {self.dark!r}")
-        _number("strength", self.strength, low=0.0)
-        _number("exponent", self.exponent, low=0.0, low_open=True)
+        _keep(self, "strength", _number("strength", self.strength, low=0.0))
+        _keep(self, "exponent", _number("exponent", self.exponent, low=0.0, low_open=True))
         b = _grayscale("image", self.image)
         if b.ndim not in (2, 3) or b.size == 0:
             raise ValueError(f"Expected a non-empty 2D or 3D 'image' (one value per node), but got shape {b.shape}")
