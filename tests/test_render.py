@@ -377,7 +377,8 @@ def test_relief_equals_numpy_shading_with_and_without_rivers(device):
 
 
 @pytest.mark.parametrize("kw, match", [
-    (dict(z=np.zeros((1, 5))), "'z'"), (dict(z=np.full((4, 4), np.nan)), "'z'"), (dict(spacing=0.0), "'spacing'"),
+    (dict(z=np.zeros((1, 5))), r"2D \(H >= 2, W >= 2\) array for 'z'"), (dict(z=np.full((4, 4), np.nan)), "'z'"),
+    (dict(spacing=0.0), "'spacing'"),
     (dict(area=np.ones((4, 5))), "'area'"), (dict(area=np.zeros((4, 4))), "'area'"), (dict(device="cuda:7"), "'device'"),
 ])
 def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):

@@ -45,7 +45,7 @@ UNITS = {
     "minor_gain": "fraction", "glow_gain": "gain", "noise": "fraction", "strength": "factor",
     "alpha": "dimensionless", "alphas": "dimensionless", "beta": "dimensionless", "betas": "dimensionless",
     "ns": "exponents", "seed": "", "text": "", "toward": "", "geometry": "", "rule": "", "output": "",
-    "control": "", "smoothing": "", "subdivision": "", "drained": "", "colormap": "",
+    "control": "", "connectivity": "", "smoothing": "", "subdivision": "", "drained": "", "colormap": "",
 }
 """Units shown in ``--help`` by parameter name."""
 

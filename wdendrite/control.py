@@ -290,6 +290,18 @@ def ridged(*, seed: int = 0, frequency: float = 1.0, octaves: int = 8, gain: flo
     Its maxima lie on sharp creases (where an octave's noise is 0): the ``maximum`` found by
     sampling and zooming may lie below the true one by about 1e-3 (the noise lies in about [-1, 1], so
     the values stay below about ``max(offset, 1 - offset)^2``).
+
+    Args:
+        seed: selects the noise field, in [0, 2**32).
+        frequency: features per unit of the control coordinates (of the first octave).
+        octaves: number of octaves, in [1, 16]; more than :func:`perlin`'s one by default, since
+            the ridges' detail comes from the finer octaves.
+        gain: weight of each octave relative to the one before (> 0).
+        lacunarity: frequency of each octave relative to the one before (> 0).
+        offset: ``offset - |noise|`` before squaring, >= 0: 1 puts the ridges at the noise's
+            zeros, smaller values lower them.
+        domain: the rectangle Dendry's query maps onto; minimum and maximum are found there by
+            sampling a 513 x 513 grid and zooming in around the 32 best samples.
     """
     return _noise("ridged", seed, frequency, octaves, gain, lacunarity, offset, domain)
 

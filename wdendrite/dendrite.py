@@ -233,7 +233,7 @@ class Dendrite:
         return np.asarray(out, dtype=np.int64)
 
     def paths(self) -> Iterator[np.ndarray]:
-        """The path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the endpoint to its root."""
+        """Yield the path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the endpoint to its root."""
         for e in self.endpoints:
             yield self.path(e)
 

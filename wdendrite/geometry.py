@@ -178,6 +178,9 @@ def tubes(
         A :class:`trimesh.Trimesh` of closed pieces (watertight, outward normals).
 
     Raises:
+        ValueError: an empty or 2D dendrite, a bad radius or side radius, ``sides`` not an integer >= 3
+            (before any work).
+        TypeError: a ``joints`` that is not a bool.
         MemoryError: the tubes' vertices and faces would not fit in free host memory (before any work).
     """
     den = _check_3d(dendrite, "tubes()")

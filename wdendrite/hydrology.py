@@ -53,6 +53,11 @@ def fill(elevation) -> np.ndarray:
 
     Returns:
         (H, W) float64 array.
+
+    Raises:
+        ValueError: an elevation that is not a non-empty 2D array, holds NaN/inf or masked cells,
+            or integers beyond 2**53.
+        TypeError: an elevation that is not real-valued.
     """
     from skimage.morphology import reconstruction
 
@@ -87,7 +92,11 @@ class Depressions:
 
 
 def depressions(elevation) -> Depressions:
-    """Count the depressions of ``elevation`` ((H, W) real array) and their share of the surface."""
+    """Count the depressions of ``elevation`` ((H, W) real array) and their share of the surface.
+
+    Cells the priority-flood :func:`fill` raises are depressed; 8-connected groups of them are
+    counted. Errors as for :func:`fill`.
+    """
     from scipy.ndimage import label
 
     z = _elevation("elevation", elevation)

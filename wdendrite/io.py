@@ -100,6 +100,19 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
 
     An interrupted write leaves no half-written ``path`` behind. Inside
     :func:`writing_staged`, ``write(path)`` is called on ``path`` itself.
+
+    Args:
+        path: the file to write; its folder must exist.
+        write: ``write(str_path)`` writes the whole file at the path it is given.
+        overwrite: replace an existing file.
+
+    Returns:
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises:
+        ValueError: a missing folder, a ``path`` that is a folder.
+        FileExistsError: ``path`` exists (or appears while it is written) and ``overwrite`` is False.
+        OSError: the system refused the write; it names ``path`` (the original error is its cause).
     """
     path = _target(path, overwrite)
     if _STAGED.get():
@@ -222,12 +235,20 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     Grey images and 8-bit colour go through Pillow; 16-bit colour is encoded here
     (Pillow has no 16-bit RGB mode). The write is atomic.
 
+    Args:
+        path: output ``.png`` file; its folder must exist.
+        image: ``(H, W)`` grey or ``(H, W, 3|4)`` RGB(A) array, row 0 at the top. Floats are
+            clipped to [0, 1] (light that saturates); bool and integer arrays must hold 0 and 1 only.
+        bits: 8 or 16 bits per channel.
+        overwrite: replace an existing file.
+
     Raises:
         ValueError: a ``path`` not ending in ``.png`` (any case), an empty image, a bad shape, NaN
             or inf values, integer values outside [0, 1] (0-255 levels, say), ``bits`` not 8 or
             16, a missing folder, a ``path`` that is a folder.
         TypeError: an image that is not numbers (bool images are fine), ``bits`` not an int.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
+        OSError: the system refused the write (a full disk, say); it names ``path``, and no file is left.
     """
     from PIL import Image
 
@@ -325,6 +346,13 @@ def save_dendrite(path, dendrite, *, width=None, format: str | None = None, over
     ``label``, ``generation``, ``endpoints``, ``origin``, ``spacing`` and
     ``width`` (N,): the node widths from ``width`` (a constant, a
     :class:`~wdendrite.render.Taper` or an array; default 1).
+
+    Args:
+        path: output file; its folder must exist.
+        dendrite: a non-empty :class:`~wdendrite.Dendrite` (2D or 3D).
+        width: node widths as in :func:`wdendrite.render.node_widths` (default: 1 everywhere).
+        format: ``"npz"`` or ``"json"`` (default: from the suffix of ``path``).
+        overwrite: replace an existing file.
 
     Raises:
         ValueError: unknown format (allowed: npz, json), an empty dendrite, a missing folder,
@@ -455,7 +483,12 @@ def svg_polylines(dendrite, *, width=1.0, side=None) -> list[tuple[np.ndarray, f
     Each branch (see :func:`wdendrite.render.branch_order`) runs from where it
     leaves its parent branch to its tip; its stroke is twice its mean width. A node
     alone (a root no path reached) is its point twice, a zero-length polyline that
-    round caps draw as a dot of its width (it had left no mark).
+    round caps draw as a dot of its width.
+
+    Args:
+        dendrite: a non-empty 2D dendrite.
+        width, side: node widths and the optional side-branch width, as in
+            :func:`wdendrite.render.node_widths`, in world units.
     """
     from .render import branch_order, node_widths
 

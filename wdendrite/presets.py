@@ -200,7 +200,16 @@ def fractal_grid(
     (thesis Fig. 3.13; the 2007 paper's Fig. 8 puts the alphas right to left). Each panel's first
     cost d is set from the lattice's measured path cost per node so that its tips reach about 85 %
     of the way to the border. ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
-    holds every panel's, keyed by ``(alpha, beta)``."""
+    holds every panel's, keyed by ``(alpha, beta)``.
+
+    Args:
+        cell: side of each panel's lattice in nodes (>= 16).
+        alphas: attenuations, one column each: every iteration divides d by alpha (each > 1).
+        betas: branchings, one row each: every iteration multiplies the endpoint count by beta (each >= 1).
+        iterations: fractal growth iterations (>= 1).
+        count: endpoints of the first iteration.
+        seed: seed of the weights and the endpoints.
+    """
     cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
     alphas, betas = _entries("alphas", alphas, "attenuations"), _entries("betas", betas, "branching factors")
     for b in betas:  # every panel's schedule checked before the first grows
@@ -223,7 +232,16 @@ def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, 
                   seed: int = 0) -> Result:
     """A path-planned fractal that imitates diffusion-limited aggregation (2007 paper, Fig. 11: 4 iterations),
     its first cost d set from the lattice's measured path cost per node so that the cluster's tips
-    reach about 85 % of the way to the border."""
+    reach about 85 % of the way to the border.
+
+    Args:
+        shape: lattice shape (H, W).
+        iterations: fractal growth iterations (>= 1).
+        alpha: each iteration divides d by it (> 1).
+        beta: each iteration multiplies the endpoint count by it (>= 1).
+        count: endpoints of the first iteration.
+        seed: seed of the weights and the endpoints.
+    """
     shape, iterations = _shape(shape, 2), _checks.integer("iterations", iterations, low=1)
     _fractal_params(min(shape) // 2, 1.0, alpha, beta, iterations, count)  # checked before the lattice is built
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
@@ -273,7 +291,15 @@ def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 
     The thesis' lattice is 4-connected, where n = 0 makes Manhattan paths; on an 8-connected one
     (``connectivity=8``) they run straight and at 45 degrees instead. For n > 4, v is drawn from
     (0, 100^(4/n)) instead of (0, 100), so that the largest weight stays 1e8 and float32 path costs
-    resolve every edge (with 1e16 cheap edges vanish from the sums)."""
+    resolve every edge (with 1e16 cheap edges vanish from the sums).
+
+    Args:
+        shape: lattice shape (H, W).
+        ns: exponents n of the weights W = 1 + v^n, one panel each (each >= 0).
+        endpoints: number of endpoints, the same in every panel.
+        connectivity: lattice connectivity, 4 (the thesis') or 8.
+        seed: seed of the weights and the endpoints.
+    """
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     if _checks.integer("connectivity", connectivity) not in (4, 8):
         raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
@@ -345,9 +371,9 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
     """Dendritic letters: paths fill letter-shaped regions (2007 paper, Fig. 13; thesis Figs. 5.5-5.6).
 
     Args:
-        text: the word, drawn with Pillow's default font (ignored when ``mask`` is given).
+        text: the word to fill, drawn with Pillow's default font.
         height: lattice height in nodes (the thesis used 300^2 per letter).
-        mask: optional ``(H, W)`` bool array of the shape to fill instead of text.
+        mask: optional ``(H, W)`` bool array of a shape to fill instead of ``text`` (from Python only).
         paths_per_1000: endpoints per 1000 nodes inside the letters. The thesis put 600 paths in
             each letter's 300^2 lattice; letters covering about 28 % of their lattice, as Pillow's
             default font draws them, that is about 24.
@@ -532,7 +558,16 @@ def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
 
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
                seed: int = 0) -> Result:
-    """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4)."""
+    """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4).
+
+    Args:
+        shape: lattice shape (H, W).
+        start: width Ts where a path (or branch) starts; also the constant panel's width (pixels).
+        end: width Tf at its farthest tip (pixels).
+        beta: shape of the taper ``u^beta`` (> 0; 1: linear in path cost).
+        endpoints: number of endpoints, drawn in the lower half.
+        seed: seed of the weights and the endpoints.
+    """
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
     lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))

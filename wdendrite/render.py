@@ -466,7 +466,7 @@ def composite(layers: Sequence[np.ndarray], *, mode: Blend = "max", gains: Seque
     """Combine brightness images of several graphs (the papers' main stroke plus forks).
 
     Args:
-        layers: ``(H, W)`` images of one shape, values in [0, 1].
+        layers: ``(H, W)`` images of one shape, values in [0, 1] (each layer, times its gain, is clipped to it).
         mode: ``"max"`` (the brighter wins), ``"add"`` (sum, clipped to 1) or
             ``"screen"`` (``1 - prod(1 - v)``, light adding up without clipping).
         gains: a factor per layer (default 1 each), >= 0.
@@ -591,7 +591,7 @@ def colorize(
     black, so with the default black background the picture is ``colormap(value)``.
 
     Args:
-        value: ``(H, W)`` brightness in [0, 1].
+        value: ``(H, W)`` brightness in [0, 1] (others are clipped to it).
         colormap: a name of :data:`COLORMAPS`.
         glow: optional ``(H, W)`` halo (e.g. from :func:`glow`).
         glow_color: RGB of the halo in [0, 1].
@@ -660,7 +660,7 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
             not positive, ``area`` not positive and finite or not of ``z``'s shape, an absent
             device.
     """
-    z = _checks.finite_array("z", z, "2D (H, W)", lambda s: len(s) == 2 and min(s) >= 2, dtype=np.float64)
+    z = _checks.finite_array("z", z, "2D (H >= 2, W >= 2)", lambda s: len(s) == 2 and min(s) >= 2, dtype=np.float64)
     spacing = _checks.positive("spacing", spacing)
     if area is not None:
         area = _checks.float_array("area", area, z.shape, positive=True)

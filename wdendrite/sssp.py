@@ -78,7 +78,8 @@ class CostField:
     """Costs above this bound were not searched (inf: no bound)."""
     _fields: _Fields = field(repr=False)
     rounds: int = 0
-    """Relaxation launches the search took (one per bucket on the CPU, one per frontier generation on GPUs)."""
+    """Relaxation rounds the search took: cost buckets emptied on the CPU (all within one launch),
+    frontier generations on GPUs (one launch each)."""
     relaxed: int = 0
     """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the weights."""
 
