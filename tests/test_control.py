@@ -435,3 +435,36 @@ def test_evaluate_checks_its_points_as_the_rest_of_the_api_does():
     # just inside the reach the noise still varies
     v = control.perlin(frequency=1.0).evaluate([[4.0e6 + 0.25, 0.25], [4.0e6 + 0.5, 0.5]])
     assert np.isfinite(v).all() and v[0] != v[1]
+
+
+@pytest.mark.parametrize(
+    "change, exc, words",
+    [
+        (dict(seed=-5), ValueError, "'seed'"),
+        (dict(kind="bogus"), ValueError, "'kind' in"),  # (had been a KeyError at evaluate)
+        (dict(octaves=0), ValueError, "'octaves'"),
+        (dict(octaves=2.5), TypeError, "'octaves'"),
+        (dict(params=(1.0, 0.5)), ValueError, "'params' as 4 numbers"),
+        (dict(params=(1.0, 0.5, 2.0, np.nan)), ValueError, r"'params\[3\]'"),
+        (dict(domain=((0, 0), (0, 1))), ValueError, "'domain'"),
+        (dict(minimum=2.0, maximum=1.0), ValueError, "'minimum' <= 'maximum'"),
+        (dict(minimum="0"), TypeError, "'minimum'"),
+        (dict(bounded="no"), TypeError, "'bounded'"),
+        (dict(values=np.zeros((2, 2))), ValueError, "'values' for an image control only"),
+    ],
+)
+def test_a_control_replaced_by_hand_is_checked(change, exc, words):
+    import dataclasses
+
+    base = control.perlin(seed=3, domain=((0.0, 0.0), (2.0, 1.0)))
+    with pytest.raises(exc, match=words):
+        dataclasses.replace(base, **change)
+
+
+def test_a_replaced_control_keeps_plain_values():
+    import dataclasses
+
+    base = control.plane((1.0, 2.0))
+    c = dataclasses.replace(base, params=np.array([0.0, 1.0, 2.0, 0.0], np.float32), minimum=np.float32(0))
+    assert c.params == (0.0, 1.0, 2.0, 0.0) and type(c.minimum) is float
+    np.testing.assert_array_equal(c.evaluate([[0.5, 0.5]]), base.evaluate([[0.5, 0.5]]))

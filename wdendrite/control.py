@@ -22,7 +22,8 @@ import numpy as np
 import warp as wp
 
 from ._checks import (
-    device as _device, finite, finite_array, fits_in_memory, integer, lattice_shape, nonnegative, positive, seed32,
+    device as _device, finite, finite_array, fits_in_memory, flag, integer, lattice_shape, nonnegative, positive,
+    seed32,
 )
 from .kernels import noise as _kn
 
@@ -72,7 +73,12 @@ def _grid_shape(shape, device) -> tuple[int, int]:
 @dataclass(frozen=True, eq=False)
 class Control:
     """A control function; build one with :func:`perlin`, :func:`plane`, :func:`radial`,
-    :func:`lichtenberg`, :func:`image` or :func:`ridged`."""
+    :func:`lichtenberg`, :func:`image` or :func:`ridged`.
+
+    The fields are checked when a control is made (also by :func:`dataclasses.replace`), but
+    ``minimum`` and ``maximum`` are taken as given: they are measured by the functions above, so
+    call one of them again rather than replacing ``seed``, ``params`` or ``domain``.
+    """
 
     kind: str
     """One of ``"plane"``, ``"radial"``, ``"perlin"``, ``"lichtenberg"``, ``"image"``, ``"ridged"``."""
@@ -93,6 +99,32 @@ class Control:
     """True when points outside ``domain`` are outside the function (Dendry drops their segments)."""
     values: np.ndarray | None = field(default=None, repr=False)
     """The (h, w) float32 samples of an image control; pixel centres tile ``domain``, row 0 at y0."""
+
+    def __post_init__(self):
+        # (the builders pass checked values; this guards controls made or replaced by hand)
+        put = functools.partial(object.__setattr__, self)
+        if self.kind not in _KINDS:
+            raise ValueError(f"Expected 'kind' in {tuple(_KINDS)}, but got {self.kind!r}")
+        put("domain", rectangle("domain", self.domain))
+        for name in ("minimum", "maximum"):  # (NaN and inf pass: the builders refuse them with their own names)
+            value = getattr(self, name)
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+                raise TypeError(f"Expected a number for '{name}', but got {value!r}")
+            put(name, float(value))
+        if not self.minimum <= self.maximum and not (math.isnan(self.minimum) or math.isnan(self.maximum)):
+            raise ValueError(f"Expected 'minimum' <= 'maximum', but got {self.minimum!r} and {self.maximum!r}")
+        params = np.asarray(self.params, dtype=object)
+        if params.shape != (4,):
+            raise ValueError(f"Expected 'params' as 4 numbers, but got {self.params!r}")
+        put("params", tuple(finite(f"params[{i}]", v) for i, v in enumerate(self.params)))
+        put("seed", seed32(self.seed))
+        put("octaves", integer("octaves", self.octaves, low=1, high=16))
+        put("bounded", flag("bounded", self.bounded))
+        if (self.kind == "image") != (self.values is not None):
+            raise ValueError(f"Expected 'values' for an image control only (kind {self.kind!r}), but got "
+                             f"{'none' if self.values is None else 'an array'}")
+        if self.values is not None:
+            put("values", finite_array("values", self.values, "2D (h, w)", lambda s: len(s) == 2))
 
     def struct(self, device=None) -> _kn.Control:
         """The kernel-side :class:`wdendrite.kernels.noise.Control` on ``device``."""
