@@ -290,9 +290,21 @@ def test_a_start_whose_labels_do_not_index_the_generators_raises():
         wd.grow(LAT, [[48, 48]], PARAMS, start=start)
 
 
-def test_empty_bands_raise():
-    with pytest.raises(ValueError, match="lower 'd'"):
+def test_empty_bands_raise_with_the_fix_the_costs_call_for():
+    # the costs from (48, 48) on LAT, by SciPy's Dijkstra: the advice follows where the bands miss them
+    from scipy.sparse.csgraph import dijkstra
+
+    ref = dijkstra(LAT.to_csgraph(), indices=np.ravel_multi_index((48, 48), LAT.shape))
+    low, high = ref[ref > 0].min(), ref.max()
+    with pytest.raises(ValueError, match=rf"span \[{low:.4g}, {high:.4g}\].*all below the last band: lower 'd'"):
         wd.grow(LAT, [[48, 48]], wd.FractalParams(d=1e6, epsilon=5e5, alpha=2.0))
+    # d below the cheapest edge: lowering it cannot help (the advice had said so)
+    with pytest.raises(ValueError, match=r"all above the first band: raise 'd'"):
+        wd.grow(LAT, [[48, 48]], wd.FractalParams(d=low / 4, epsilon=low / 40, r=low / 8))
+    # bands narrower than the gaps between them
+    gap = wd.FractalParams(d=high * 0.9, epsilon=high * 0.01, alpha=8.0, r=1e-5)
+    with pytest.raises(ValueError, match="between the bands: raise 'r'"):
+        wd.grow(LAT, [[48, 48]], gap)
 
 
 def test_spaced_bands_take_as_many_endpoints_as_fit():
