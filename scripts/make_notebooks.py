@@ -19,17 +19,31 @@ import logging, os
 import numpy as np
 import warp as wp
 from IPython.display import display
-from PIL import Image
+from PIL import Image, ImageDraw
 
 wp.config.log_level = logging.WARNING          # no start-up banner
+wp.init()   # (without an NVIDIA driver, Warp prints one harmless CUDA warning here and runs on the CPU)
 import wdendrite as wd
 from wdendrite import presets, io
 
 SMALL = os.environ.get("WDENDRITE_SMALL") == "1"   # CI runs every notebook at small sizes
 
 
-def show(img, scale=1):
-    """An RGB or grey float image in [0, 1] as a picture the notebook displays inline."""
+def show(img, scale=1, labels=None):
+    """An RGB or grey float image in [0, 1] as a picture the notebook displays inline; a list of
+    them side by side, a white gap between, each under its label when ``labels`` are given."""
+    if isinstance(img, (list, tuple)):
+        pics = [show(i, scale).convert("RGB") for i in img]
+        top, gap = (14 if labels else 0), 6
+        out = Image.new("RGB", (sum(q.width for q in pics) + gap * (len(pics) - 1),
+                                top + max(q.height for q in pics)), "white")
+        x = 0
+        for k, q in enumerate(pics):
+            out.paste(q, (x, top))
+            if labels:
+                ImageDraw.Draw(out).text((x + 2, 1), str(labels[k]), fill="black")
+            x += q.width + gap
+        return out
     a = (np.clip(np.asarray(img, np.float32), 0, 1) * 255 + 0.5).astype(np.uint8)
     pic = Image.fromarray(a)
     return pic.resize((pic.width * scale, pic.height * scale), Image.NEAREST) if scale != 1 else pic'''
@@ -51,7 +65,7 @@ NOTEBOOKS = {
 n = 96 if SMALL else 400
 lat = wd.Lattice((n, n), connectivity=8, weights=wd.weights.Uniform(r=10, seed=1))
 cf = wd.shortest_paths(lat, [[n // 2, n // 2]])
-print(cf.dist.shape, float(cf.dist.max()))
+print("shape", cf.dist.shape, "- largest cost", round(float(cf.dist.max()), 1))
 show(cf.dist / cf.dist.max())'''),
         ("md", "Endpoints drawn at random (at least `min_spacing` apart) are traced back to the generator all at once:"),
         ("code", '''\
@@ -78,8 +92,8 @@ show(res.image)'''),
                "and constructive path planning, as cited in `wdendrite.presets`) and Xu's thesis (2008). Sizes are the "
                "papers' unless `SMALL`."),
         ("code", SETUP),
-        ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), 2007 paper Fig. 8. "
-               "Columns, left to right: alpha = 2.0, 1.5, 1.2; rows, top to bottom: beta = 2, 3, 4 (the preset's "
+        ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), thesis Fig. 3.13 "
+               "(the 2007 paper's Fig. 8 puts the alphas right to left). Columns, left to right: alpha = 2.0, 1.5, 1.2; rows, top to bottom: beta = 2, 3, 4 (the preset's "
                "defaults; every panel grows 3 iterations from the same weights and seed):"),
         ("code", '''\
 res = presets.fractal_grid(48 if SMALL else 170)
@@ -130,7 +144,7 @@ show(presets.lightning((n, n), params=wild, seed=7).image)'''),
 import dataclasses
 plain = presets.lightning((n, n), seed=7)
 ragged = presets.lightning((n, n), params=dataclasses.replace(presets.LightningParams(), metric="path"), seed=7)
-show(np.concatenate([plain.image, ragged.image], axis=1))'''),
+show([plain.image, ragged.image], labels=["euclidean", "path"])'''),
         ("md", "One path at the papers' widths (constructive path planning Fig. 3, thesis Fig. 4.9). Panels, left to "
                "right: brightness `exp(-(d/T)^2)` with T = 5.0 pixels (a wide glow) and T = 1.6 (a thin stroke); then "
                "the thesis' rule `exp(-a (c d)^2)`, a = 1/10000, with width factor c = 0.6 and c = 0.2, on a path over "
@@ -181,7 +195,8 @@ show(moss.image)'''),
                "an implicit branching tree, and a terrain built on it. Every pixel is independent, so a window of a "
                "huge image is computed alone, bit for bit.\n\nIn the grey pictures below the distance is shown as "
                "`exp(-distance / median)`: white on the tree, darker away from it; elevations are scaled to [0, 1]: "
-               "bright is high, and the tree's branches are the dark valleys."),
+               "bright is high, and the tree's branches are the dark valleys.\n\nThe first Dendry call of a "
+               "fresh install compiles its kernels (about 15 s, once; later runs load them from Warp's cache)."),
         ("code", SETUP),
         ("code", '''\
 from wdendrite import control, hydrology
@@ -208,7 +223,8 @@ import dataclasses
 z_finer = wd.dendry((n, n), output="elevation",
                     **dict(kw, params=dataclasses.replace(p, eps=(0.25,) + (0.0,) * (p.levels - 1))))
 z_free = wd.dendry((n, n), output="elevation", **dict(kw, params=dataclasses.replace(p, eps=0.0)))
-show(np.concatenate([(a - a.min()) / (a.max() - a.min()) for a in (z, z_finer, z_free)], axis=1))'''),
+show([(a - a.min()) / (a.max() - a.min()) for a in (z, z_finer, z_free)],
+     labels=["eps = 0.25", "eps = (0.25, 0, ...)", "eps = 0"])'''),
         ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the filled "
                "terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
         ("code", '''\
@@ -217,7 +233,7 @@ for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=
     print(f"{name:7s} depressions: {d.count:4d}, {d.percent:5.1f} % of the surface")
 d8 = hydrology.flow_accumulation(z, filled=True)
 dinf = hydrology.flow_accumulation(z, filled=True, method="dinf")
-show(np.concatenate([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], axis=1))'''),
+show([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], labels=["D8", "D-infinity"])'''),
         ("md", "## The Lichtenberg figure, levels and points\n\nThe Lichtenberg variant joins each new branch 45 "
                "degrees downstream of the point nearest to it, on the paper's bowl control (lowest at its edge's "
                "middle, here the bottom). `output=\"level\"` gives the level of the nearest branch (1: the trunk); "
@@ -232,8 +248,11 @@ weight = (pl.levels + 1 - lv) / pl.levels                      # 1 on the trunk,
 bolt = np.exp(-(np.where(np.isfinite(d), d, np.inf) / (1.5 / n * pl.levels * weight)) ** 2) * weight
 show(bolt[::-1])                                                 # rows flipped: y up, the root at the bottom'''),
         ("code", '''\
-pts = np.random.default_rng(0).uniform(0.0, 4.0, (4, 2))               # any points of the domain
-print(wd.dendry_points(pts, output="elevation", **kw))'''),
+rows, cols = np.array([5, n // 2, n - 3]), np.array([7, n // 3, n - 1])
+step = 4.0 / n                                                          # the domain's width over n pixels
+centres = np.stack([(cols + 0.5) * step, (rows + 0.5) * step], axis=1)  # (x, y) of those pixels' centres
+print("at the points:", wd.dendry_points(centres, output="elevation", **kw))
+print("in the image: ", z[rows, cols])'''),
         ("md", "## DEM amplification\n\nA low-resolution elevation map as the control of a 16 times larger "
                "terrain. A 16 x 16 fBm map stands in for the DEM here; scale a real DEM to [0, 1] first, as below "
                "(terrains take controls in [0, 1]), and `control.drained` fills its pits so that its valleys lead "
@@ -251,7 +270,7 @@ pa = wd.DendryParams(levels=3, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2
 big = wd.dendry((256, 256), domain=((0.0, 0.0), (16.0, 16.0)), params=pa, control=dem, output="elevation")
 smooth = dem.grid((256, 256))
 print("correlation with the map:", round(float(np.corrcoef(smooth.ravel(), big.ravel())[0, 1]), 3))
-show(np.concatenate([smooth, (big - big.min()) / np.ptp(big)], axis=1))'''),
+show([smooth, (big - big.min()) / np.ptp(big)], labels=["the 16 x 16 map, smoothly sampled", "the terrain"])'''),
         ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 --levels 3 "
                "--seed 1 -o terrain.png`."),
         ("code", '''\
