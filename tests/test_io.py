@@ -2,6 +2,7 @@
 
 import json
 import os
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -526,3 +527,15 @@ def test_overwrite_given_as_text_is_refused_and_the_file_kept(tmp_path):
     with pytest.raises(TypeError, match="Expected a bool for 'overwrite', but got 'no'"):
         save_png(p, np.ones((4, 4)), overwrite="no")
     assert np.asarray(Image.open(p)).max() == 0
+
+
+def test_a_float_image_in_0_255_levels_is_saved_with_a_warning(tmp_path):
+    # floats are clipped (saturating light); most of them above 1 means levels, which save white
+    levels = np.arange(256, dtype=np.float64).reshape(16, 16)
+    with pytest.warns(UserWarning, match="most of its values above 1 .* divide 8-bit levels by 255"):
+        save_png(tmp_path / "a.png", levels)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        glowing = np.where(levels > 200, 1.7, levels / 255)  # a few saturated pixels: no warning
+        save_png(tmp_path / "b.png", glowing)
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "b.png"))[levels > 200], 255)

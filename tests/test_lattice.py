@@ -85,6 +85,8 @@ def test_edges_match_brute_force(shape, conn):
         (dict(shape=(4, 4), weights=wd.weights.Uniform(), store_weights=0), TypeError, "'store_weights', but got 0"),
         (dict(shape=(4, 4, 4), connectivity=8), ValueError, "(6, 26)"),
         (dict(shape=(4, 4), weights=np.ones((3, 4, 4))), ValueError, "(2, 4, 4)"),
+        (dict(shape=(4, 4), weights=np.ones((4, 4, 4))), ValueError,  # (one plane per direction is a common slip)
+         "(K = 2: one plane per undirected edge direction, connectivity 4 / 2, in the order of Lattice.offsets)"),
         (dict(shape=(4, 4), weights=np.ones((2, 4, 4), dtype=bool)), TypeError, "bool"),
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), "a")), TypeError, "weights"),
         (dict(shape=(4, 4), weights=-np.ones((2, 4, 4))), ValueError, "-1.0"),
@@ -95,6 +97,7 @@ def test_edges_match_brute_force(shape, conn):
         (dict(shape=(4, 4), weights=np.full((2, 4, 4), 1e-50)), ValueError, "1e-50 (too small for float32"),
         (dict(shape=(4, 4), mask=np.ones((4, 5), bool)), ValueError, "(4, 5)"),
         (dict(shape=(4, 4), mask=np.ones((4, 4))), TypeError, "mask"),
+        (dict(shape=(4, 4), mask=np.full((4, 4), 255, np.uint8)), TypeError, "(from a 0/1 or 0/255 image, pass mask > 0)"),
     ],
 )
 def test_bad_input(kwargs, exc, words):

@@ -339,6 +339,8 @@ LAT = wd.Lattice((6, 7), 4, mask=np.pad(np.ones((5, 7), bool), ((0, 1), (0, 0)))
         ([1, 2], {}, ValueError, "[point]"),
         ([[1, 2, 3]], {}, ValueError, "(G, 2)"),
         ([[6, 0]], {}, ValueError, "(6, 0)"),
+        ([[6, 2]], {}, ValueError, "(6, 2) lies outside the lattice of shape (6, 7); coordinates are (row, col) = "
+                                   "(y, x): did you mean (2, 6)?"),
         ([[0, -1]], {}, ValueError, "(0, -1)"),
         ([[5, 3]], {}, ValueError, "masked"),
         ([[0, 0]], {"limit": -1}, ValueError, "limit"),
@@ -680,3 +682,9 @@ def test_an_absent_device_is_a_value_error_naming_it(device):
 def test_limit_must_be_a_number(limit):
     with pytest.raises(TypeError, match="limit"):
         wd.shortest_paths(wd.Lattice((8, 8)), [[0, 0]], limit=limit)
+
+
+def test_a_point_outside_whose_swap_is_outside_too_gets_no_hint():
+    with pytest.raises(ValueError) as info:
+        wd.shortest_paths(LAT, [[0, 7]])  # (7, 0) lies outside as well
+    assert str(info.value).endswith("lies outside the lattice of shape (6, 7)")

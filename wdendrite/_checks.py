@@ -45,18 +45,20 @@ def lattice_shape(shape, *, ranks: tuple[int, ...] = (2, 3), whole: bool = True)
 
 
 def float_array(
-    name: str, value, shape: tuple[int, ...], *, positive: bool = False, check_values: bool = True
+    name: str, value, shape: tuple[int, ...], *, positive: bool = False, check_values: bool = True,
+    shape_note: str = "",
 ) -> np.ndarray:
     """Return ``value`` as a float32 array of ``shape`` whose entries are finite and >= 0 (> 0).
 
-    With ``check_values=False`` only the dtype and shape are checked.
+    With ``check_values=False`` only the dtype and shape are checked; ``shape_note`` ends the
+    message about a wrong shape (what the shape's parts are).
     """
     unmasked(name, value)
     arr = np.asarray(value)
     if arr.dtype.kind not in "fiu" or arr.dtype == np.bool_:
         raise TypeError(f"Expected a real-valued array for '{name}', but got dtype {arr.dtype}")
     if arr.shape != tuple(shape):
-        raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
+        raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}{shape_note}")
     raw = arr
     with np.errstate(over="ignore"):  # values beyond float32 become inf: reported below, not warned about
         arr = np.ascontiguousarray(arr, dtype=np.float32)
@@ -149,7 +151,8 @@ def bool_array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
     unmasked(name, value)
     arr = np.asarray(value)
     if arr.dtype != np.bool_:
-        raise TypeError(f"Expected a bool array for '{name}', but got dtype {arr.dtype}")
+        hint = f" (from a 0/1 or 0/255 image, pass {name} > 0)" if arr.dtype.kind in "iuf" else ""
+        raise TypeError(f"Expected a bool array for '{name}', but got dtype {arr.dtype}{hint}")
     if arr.shape != tuple(shape):
         raise ValueError(f"Expected '{name}' of shape {tuple(shape)}, but got shape {arr.shape}")
     return np.ascontiguousarray(arr)
@@ -207,7 +210,11 @@ def node_coordinates(name: str, value, shape: tuple[int, ...], mask: np.ndarray 
     outside = np.any((arr < 0) | (arr >= np.asarray(shape)), axis=1)
     if outside.any():
         row = int(np.argmax(outside))
-        raise ValueError(f"'{name}' row {row} = {tuple(arr[row].tolist())} lies outside the lattice of shape {shape}")
+        point = tuple(arr[row].tolist())
+        hint = ""
+        if len(shape) == 2 and all(0 <= v < n for v, n in zip(point[::-1], shape)):
+            hint = f"; coordinates are (row, col) = (y, x): did you mean {point[::-1]}?"
+        raise ValueError(f"'{name}' row {row} = {point} lies outside the lattice of shape {shape}{hint}")
     if mask is not None:
         blocked = ~mask[tuple(arr.T)]
         if blocked.any():

@@ -9,6 +9,7 @@ import os
 import re
 import stat
 import tempfile
+import warnings
 import zipfile
 import zlib
 from pathlib import Path
@@ -238,7 +239,8 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     Args:
         path: output ``.png`` file; its folder must exist.
         image: ``(H, W)`` grey or ``(H, W, 3|4)`` RGB(A) array, row 0 at the top. Floats are
-            clipped to [0, 1] (light that saturates); bool and integer arrays must hold 0 and 1 only.
+            clipped to [0, 1] (light that saturates; a UserWarning when most of them lie above 1,
+            as 0-255 levels do); bool and integer arrays must hold 0 and 1 only.
         bits: 8 or 16 bits per channel.
         overwrite: replace an existing file.
 
@@ -262,6 +264,9 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
         # float values beyond [0, 1] are clipped (light that saturates); integer ones are levels
         raise ValueError(f"Expected 'image' values in [0, 1], but this {img.dtype} image spans [{img.min()}, "
                          f"{img.max()}]; divide 8-bit levels by 255 (16-bit by 65535) first")
+    if img.dtype.kind == "f" and np.count_nonzero(img > 1) > img.size // 2:
+        warnings.warn(f"'image' has most of its values above 1 (up to {float(img.max()):.6g}); floats are clipped to "
+                      "[0, 1], so it saves mostly white: divide 8-bit levels by 255 first", UserWarning, stacklevel=2)
     data = _quantized(img, bits)
     if bits == 16 and img.ndim == 3:
         return atomic_write(path, lambda tmp: _png16_rgb(tmp, data), overwrite=overwrite)

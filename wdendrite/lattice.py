@@ -351,7 +351,11 @@ class Lattice:
         elif self.distribution is not None:
             self.distribution.kernel_params(self.shape, "cpu")  # validates it before any work
         else:
-            source = _checks.float_array("weights", weights, wshape, check_values=False)
+            k = len(self.offsets)
+            source = _checks.float_array(
+                "weights", weights, wshape, check_values=False,
+                shape_note=f" (K = {k}: one plane per undirected edge direction, connectivity {self.connectivity} / 2, "
+                           "in the order of Lattice.offsets)")
             _check_weight_values(source, self.offsets, self.mask, raw=np.asarray(weights))
         words = record_words(self.shape, len(self.offsets) if self._stored else 0)
         if words >= 2**31:
