@@ -40,3 +40,18 @@ def test_help_shows_what_each_parameter_field_means():
                 assert f"\n    {f.name}" in "\n" + fields, (cls.__name__, f.name)
     assert "Number of tree levels n, 1-6" in wd.DendryParams.__doc__
     assert "Raised cells, in percent of all cells." in wd.hydrology.Depressions.__doc__
+
+
+def test_the_package_docstrings_example_runs():
+    # help(wdendrite) opens with it: a first example that fails would be the worst start
+    import textwrap
+
+    import numpy as np
+
+    import wdendrite as wd
+
+    block = wd.__doc__.split("Start here::\n\n", 1)[1].split("\n\n", 1)[0]
+    scope = {}
+    exec(textwrap.dedent(block), scope)
+    assert scope["picture"].shape == (256, 256) and 0 < scope["picture"].max() <= 1
+    assert scope["terrain"].shape == (512, 512) and np.isfinite(scope["terrain"]).all()

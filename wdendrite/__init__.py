@@ -3,6 +3,21 @@
 Path planning (Xu & Mould): a weighted lattice, shortest path costs from
 generators, backtracking into dendrites. Dendry (Gaillard et al.): a
 per-pixel branching function and terrain.
+
+Start here::
+
+    import wdendrite as wd
+    lat = wd.Lattice((256, 256), 8, weights=wd.weights.Uniform(r=10, seed=1))
+    cf = wd.shortest_paths(lat, [[128, 128]])               # least path costs (Warp kernels)
+    den = wd.trace(cf, wd.endpoints.random(lat, 40, seed=2))  # paths back to the generator
+    picture = wd.render.brightness(den, 1.5)                 # (256, 256) float32 in [0, 1]
+    terrain = wd.dendry((512, 512), domain=((0, 0), (4, 4)), params=wd.DendryParams(), output="elevation")
+
+Every model of the papers is one call in :mod:`wdendrite.presets` (lightning, trees, coral,
+lichen, moss, letters, terrains), also on the command line: ``wdendrite --help``.
+Modules: lattice, weights, sssp (searches), endpoints, dendrite (trace), growth (fractal growth),
+refine, render, geometry (meshes), dendry, control, hydrology, io, presets, batch (``import
+wdendrite.batch``: job files, tiled writing, Dask). Kernels run on the CPU or CUDA: ``device=``.
 """
 
 from . import control, endpoints, geometry, hydrology, io, presets, render, weights
