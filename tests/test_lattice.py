@@ -111,6 +111,22 @@ def test_lattices_beyond_int32_record_indices_are_refused_before_work():
         wd.Lattice((1100, 1100, 1100), 26, weights=wd.weights.Uniform(seed=0), store_weights=False)
 
 
+@pytest.mark.parametrize("shape, conn, stored", [((30000, 30000), 8, True), ((20000, 30000), 4, False),
+                                                  ((900, 900, 900), 26, True), ((1280, 1280, 1280), 6, False)])
+def test_a_lattice_too_large_for_int32_records_is_told_the_largest_that_fits(shape, conn, stored):
+    import re
+
+    from wdendrite.lattice import half_offsets, record_words
+
+    w = None if stored else wd.weights.Uniform(seed=0)
+    with pytest.raises(ValueError) as info:
+        wd.Lattice(shape, conn, weights=w, store_weights=stored)
+    side = int(re.search(r"has (\d+) nodes a side", str(info.value)).group(1))
+    nw = len(half_offsets(len(shape), conn)) if stored else 0
+    assert record_words((side,) * len(shape), nw) < 2**31 <= record_words((side + 1,) * len(shape), nw)
+    assert ("store_weights=False" in str(info.value)) == stored
+
+
 def test_outside_entries_are_ignored_and_filled():
     rng = np.random.default_rng(0)
     w = rng.uniform(1, 2, size=(4, 6, 7)).astype(np.float32)

@@ -357,12 +357,20 @@ class Lattice:
                 shape_note=f" (K = {k}: one plane per undirected edge direction, connectivity {self.connectivity} / 2, "
                            "in the order of Lattice.offsets)")
             _check_weight_values(source, self.offsets, self.mask, raw=np.asarray(weights))
-        words = record_words(self.shape, len(self.offsets) if self._stored else 0)
+        nw = len(self.offsets) if self._stored else 0
+        words = record_words(self.shape, nw)
         if words >= 2**31:
+            # the largest side of a square (cube) lattice whose records fit, for the message
+            side = int(((2**31 - 1) // record_stride(nw)) ** (1 / self.ndim)) - 2
+            while record_words((side + 1,) * self.ndim, nw) < 2**31:
+                side += 1
+            while record_words((side,) * self.ndim, nw) >= 2**31:
+                side -= 1
             raise ValueError(
                 f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
-                "beyond the kernels' int32 indices (2**31)"
-                + ("; store_weights=False needs fewer" if self._stored else "")
+                f"beyond the kernels' int32 indices (2**31): the largest {'square' if self.ndim == 2 else 'cube'} "
+                f"lattice that fits has {side} nodes a side"
+                + ("; store_weights=False (weights from a distribution) takes larger ones" if self._stored else "")
             )
         # every argument is checked: a check of a whole model stops here (the memory it needs is
         # for the machine that runs it to judge)
