@@ -82,16 +82,17 @@ def nearest(word: str, names) -> str:
 # --------------------------------------------------------------------------- parameters
 
 
-def progress_bar(desc: str, *, quiet: bool, total: int | None = None, leave: bool = True, delay: float = 0.0):
+def progress_bar(desc: str, *, quiet: bool, total: int | None = None, leave: bool = True, delay: float = 0.0,
+                 **extra):
     """A tqdm bar on stderr, off when ``quiet`` or when the process has no stderr (closed at start:
-    tqdm would fail inside its lock and hang the run)."""
+    tqdm would fail inside its lock and hang the run); ``extra``: further tqdm arguments."""
     off = bool(quiet) or sys.stderr is None
     if off:  # (tqdm.auto, imported in a notebook without ipywidgets, warns even for a bar never shown)
         from tqdm.std import tqdm
     else:
         from tqdm.auto import tqdm
 
-    kw = dict(total=total, desc=desc, disable=off, leave=leave, file=sys.stderr)
+    kw = dict(total=total, desc=desc, disable=off, leave=leave, file=sys.stderr, **extra)
     if delay:
         try:
             return tqdm(**kw, delay=delay)

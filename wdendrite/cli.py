@@ -287,11 +287,12 @@ def _field(result, preset: str) -> np.ndarray:
 
 
 class _Ticker:
-    """A tqdm bar whose clock keeps moving while one long call runs."""
+    """A tqdm line, ``desc`` and the time so far, whose clock keeps moving while one long call
+    runs (a call has no steps to count: ``set_description_str`` names the stage)."""
 
-    def __init__(self, total: int, desc: str, quiet: bool):
+    def __init__(self, desc: str, quiet: bool):
         # shown only for work that takes more than a moment
-        self.bar = progress_bar(desc, quiet=quiet, total=total, leave=False, delay=0.5)
+        self.bar = progress_bar(desc, quiet=quiet, leave=False, delay=0.5, bar_format="{desc} {elapsed}")
         self._stop = None
 
     def __enter__(self):
@@ -339,7 +340,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
                              f"write {_listed(_formats(preset))}")
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
-    with _Ticker(1 + len(paths), name, quiet) as bar:
+    with _Ticker(f"{name}: making", quiet) as bar:
         t0 = time.perf_counter()
         with wp.ScopedDevice(dev):
             result = preset.func(**kwargs)
@@ -348,10 +349,9 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
             if heightmap and any(p.suffix.lower() == ".png" for p in paths):
                 _heightmap(_field(result, name))  # (refused before any write too)
         seconds = time.perf_counter() - t0
-        bar.update(1)
+        bar.set_description_str(f"{name}: writing {len(paths)} file{'s' if len(paths) != 1 else ''}")
         t1 = time.perf_counter()
         written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
-        bar.update(len(paths))
     rec = {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
            "write_seconds": round(time.perf_counter() - t1, 4), "made": _made(result)}
     if heightmap and any(p.suffix.lower() == ".png" for p in paths):
