@@ -468,3 +468,18 @@ def test_a_replaced_control_keeps_plain_values():
     c = dataclasses.replace(base, params=np.array([0.0, 1.0, 2.0, 0.0], np.float32), minimum=np.float32(0))
     assert c.params == (0.0, 1.0, 2.0, 0.0) and type(c.minimum) is float
     np.testing.assert_array_equal(c.evaluate([[0.5, 0.5]]), base.evaluate([[0.5, 0.5]]))
+
+
+def test_a_controls_values_are_its_own_even_when_replaced():
+    import dataclasses
+
+    base = np.linspace(0.0, 1.0, 16, dtype=np.float32).reshape(4, 4)
+    c = control.image(base)
+    own = base.copy()
+    twin = dataclasses.replace(c, values=own)  # a float32 array that finite_array hands back as it is
+    base[:] = 0.5
+    own[:] = 0.5  # (had changed the replaced control while its minimum and maximum stayed)
+    np.testing.assert_array_equal(c.values, twin.values)
+    assert c.values[0, 0] == 0.0 and c.values[-1, -1] == 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        twin.values[0, 0] = 1.0

@@ -535,3 +535,17 @@ def test_from_arrays_keeps_no_reference_to_the_callers_arrays():
     label[:] = 5
     np.testing.assert_array_equal(den.cost, [0.0, 1.0, 2.0])
     np.testing.assert_array_equal(den.label, 0)
+
+
+@pytest.mark.parametrize("change", ["nodes", "shape"])
+def test_replace_cannot_move_a_dendrite(change):
+    # the moved copy had kept the old node index, and walks extending it stopped at the old nodes
+    import dataclasses
+
+    lat = wd.Lattice((16, 16), 8)
+    den = wd.trace(wd.shortest_paths(lat, [[8, 8]]), [[0, 3], [15, 12]])
+    moved = {"nodes": np.minimum(den.nodes + [0, 1], 15), "shape": (20, 20)}[change]
+    with pytest.raises(ValueError, match="Dendrite.from_arrays"):
+        dataclasses.replace(den, **{change: moved})
+    again = dataclasses.replace(den, cost=den.cost * 2)  # other fields may change
+    np.testing.assert_array_equal(again.cost, den.cost * 2)

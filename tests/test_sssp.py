@@ -688,3 +688,17 @@ def test_a_point_outside_whose_swap_is_outside_too_gets_no_hint():
     with pytest.raises(ValueError) as info:
         wd.shortest_paths(LAT, [[0, 7]])  # (7, 0) lies outside as well
     assert str(info.value).endswith("lies outside the lattice of shape (6, 7)")
+
+
+def test_a_cost_field_cannot_be_remade_by_replace():
+    # the copy had shared the records' costs, then failed to read them with an internal error
+    import copy
+    import dataclasses
+
+    lat = wd.Lattice((8, 9))
+    cf = wd.shortest_paths(lat, [[0, 0]])
+    for change in ({}, {"limit": 5.0}):
+        with pytest.raises(TypeError, match="cannot be remade with dataclasses.replace"):
+            dataclasses.replace(cf, **change)
+    twin = copy.copy(cf)
+    assert np.array_equal(twin.dist, cf.dist) and twin.dist[7, 8] == 15.0

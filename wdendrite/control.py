@@ -124,7 +124,11 @@ class Control:
             raise ValueError(f"Expected 'values' for an image control only (kind {self.kind!r}), but got "
                              f"{'none' if self.values is None else 'an array'}")
         if self.values is not None:
-            put("values", finite_array("values", self.values, "2D (h, w)", lambda s: len(s) == 2))
+            # a read-only copy: later writes to the caller's array would change the control while its
+            # minimum and maximum stay
+            values = np.array(finite_array("values", self.values, "2D (h, w)", lambda s: len(s) == 2))
+            values.flags.writeable = False
+            put("values", values)
 
     def struct(self, device=None) -> _kn.Control:
         """The kernel-side :class:`wdendrite.kernels.noise.Control` on ``device``."""
@@ -405,9 +409,7 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
             column 0 at x0, row 0 at y0 (y grows down the rows, as in :func:`wdendrite.dendry`).
     """
     arr = finite_array("values", values, "2D (h, w)", lambda shape: len(shape) == 2)
-    arr = np.array(arr, dtype=np.float32, order="C")  # a copy: later changes to the caller's array do not reach it
-    arr.flags.writeable = False
-    dom = rectangle("domain", domain)
+    dom = rectangle("domain", domain)  # (the control keeps a read-only copy of the float32 values)
     return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
 
 

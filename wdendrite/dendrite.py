@@ -66,7 +66,21 @@ class Dendrite:
     def __post_init__(self):
         if self.origin is None:
             object.__setattr__(self, "origin", (0.0,) * len(self.shape))
+        self._check_index()
         self._freeze()
+
+    def _check_index(self) -> None:
+        """Refuse a node index (``_padded``) made for other nodes or another shape: what
+        :func:`dataclasses.replace` with new ``nodes`` or ``shape`` would give, which walks that
+        extend the dendrite read (they had stopped at the old positions). Up to 257 evenly spaced
+        rows are compared, so the check costs the same for any dendrite."""
+        n = len(self.nodes)
+        rows = np.unique(np.linspace(0, n - 1, min(n, 257)).astype(np.int64)) if n else np.zeros(0, np.int64)
+        if len(self._padded) != n or not np.array_equal(self._padded[rows],
+                                                         padded_index_of(self.nodes[rows], self.shape)):
+            raise ValueError("this dendrite's node index does not match its 'nodes' and 'shape' (dataclasses.replace "
+                             "cannot move a dendrite: its rows, parents and checks go with them); make the moved one "
+                             "with Dendrite.from_arrays")
 
     def __setstate__(self, state):
         # unpickled and deep-copied dendrites get fresh, writeable arrays: freeze them again

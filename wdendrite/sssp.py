@@ -35,7 +35,7 @@ class _Fields:
     are first asked for or the records are needed by another search, then in
     arrays of its own."""
 
-    __slots__ = ("arrays", "dist", "label", "spent", "host")
+    __slots__ = ("arrays", "dist", "label", "spent", "host", "holder")
 
     def __init__(self, arrays):
         self.arrays = arrays  # None for an unpickled field, whose own arrays are made at once
@@ -43,6 +43,7 @@ class _Fields:
         self.label: wp.array | None = None
         self.spent = False
         self.host: dict = {}  # read-only host copies of dist and label, once asked for
+        self.holder = None  # weak reference to the one CostField these costs belong to
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,6 +85,11 @@ class CostField:
     """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the weights."""
 
     def __post_init__(self):
+        f = self._fields
+        if f.holder is not None and f.holder() is not None:
+            raise TypeError("a CostField cannot be remade with dataclasses.replace: its costs belong to the search "
+                            "that made them (their records, limit and generators); search again, or copy.copy it")
+        f.holder = weakref.ref(self)
         # a read-only copy: walks and warm starts trust these rows, checked once by the search
         gens = np.array(self.generators, dtype=np.int64)
         gens.flags.writeable = False
