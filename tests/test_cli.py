@@ -685,3 +685,56 @@ def test_an_option_is_taken_by_its_whole_name_only(tmp_path):
         "did you mean '--device'")
     bad(["batch", "jobs.toml", "--dry"], tmp_path, "'--dry'")
     assert not (tmp_path / "f.png").exists()
+
+
+def test_a_tiled_command_killed_between_its_renames_finishes_when_run_again(tmp_path, monkeypatch, capsys):
+    # the first output had taken its name: the same command refused it as the user's file
+    from wdendrite import batch
+
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    command = ["terrain", "--size", "40", "--tile", "16", "-o", str(a), "-o", str(b), "--quiet", "--device", "cpu"]
+    real = os.replace
+
+    def dies_at_b(src, dst):
+        if Path(dst) == b:
+            raise KeyboardInterrupt  # killed after a.npy took its name, before b.npy did
+        real(src, dst)
+
+    monkeypatch.setattr(batch.os, "replace", dies_at_b)
+    assert cli.main(command) == 130
+    monkeypatch.setattr(batch.os, "replace", real)
+    assert a.exists() and not b.exists()
+    other = [*command[:5], "--seed", "1", *command[5:]]  # another image may not take it
+    assert cli.main(other) == 2 and "pass --force" in capsys.readouterr().err
+    assert cli.main(command) == 0
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()
+    assert cli.main(["terrain", "--size", "40", "-o", str(fresh / "t.npy"), "--quiet", "--device", "cpu"]) == 0
+    for p in (a, b):
+        assert np.array_equal(np.load(p), np.load(fresh / "t.npy"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy", "fresh"]
+
+
+def test_a_ctrl_c_during_the_renames_waits_for_them_to_end(tmp_path, monkeypatch):
+    # a SIGINT right after the first rename had left one new output beside two old ones and
+    # deleted the old file's kept copy
+    import signal
+
+    outs = [str(tmp_path / n) for n in ("a.png", "a.npz", "a.npy")]
+    assert cli.main(["fractal", "--size", "24", "--seed", "1", *sum((["-o", p] for p in outs), []), "--quiet"]) == 0
+    old = {p: Path(p).read_bytes() for p in outs}
+    real, renamed = os.replace, []
+
+    def then_ctrl_c(src, dst):
+        real(src, dst)
+        if Path(dst) == Path(outs[0]) and not renamed:
+            renamed.append(dst)
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(cli.os, "replace", then_ctrl_c)
+    args = ["fractal", "--size", "24", "--seed", "2", *sum((["-o", p] for p in outs), []), "--quiet", "--force"]
+    assert cli.main(args) == 130 and renamed  # the interrupt is still reported, once every rename is done
+    monkeypatch.setattr(cli.os, "replace", real)
+    assert all(Path(p).read_bytes() != old[p] for p in outs)  # all new: none was left half way
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "a.npz", "a.png"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

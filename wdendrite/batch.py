@@ -603,6 +603,34 @@ def _tile_records(final: Path) -> list[Path]:
     return [final.with_name(f".{final.stem}.{what}{final.suffix}") for what in ("partial", "tiles")]
 
 
+def tile_key(params: dict, kind: str) -> str:
+    """What tells one tiled image from another in its tile records: the preset's full
+    parameters and the kind of device (``cpu`` or ``cuda``) its tiles were computed on."""
+    return json.dumps({"params": params, "device": kind}, sort_keys=True)
+
+
+def placed_by_killed_run(final: Path, key: str) -> bool:
+    """Whether the file at ``final`` is the whole image of tile key ``key`` that a run killed
+    before its clean-up renamed there, untouched since: a re-run of that run may take it
+    (:func:`write_tiled` then keeps it) rather than refuse it as a file of the user's."""
+    _, marks = _tile_records(final)
+    try:
+        same = json.loads((marks / "image.json").read_text()).get("key") == key
+        whole = (marks / "whole").read_text()
+    except (OSError, ValueError, AttributeError):
+        return False
+    return same and os.path.lexists(final) and whole == _identity(final)
+
+
+def _clear_records(marks: Path) -> None:
+    """Delete a folder of tile records, the files that name its image last: a kill part way
+    leaves records a re-run still recognises (:func:`placed_by_killed_run`)."""
+    if marks.is_dir() and not marks.is_symlink():
+        for entry in sorted(marks.iterdir(), key=lambda e: e.name in ("image.json", "whole")):
+            _remove(entry)
+    _remove(marks)
+
+
 def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, bool]:
     """The partial file and the folder of tile markers beside it, started afresh unless they hold
     tiles of the same image (same ``key``, shape and tile size); and whether that image, whole,
@@ -743,7 +771,7 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     for old in moved:
         _remove(old)
     for _, marks, _ in opened:
-        _remove(marks)
+        _clear_records(marks)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
@@ -785,7 +813,7 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
 
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                    key=json.dumps({"params": task.params, "device": kind}, sort_keys=True), placed_all=placed_all)
+                    key=tile_key(task.params, kind), placed_all=placed_all)
     return made
 
 

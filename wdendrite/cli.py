@@ -72,18 +72,19 @@ def probe_folder(folder) -> None:
         pass
 
 
-def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES) -> list[Path]:
-    """Validate output paths before any work: known suffix, existing writable folder, no clobbering."""
+def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES, ours=None) -> list[Path]:
+    """Validate output paths before any work: known suffix, existing writable folder, no clobbering
+    (``ours(path)``: True for a file this very run may replace, one a killed run of it left)."""
     out = []
     for p in paths:
         try:
-            out.append(_checked_output(Path(p), out, force, suffixes))
+            out.append(_checked_output(Path(p), out, force, suffixes, ours))
         except OSError as exc:  # a name the file system refuses (too long, say)
             raise UsageError(f"-o/--out {str(p)!r}: {exc.strerror or exc}") from None
     return out
 
 
-def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
+def _checked_output(p: Path, out: list, force: bool, suffixes, ours=None) -> Path:
     """``p`` if it may be written (see :func:`check_outputs`); ``out``: the paths checked before it."""
     if p.resolve() in [q.resolve() for q in out]:
         raise UsageError(f"-o/--out {str(p)!r} is given twice")
@@ -109,7 +110,7 @@ def _checked_output(p: Path, out: list, force: bool, suffixes) -> Path:
     from .io import occupied
 
     what = occupied(p)
-    if what and not force:
+    if what and not force and not (ours is not None and ours(p)):
         raise UsageError(f"-o/--out {str(p)!r} {what}; pass --force to overwrite it")
     return p
 
@@ -168,6 +169,19 @@ def _rename_all(staged) -> None:
     from . import io
 
     done = []  # (path, where the file it replaced is kept, or None: there was none)
+    # a Ctrl-C between a rename and its record would break all-or-nothing, and one while the kept
+    # files are deleted would leave hidden links beside the outputs: it waits for the end
+    with io.interrupts_held():
+        _renamed_all(staged, done, io)
+        for _, keep in done:
+            if keep is not None:
+                keep.unlink(missing_ok=True)
+    for folder in {p.parent for p, _ in done}:
+        io.sync_folder(folder)
+
+
+def _renamed_all(staged, done: list, io) -> None:
+    """The renames of :func:`_rename_all`, each recorded in ``done``; all undone if one fails."""
     try:
         for tmp, p in staged:
             keep, linked = None, False
@@ -195,11 +209,6 @@ def _rename_all(staged) -> None:
             else:
                 p.unlink(missing_ok=True)
         raise
-    for _, keep in done:
-        if keep is not None:
-            keep.unlink(missing_ok=True)
-    for folder in {p.parent for p, _ in done}:
-        io.sync_folder(folder)
 
 
 def _save_npy(path, array: np.ndarray) -> None:
@@ -588,22 +597,25 @@ def _options_named(exc, preset, sources=None) -> str:
 
 def _tiled(preset, values: dict, outs: list, args) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
-    from .batch import Task, _tile_records, need_zarr, run_tiled
+    from .batch import Task, _tile_records, need_zarr, placed_by_killed_run, run_tiled, tile_key
     from .io import _NAME_BYTES
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
     if getattr(args, "heightmap", False):
         raise UsageError("--heightmap makes .png outputs, which --tile does not write (it writes .npy or .zarr)")
+    _, full = resolve(preset, values)
+    # an output a killed run of this very command renamed into place is its own, not the user's
+    key = tile_key(full, pick_device(getattr(args, "device", None)).split(":")[0])
     # tiles go straight into the field's file: no picture, which would need the whole image
-    paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"))
+    paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"),
+                          ours=lambda p: placed_by_killed_run(p, key))
     for p in paths:  # tiles go to a hidden partial file beside it, and their records to a hidden folder
         longest = max(len(os.fsencode(q.name)) for q in _tile_records(p))
         if longest > _NAME_BYTES:
             raise UsageError(f"-o/--out {str(p)!r}: the name is {longest - _NAME_BYTES} bytes too long for the file "
                              f"the tiles are written to before the rename ({_NAME_BYTES} at most); shorten it")
     need_zarr(paths)
-    _, full = resolve(preset, values)
     task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)
     with progress_bar(f"{preset.name} tiles", quiet=getattr(args, "quiet", False), leave=False) as bar:
         def tick(done, total):

@@ -152,6 +152,28 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     return path
 
 
+@contextlib.contextmanager
+def interrupts_held():
+    """Hold Ctrl-C (SIGINT) back while the block runs, then deliver it: renames that must all
+    happen or none are not cut between a step and the record of it. Only the main thread receives
+    SIGINT, so elsewhere (and where another handler than Python's is set) the block runs as it is."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield
+        return
+    held = []
+    signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if held:
+        raise KeyboardInterrupt
+
+
 def write_failed(path, exc: OSError) -> OSError:
     """``exc``, raised while ``path`` was staged in a temporary file beside it, as an error of
     the same kind (``errno``) that names ``path``: the temporary file is gone, and its hidden
