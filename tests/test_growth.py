@@ -495,3 +495,26 @@ def test_fractal_params_keep_plain_values_whatever_numpy_values_made_them():
     assert p == ref and hash(p) == hash(ref) and repr(p) == repr(ref)
     assert json.loads(json.dumps(asdict(p))) == asdict(ref)  # (a 0-d array had broken JSON records)
     assert p.schedule() == ref.schedule()
+
+
+def test_an_interrupted_growth_closes_its_progress_bar(monkeypatch):
+    import tqdm.auto
+
+    bars = []
+
+    class Bar:
+        def __init__(self, *args, **kwargs):
+            self.closed = False
+            bars.append(self)
+
+        def update(self, n=1):
+            pass
+
+        def close(self):
+            self.closed = True
+
+    monkeypatch.setattr(tqdm.auto, "tqdm", Bar)
+    monkeypatch.setattr(growth, "trace", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    with pytest.raises(KeyboardInterrupt):
+        wd.grow(LAT, [[48, 48]], PARAMS, progress=True)
+    assert len(bars) == 1 and bars[0].closed  # (had been left open, its line on the screen)

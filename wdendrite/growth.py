@@ -391,63 +391,65 @@ def grow(
     cf: CostField | None = None
     sf: CostField | None = None
     grew = False
-    for it, (m, d) in enumerate(plan):
-        if cf is None:
-            structure = gens if den is None else np.concatenate([gens, den.nodes])
-            if new_generators:
-                cf = sf = shortest_paths(lat, structure, limit=d + r, device=device)
-            else:
-                cf = shortest_paths(lat, gens, device=device)
-                if den is not None and len(den):
-                    # walks lead to the generators: a start node they cannot reach would leave its
-                    # surroundings' endpoints without a way down
-                    far = ~np.isfinite(_field_costs(cf, den._padded))
-                    if far.any():
-                        row = int(np.argmax(far))
-                        raise ValueError(
-                            f"'start' row {row} = {tuple(den.nodes[row].tolist())} cannot be reached from any of "
-                            "the 'generators' on this lattice; cheap former paths trace every branch to them "
-                            "(new generators, cheap = 0, grow from 'start' itself)")
-                sf = cf if den is None else shortest_paths(base_lat, structure, limit=d + r, device=device)
-        ep = _band_endpoints(sf, m, d, r, rng, within, params.min_spacing)
-        if ep is not None:
-            grew = True
-            first = 0 if den is None else len(den)
-            # (new branches take the label of the node they join: the first generators' rows)
-            den = trace(cf, ep, extend=den, generation=first_generation + it, _drawn=True)
-            if first:
-                # before the next search reuses the records that hold this field
-                den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
-                                    else (lambda rows: _field_costs(cf, den._padded[rows])))
-            if it + 1 < len(plan):
-                # the next band lies below the next limit: nothing beyond it is searched
-                limit = plan[it + 1][1] + r
-                structure = np.concatenate([gens, den.nodes])
-                # the last cost fields are not read again: the searches may reuse their memory
-                if not new_generators:
-                    # older dendrite edges are already cheap in lat: only this iteration's join them
-                    new_rows = np.arange(first, len(den))
-                    lowered = None
-                    if lat is base_lat:
-                        # growth's own copy, whose later edges are lowered in place
-                        lat = lower_dendrite_weights(lat, den, params.cheap, rows=new_rows)
-                    else:
-                        dirs, lower = _dendrite_edges(lat, den, new_rows)  # (traced: all lattice edges)
-                        lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
-                    cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf,
-                                        _lowered=lowered)
-                # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
-                # join the generators
-                sf = shortest_paths(base_lat, structure, limit=limit, warm_start=sf, _consume_warm_start=True,
-                                    _walked=den._padded[first:])
+    try:
+        for it, (m, d) in enumerate(plan):
+            if cf is None:
+                structure = gens if den is None else np.concatenate([gens, den.nodes])
                 if new_generators:
-                    cf = sf
+                    cf = sf = shortest_paths(lat, structure, limit=d + r, device=device)
+                else:
+                    cf = shortest_paths(lat, gens, device=device)
+                    if den is not None and len(den):
+                        # walks lead to the generators: a start node they cannot reach would leave its
+                        # surroundings' endpoints without a way down
+                        far = ~np.isfinite(_field_costs(cf, den._padded))
+                        if far.any():
+                            row = int(np.argmax(far))
+                            raise ValueError(
+                                f"'start' row {row} = {tuple(den.nodes[row].tolist())} cannot be reached from any of "
+                                "the 'generators' on this lattice; cheap former paths trace every branch to them "
+                                "(new generators, cheap = 0, grow from 'start' itself)")
+                    sf = cf if den is None else shortest_paths(base_lat, structure, limit=d + r, device=device)
+            ep = _band_endpoints(sf, m, d, r, rng, within, params.min_spacing)
+            if ep is not None:
+                grew = True
+                first = 0 if den is None else len(den)
+                # (new branches take the label of the node they join: the first generators' rows)
+                den = trace(cf, ep, extend=den, generation=first_generation + it, _drawn=True)
+                if first:
+                    # before the next search reuses the records that hold this field
+                    den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
+                                        else (lambda rows: _field_costs(cf, den._padded[rows])))
+                if it + 1 < len(plan):
+                    # the next band lies below the next limit: nothing beyond it is searched
+                    limit = plan[it + 1][1] + r
+                    structure = np.concatenate([gens, den.nodes])
+                    # the last cost fields are not read again: the searches may reuse their memory
+                    if not new_generators:
+                        # older dendrite edges are already cheap in lat: only this iteration's join them
+                        new_rows = np.arange(first, len(den))
+                        lowered = None
+                        if lat is base_lat:
+                            # growth's own copy, whose later edges are lowered in place
+                            lat = lower_dendrite_weights(lat, den, params.cheap, rows=new_rows)
+                        else:
+                            dirs, lower = _dendrite_edges(lat, den, new_rows)  # (traced: all lattice edges)
+                            lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
+                        cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf,
+                                            _lowered=lowered)
+                    # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
+                    # join the generators
+                    sf = shortest_paths(base_lat, structure, limit=limit, warm_start=sf, _consume_warm_start=True,
+                                        _walked=den._padded[first:])
+                    if new_generators:
+                        cf = sf
+            if bar is not None:
+                bar.update(1)
+            elif callable(progress):
+                progress(it + 1, len(plan), den)
+    finally:  # (an interrupted growth closes its bar too)
         if bar is not None:
-            bar.update(1)
-        elif callable(progress):
-            progress(it + 1, len(plan), den)
-    if bar is not None:
-        bar.close()
+            bar.close()
     if not grew:
         advice = _band_advice(base_lat, gens if den is None else np.concatenate([gens, den.nodes]), plan, r, device)
         raise ValueError(
