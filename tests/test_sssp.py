@@ -702,3 +702,36 @@ def test_a_cost_field_cannot_be_remade_by_replace():
             dataclasses.replace(cf, **change)
     twin = copy.copy(cf)
     assert np.array_equal(twin.dist, cf.dist) and twin.dist[7, 8] == 15.0
+
+
+@pytest.mark.parametrize("chunk", [1, 7])
+def test_the_gpus_launch_shapes_give_the_cpus_results(chunk, monkeypatch):
+    # what a CUDA device runs, here on the CPU: one node (or a few) per thread in whole-lattice
+    # passes, generation rounds driven from the host over many threads, counts read back
+    import wdendrite.lattice as wl
+    import wdendrite.sssp as ws
+
+    masks = [None, np.zeros((40, 45), bool)]
+    masks[1][5:9, 3:30] = True  # sparse: few usable nodes
+    lats = [wd.Lattice((40, 45), 8, weights=wd.weights.Uniform(r=5, seed=3), mask=m) for m in masks]
+    gens = [np.array([[0, 3], [39, 44]]), np.array([[6, 4]])]
+    refs = [(wd.shortest_paths(lat, g), wd.shortest_paths(lat, np.vstack([g, [[7, 20]]]))) for lat, g in zip(lats, gens)]
+    bands = [ws.band_nodes(warm, 1.0, 9.0) for _, warm in refs]
+    monkeypatch.setattr(wl, "pass_chunk", lambda device: chunk)
+    monkeypatch.setattr(ws, "pass_chunk", lambda device: chunk)
+    real_init = ws._Frontiers.__init__
+
+    def gpu_like(self, *args, **kwargs):
+        real_init(self, *args, **kwargs)
+        self._cpu = False  # counts through read-backs and set_count_kernel, as on a GPU
+
+    monkeypatch.setattr(ws._Frontiers, "__init__", gpu_like)
+    for (lat, g), (ref, ref_warm), band in zip(zip(lats, gens), refs, bands):
+        lat = wd.Lattice(lat.shape, 8, weights=wd.weights.Uniform(r=5, seed=3), mask=lat.mask)  # fresh records
+        cf = wd.shortest_paths(lat, g, _fifo=False, _max_threads=5)
+        _check_against_scipy(lat, g, cf)
+        warm = wd.shortest_paths(lat, np.vstack([g, [[7, 20]]]), warm_start=cf, _fifo=False, _max_threads=5)
+        assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()
+        assert warm.dist.tobytes() == ref_warm.dist.tobytes() and warm.label.tobytes() == ref_warm.label.tobytes()
+        got = ws.band_nodes(warm, 1.0, 9.0)
+        assert np.array_equal(got, band) and np.all(np.diff(got) > 0)

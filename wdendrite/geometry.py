@@ -441,8 +441,11 @@ def isosurface(
     org = np.asarray(den.origin, np.float64) - den.spacing
     # cubes the surface crosses start within sqrt(3) of a node inside, i.e. below the limit (Euclidean
     # steps are <= 1 per node; path costs may step further, so every cube is visited there)
-    band = float(limit32) if dist.device.is_cpu and metric == "euclidean" else None
-    return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device=dist.device)
+    band = float(limit32) if metric == "euclidean" else None
+    # the field is on the host by now: scikit-image meshes it on every device. Warp's marching cubes
+    # (what a CUDA device would pick) split ambiguous cubes the plain Lorensen way, breaking branches
+    # one body diagonal apart into beads; scikit-image's Lewiner cubes keep them whole
+    return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device="cpu")
 
 
 def _region_mask(name: str, labels, region) -> np.ndarray:

@@ -80,9 +80,10 @@ class CostField:
     _fields: _Fields = field(repr=False)
     rounds: int = 0
     """Relaxation rounds the search took: cost buckets emptied on the CPU (all within one launch),
-    frontier generations on GPUs (one launch each)."""
+    frontier generations on GPUs (one launch each; their number may differ from run to run there)."""
     relaxed: int = 0
-    """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the weights."""
+    """Node relaxations the search did; close to the number of reached nodes when ``delta`` suits the
+    weights (on GPUs it may differ from run to run; the costs never do)."""
 
     def __post_init__(self):
         f = self._fields
