@@ -247,7 +247,8 @@ class Dendrite:
         return np.asarray(out, dtype=np.int64)
 
     def paths(self) -> Iterator[np.ndarray]:
-        """Yield the path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the endpoint to its root."""
+        """Yield the path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the
+        endpoint to its root."""
         for e in self.endpoints:
             yield self.path(e)
 
