@@ -297,3 +297,31 @@ def test_checking_mode_checks_a_lattice_and_stops_before_its_records():
         with pytest.raises(_checks.Checked):
             wd.Lattice((2000, 2000), 8, weights=wd.weights.Uniform(seed=0))
     assert wd.Lattice((16, 16), 8).weights.shape == (4, 16, 16)  # outside it, lattices are built
+
+
+def test_threads_asking_at_once_build_a_devices_arrays_once(monkeypatch):
+    # (each thread had built its own records; searches stayed right, memory doubled)
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+
+    lat = wd.Lattice((300, 300), 8, weights=wd.weights.Uniform(seed=1), store_weights=False)
+    builds, real = [], wd.Lattice._make_arrays
+
+    def counting(self, *args, **kwargs):
+        builds.append(threading.get_ident())
+        time.sleep(0.2)  # a build takes a while: the other threads ask meanwhile
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(wd.Lattice, "_make_arrays", counting)
+    start = threading.Barrier(4)
+
+    def search(i):
+        start.wait()
+        return wd.shortest_paths(lat, [[i, i]]).dist.copy()
+
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(search, range(4)))
+    assert len(builds) == 1
+    for i, dist in enumerate(got):
+        assert np.array_equal(dist, wd.shortest_paths(lat, [[i, i]]).dist)

@@ -335,6 +335,7 @@ class Lattice:
         """The weight distribution when weights came from one, else None."""
         self._weights = None
         self._device_arrays: dict[str, LatticeArrays] = {}
+        self._arrays_lock = threading.Lock()  # one build of a device's arrays, however many threads ask
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
         self._num_usable: int | None = None
         self._stored = _checks.flag("store_weights", store_weights)
@@ -486,12 +487,14 @@ class Lattice:
         """
         device = _checks.device(device)
         key = str(device)
-        if key not in self._device_arrays:
-            if self.stores_weights:
-                self._device_arrays[key] = self._copied_arrays(device)
-            else:
-                self._device_arrays[key] = self._make_arrays(device, None)
-        return self._device_arrays[key]
+        arrays = self._device_arrays.get(key)
+        if arrays is None:
+            with self._arrays_lock:
+                arrays = self._device_arrays.get(key)
+                if arrays is None:
+                    arrays = self._copied_arrays(device) if self.stores_weights else self._make_arrays(device, None)
+                    self._device_arrays[key] = arrays
+        return arrays
 
     def _copied_arrays(self, device) -> LatticeArrays:
         """Arrays on ``device`` whose records copy the host records, search state and stamps cleared."""
