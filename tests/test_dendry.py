@@ -1651,3 +1651,31 @@ def test_one_eps_per_level_keeps_each_levels_key_points_in_its_band(device):
         else:
             assert frac.min() < 0.1 and frac.max() > 0.9  # (hundreds of points: some near the borders)
     assert p.radii() == DendryParams(eps=0.0, **base).radii()  # the free regime's searches
+
+
+@pytest.mark.parametrize("output", ["distance", "elevation", "level"])
+def test_the_gpus_per_pixel_branches_give_the_cpus_values(output, monkeypatch):
+    # what a CUDA device runs in the per-pixel mode, here on the CPU: the general kernels with a
+    # slot per thread, in launches a few slots long (first > 0), for images, windows and points
+    wdd = importlib.import_module("wdendrite.dendry")
+    p = DendryParams(levels=3, eps=0.1, delta=0.3, beta=0.5, noise=0.05, seed=2)
+    kw = dict(domain=DOMAIN, params=p, control=CTL, output=output, mode="pixel", device="cpu")
+    pts = np.random.default_rng(0).uniform(0.0, 2.0, (97, 2))
+    ref = (dendry((9, 11), **kw), dendry((9, 11), window=(2, 3, 5, 6), **kw), dendry_points(pts, **kw))
+    calls = []
+    real_slots = wdd._slots_for_pixels
+
+    def seven(*args):
+        slots = real_slots(*args)
+        calls.append(len(slots.blocks) // 8)
+        return slots
+
+    per_slot = wdd._Slots.nbytes(1, wdd._slot_capacity(p, output), shortlist=True)
+    monkeypatch.setattr(wdd, "_GPU_PATHS", True)
+    monkeypatch.setattr(wdd, "_PIXEL_SLOT_BYTES", 7 * per_slot)  # 7 threads a launch
+    monkeypatch.setattr(wdd, "_slots_for_pixels", seven)
+    monkeypatch.setattr(wdd, "_kp", None)  # the CPU's own per-pixel kernels are not used
+    got = (dendry((9, 11), **kw), dendry((9, 11), window=(2, 3, 5, 6), **kw), dendry_points(pts, **kw))
+    assert calls == [7, 7, 7]
+    for a, b in zip(got, ref):
+        assert np.array_equal(a, b, equal_nan=True)

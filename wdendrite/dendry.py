@@ -612,6 +612,20 @@ class _Slots:
             )
 
 
+_PIXEL_SLOT_BYTES = 256 * 2**20
+"""Scratch for the per-pixel mode's concurrent threads on CUDA (one slot each): launches run as
+many threads as it holds slots."""
+
+_GPU_PATHS = False
+"""Testing hook: the per-pixel mode takes its CUDA branches (a slot per thread, launches a slot
+budget long, the general kernels) on any device, so that the CPU test suite runs them."""
+
+
+def _cuda_like(device) -> bool:
+    """Whether the per-pixel mode takes its CUDA branches on ``device`` (see :data:`_GPU_PATHS`)."""
+    return _GPU_PATHS or wp.get_device(device).is_cuda
+
+
 def _slots_for_pixels(params, output, count, device) -> _Slots:
     """Scratch for the per-pixel mode: one slot per concurrent thread.
 
@@ -620,8 +634,8 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
     """
     cap = _slot_capacity(params, output)
     per_slot = _Slots.nbytes(1, cap, shortlist=True)  # with the shortlist's room for every output, as always
-    if wp.get_device(device).is_cuda:
-        slots = max(1, min(count, (256 * 2**20) // per_slot))
+    if _cuda_like(device):
+        slots = max(1, min(count, _PIXEL_SLOT_BYTES // per_slot))
     else:
         slots = 1
     fits_in_memory(slots * per_slot, device, "Dendry per-pixel scratch")
@@ -631,7 +645,7 @@ def _slots_for_pixels(params, output, count, device) -> _Slots:
 def _launch_chunks(count: int, slots: _Slots, device):
     """(first, size) of the launches covering ``count`` threads: one on the CPU, slot-sized on CUDA."""
     nslots = len(slots.blocks) // 8
-    step = nslots if wp.get_device(device).is_cuda else count
+    step = nslots if _cuda_like(device) else count
     return nslots, [(first, min(step, count - first)) for first in range(0, count, step)]
 
 
@@ -856,7 +870,7 @@ def dendry(
     origin = wp.vec2i(r0, c0)
 
     def launch(slots, cached, nslots, first, size):
-        if cached == 0 and device.is_cpu:  # the per-pixel kernel compiled for the CPU's caches
+        if cached == 0 and not _cuda_like(device):  # the per-pixel kernel compiled for the CPU's caches
             wp.launch(_kp.image_kernel, dim=size,
                       inputs=[s, ctl, code, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
                       outputs=[out, slots.overflow], device=device)
@@ -967,7 +981,7 @@ def dendry_points(
         out = wp.zeros(len(idx), dtype=float, device=device)
 
         def launch(slots, nslots, first, size):
-            if device.is_cpu:  # the per-pixel kernel compiled for the CPU's caches
+            if not _cuda_like(device):  # the per-pixel kernel compiled for the CPU's caches
                 wp.launch(_kp.points_kernel, dim=size,
                           inputs=[s, ctl, code, slots.cap, nslots, first, u_dev, *slots.arrays()],
                           outputs=[out, slots.overflow], device=device)
