@@ -450,7 +450,7 @@ def test_evaluate_checks_its_points_as_the_rest_of_the_api_does():
         (dict(minimum=2.0, maximum=1.0), ValueError, "'minimum' <= 'maximum'"),
         (dict(minimum="0"), TypeError, "'minimum'"),
         (dict(bounded="no"), TypeError, "'bounded'"),
-        (dict(values=np.zeros((2, 2))), ValueError, "'values' for an image control only"),
+        (dict(values=np.zeros((2, 2))), ValueError, "'values' for an image control only, but got an array for kind"),
     ],
 )
 def test_a_control_replaced_by_hand_is_checked(change, exc, words):
@@ -483,3 +483,17 @@ def test_a_controls_values_are_its_own_even_when_replaced():
     assert c.values[0, 0] == 0.0 and c.values[-1, -1] == 1.0
     with pytest.raises(ValueError, match="read-only"):
         twin.values[0, 0] = 1.0
+
+
+def test_an_image_control_needs_values_and_keeps_them_read_only_when_copied():
+    import copy
+    import dataclasses
+    import pickle
+
+    c = control.image(np.linspace(0.0, 1.0, 9).reshape(3, 3))
+    with pytest.raises(ValueError, match="An image control needs its 'values', but got none"):
+        dataclasses.replace(c, values=None)
+    for twin in (pickle.loads(pickle.dumps(c)), copy.deepcopy(c)):  # (their values had been writeable)
+        with pytest.raises(ValueError, match="read-only"):
+            twin.values[0, 0] = 5.0
+        np.testing.assert_array_equal(twin.evaluate([[0.5, 0.5]]), c.evaluate([[0.5, 0.5]]))

@@ -420,7 +420,7 @@ def test_regions_keep_plain_values_whatever_numpy_values_made_them(make, plain):
         (lambda: ep.Disc("middle", 2), "'center' as finite"),
         (lambda: ep.Disc((1, np.nan), 2), "'center' as finite"),
         (lambda: ep.Box((1, 1, 1, 1), (2, 2, 2, 2)), "'lo' as finite"),
-        (lambda: ep.Box((1, 1), (2, 2, 2)), "'hi' >= 'lo'"),
+        (lambda: ep.Box((1, 1), (2, 2, 2)), "'lo' and 'hi' with as many coordinates"),
         (lambda: ep.Box((3, 1), (2, 2)), "'hi' >= 'lo'"),
     ],
 )

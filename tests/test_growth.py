@@ -518,3 +518,15 @@ def test_an_interrupted_growth_closes_its_progress_bar(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         wd.grow(LAT, [[48, 48]], PARAMS, progress=True)
     assert len(bars) == 1 and bars[0].closed  # (had been left open, its line on the screen)
+
+
+def test_empty_bands_advice_reads_the_costs_inside_within():
+    # the advice had read the whole lattice's costs and said "raise 'r'" where 'within' held none
+    from scipy.sparse.csgraph import dijkstra
+
+    within = wd.endpoints.Disc((2, 2), 1.5)
+    ref = dijkstra(LAT.to_csgraph(), indices=np.ravel_multi_index((48, 48), LAT.shape)).reshape(LAT.shape)
+    inside = ref[within.mask(LAT.shape)]
+    words = rf"inside 'within' span \[{inside.min():.4g}, {inside.max():.4g}\] on this lattice, all above the first band"
+    with pytest.raises(ValueError, match=words + ": raise 'd'"):
+        wd.grow(LAT, [[48, 48]], wd.FractalParams(d=100, epsilon=20), within=within)

@@ -539,3 +539,31 @@ def test_a_float_image_in_0_255_levels_is_saved_with_a_warning(tmp_path):
         glowing = np.where(levels > 200, 1.7, levels / 255)  # a few saturated pixels: no warning
         save_png(tmp_path / "b.png", glowing)
     np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "b.png"))[levels > 200], 255)
+
+
+def test_an_error_about_another_file_is_not_blamed_on_the_output(tmp_path):
+    # a writer that reads a missing input: the error names the input (it had said "could not write")
+    with pytest.raises(FileNotFoundError) as info:
+        atomic_write(tmp_path / "out.txt", lambda t: open(tmp_path / "missing.dat").read())
+    assert info.value.filename == str(tmp_path / "missing.dat") and "could not write" not in str(info.value)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_held_ctrl_c_is_not_lost_to_the_blocks_own_error():
+    import signal
+    import threading
+
+    from wdendrite.io import interrupts_held
+
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("a real SIGINT would stop this runner: it is held only in the main thread under Python's handler")
+    with pytest.raises(KeyboardInterrupt) as info:
+        with interrupts_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            raise OSError("disk full")
+    assert isinstance(info.value.__cause__, OSError)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with pytest.raises(OSError):  # no Ctrl-C: the block's error as it is
+        with interrupts_held():
+            raise OSError("disk full")

@@ -314,6 +314,10 @@ def test_letters_take_text_only(text, launches):
     with pytest.raises(TypeError, match="Expected a str for 'text'"):  # (str() of it had been drawn)
         presets.letters(text, height=32)
     assert launches == []
+    if text is None:  # with a mask, the text is not drawn at all
+        mask = np.zeros((40, 40), bool)
+        mask[10:30, 15:25] = True
+        assert presets.letters(text, mask=mask, seed=0).dendrite.nodes.shape[1] == 2
 
 
 def test_letters_take_any_density_and_refuse_a_height_pillow_cannot_draw():

@@ -432,3 +432,9 @@ def test_distributions_keep_plain_values_whatever_numpy_values_made_them(make, p
         d, ref = weights.Uniform() * d, weights.Uniform() * ref
     lat_a, lat_b = wd.Lattice((9, 10), weights=d), wd.Lattice((9, 10), weights=ref)
     np.testing.assert_array_equal(lat_a.weights, lat_b.weights)
+
+
+def test_top_at_zero_takes_a_bool_or_none():
+    assert weights.Tropism("top", top_at_zero=None).top_at_zero is None
+    with pytest.raises(TypeError, match="Expected a bool or None for 'top_at_zero', but got 'yes'"):
+        weights.Tropism("top", top_at_zero="yes")

@@ -609,24 +609,39 @@ def tile_key(params: dict, kind: str) -> str:
     return json.dumps({"params": params, "device": kind}, sort_keys=True)
 
 
+def _image_ident(key: str, shape, tile: int) -> str:
+    """The image a folder of tile records holds tiles of (its ``image.json``)."""
+    return json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
+
+
+def _whole_image(marks: Path) -> dict | None:
+    """What a folder of tile records says of the whole image a run renamed into place (its
+    ``whole`` file: the file's identity and the image's), or None."""
+    try:
+        whole = json.loads((marks / "whole").read_text())
+    except (OSError, ValueError):
+        return None
+    return whole if isinstance(whole, dict) and isinstance(whole.get("image"), str) else None
+
+
 def placed_by_killed_run(final: Path, key: str) -> bool:
     """Whether the file at ``final`` is the whole image of tile key ``key`` that a run killed
     before its clean-up renamed there, untouched since: a re-run of that run may take it
     (:func:`write_tiled` then keeps it) rather than refuse it as a file of the user's."""
     _, marks = _tile_records(final)
+    whole = _whole_image(marks)
     try:
-        same = json.loads((marks / "image.json").read_text()).get("key") == key
-        whole = (marks / "whole").read_text()
-    except (OSError, ValueError, AttributeError):
+        same = whole is not None and json.loads(whole["image"]).get("key") == key
+    except (ValueError, AttributeError):
         return False
-    return same and os.path.lexists(final) and whole == _identity(final)
+    return same and os.path.lexists(final) and whole.get("file") == _identity(final)
 
 
 def _clear_records(marks: Path) -> None:
-    """Delete a folder of tile records, the files that name its image last: a kill part way
-    leaves records a re-run still recognises (:func:`placed_by_killed_run`)."""
+    """Delete a folder of tile records, its ``whole`` file last: a kill part way leaves records
+    a re-run still recognises (:func:`placed_by_killed_run`, :func:`_open_partial`)."""
     if marks.is_dir() and not marks.is_symlink():
-        for entry in sorted(marks.iterdir(), key=lambda e: e.name in ("image.json", "whole")):
+        for entry in sorted(marks.iterdir(), key=lambda e: e.name == "whole"):
             _remove(entry)
     _remove(marks)
 
@@ -638,18 +653,15 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, 
     # ".{stem}.partial{suffix}" keeps the suffix that names the format; the records are not named
     # ".{name}.*" (those are temporaries)
     partial, marks = _tile_records(final)
-    ident = json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
+    ident = _image_ident(key, shape, tile)
+    if not os.path.lexists(partial) and os.path.lexists(final):
+        # the very file a run renamed there, untouched since (its ``whole`` record outlives the others)
+        if _whole_image(marks) == {"file": _identity(final), "image": ident}:
+            return partial, marks, True
     try:
         same = (marks / "image.json").read_text() == ident
     except OSError:
         same = False
-    if same and not os.path.lexists(partial) and os.path.lexists(final):
-        try:
-            whole = (marks / "whole").read_text()
-        except OSError:
-            whole = None
-        if whole == _identity(final):  # the very file renamed there, untouched since
-            return partial, marks, True
     if not partial.exists() or not same:
         _remove(marks)
         _remove(partial)
@@ -751,7 +763,8 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
             if partial.is_file():
                 sync_to_disk(partial)
             # a kill from here on leaves a whole image: a re-run renames it, or keeps it once renamed
-            (marks / "whole").write_text(_identity(partial))
+            (marks / "whole").write_text(json.dumps({"file": _identity(partial),
+                                                     "image": _image_ident(key, shape, tile)}))
     # one rename each, one after another, once every tile is in every file: an old Zarr store (a
     # folder, which a rename cannot replace), a link or a file where a store goes is moved aside
     # first, and deleted after, so a final name never holds a half-deleted store

@@ -120,15 +120,22 @@ class Control:
         put("seed", seed32(self.seed))
         put("octaves", integer("octaves", self.octaves, low=1, high=16))
         put("bounded", flag("bounded", self.bounded))
-        if (self.kind == "image") != (self.values is not None):
-            raise ValueError(f"Expected 'values' for an image control only (kind {self.kind!r}), but got "
-                             f"{'none' if self.values is None else 'an array'}")
+        if self.kind == "image" and self.values is None:
+            raise ValueError("An image control needs its 'values', but got none")
+        if self.kind != "image" and self.values is not None:
+            raise ValueError(f"Expected 'values' for an image control only, but got an array for kind {self.kind!r}")
         if self.values is not None:
             # a read-only copy: later writes to the caller's array would change the control while its
             # minimum and maximum stay
             values = np.array(finite_array("values", self.values, "2D (h, w)", lambda s: len(s) == 2))
             values.flags.writeable = False
             put("values", values)
+
+    def __setstate__(self, state):
+        # unpickled and deep-copied controls get fresh, writeable values: read-only again
+        self.__dict__.update(state)
+        if isinstance(self.values, np.ndarray):
+            self.values.flags.writeable = False
 
     def struct(self, device=None) -> _kn.Control:
         """The kernel-side :class:`wdendrite.kernels.noise.Control` on ``device``."""

@@ -76,8 +76,10 @@ class Dendrite:
         rows are compared, so the check costs the same for any dendrite."""
         n = len(self.nodes)
         rows = np.unique(np.linspace(0, n - 1, min(n, 257)).astype(np.int64)) if n else np.zeros(0, np.int64)
-        if len(self._padded) != n or not np.array_equal(self._padded[rows],
-                                                         padded_index_of(self.nodes[rows], self.shape)):
+        some = np.asarray(self.nodes)[rows]
+        inside = np.all((some >= 0) & (some < np.asarray(self.shape)))
+        if len(self._padded) != n or not inside or not np.array_equal(self._padded[rows],
+                                                                      padded_index_of(some, self.shape)):
             raise ValueError("this dendrite's node index does not match its 'nodes' and 'shape' (dataclasses.replace "
                              "cannot move a dendrite: its rows, parents and checks go with them); make the moved one "
                              "with Dendrite.from_arrays")

@@ -112,7 +112,9 @@ class Box(Region):
 
     def __post_init__(self):
         lo, hi = _keep_point(self, "lo"), _keep_point(self, "hi")
-        if len(lo) != len(hi) or any(b < a for a, b in zip(lo, hi)):
+        if len(lo) != len(hi):
+            raise ValueError(f"Expected 'lo' and 'hi' with as many coordinates, but got lo={self.lo!r}, hi={self.hi!r}")
+        if any(b < a for a, b in zip(lo, hi)):
             raise ValueError(f"Expected 'hi' >= 'lo' on every axis, but got lo={self.lo!r}, hi={self.hi!r}")
 
     def mask(self, shape):

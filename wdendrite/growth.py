@@ -372,12 +372,6 @@ def grow(
     first_generation = 0 if start is None or not len(start) else int(start.generation.max()) + 1
     r = params.band
     new_generators = params.cheap == 0.0
-    bar = None
-    if progress is True:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=len(plan), desc="growing", unit="iteration")
-
     den = start
     # cheap former paths change stored weights, so a hashed lattice gets its array once
     base_lat = lattice if new_generators or lattice.stores_weights else lattice.with_weights(lattice.weights)
@@ -391,6 +385,11 @@ def grow(
     cf: CostField | None = None
     sf: CostField | None = None
     grew = False
+    bar = None
+    if progress is True:  # (made just before the loop whose end closes it)
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(plan), desc="growing", unit="iteration")
     try:
         for it, (m, d) in enumerate(plan):
             if cf is None:
@@ -451,7 +450,8 @@ def grow(
         if bar is not None:
             bar.close()
     if not grew:
-        advice = _band_advice(base_lat, gens if den is None else np.concatenate([gens, den.nodes]), plan, r, device)
+        advice = _band_advice(base_lat, gens if den is None else np.concatenate([gens, den.nodes]), plan, r, device,
+                              within)
         raise ValueError(
             f"no node off the dendrite has a path cost in any band (max(d - r, 0), d + r) of the schedule {plan} "
             f"with r = {r:g}; {advice}"
@@ -459,15 +459,18 @@ def grow(
     return den
 
 
-def _band_advice(lattice: Lattice, structure: np.ndarray, plan, r: float, device) -> str:
-    """What to change when no band of ``plan`` held a node: the costs off ``structure`` are
-    searched in full (on this failure only) and compared with the bands."""
+def _band_advice(lattice: Lattice, structure: np.ndarray, plan, r: float, device, within=None) -> str:
+    """What to change when no band of ``plan`` held a node: the costs off ``structure`` (inside
+    ``within``, where endpoints are drawn) are searched in full (on this failure only) and
+    compared with the bands."""
     dist = shortest_paths(lattice, structure, device=device).dist
-    off = dist[np.isfinite(dist) & (dist > 0)]
+    drawn = np.isfinite(dist) & (dist > 0)
+    where = "off the dendrite" if within is None else "off the dendrite inside 'within'"
+    off = dist[drawn if within is None else drawn & within]
     if not off.size:
-        return "no node off the dendrite can be reached from it on this lattice"
+        return f"no node {where} can be reached from it on this lattice"
     low, high = float(off.min()), float(off.max())
-    span = f"costs off the dendrite span [{low:.4g}, {high:.4g}] on this lattice"
+    span = f"costs {where} span [{low:.4g}, {high:.4g}] on this lattice"
     if plan[0][1] + r <= low:
         return f"{span}, all above the first band: raise 'd' into that range"
     if max(plan[-1][1] - r, 0.0) >= high:

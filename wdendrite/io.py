@@ -123,7 +123,7 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     try:
         tmp = str(temporary_beside(path, mode))
     except OSError as exc:
-        raise write_failed(path, exc) from exc
+        raise write_failed(path, exc, exc.filename) from exc
     try:
         write(tmp)
         sync_to_disk(tmp)
@@ -146,7 +146,9 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
         if isinstance(exc, OSError) and not isinstance(exc, FileExistsError):
-            raise write_failed(path, exc) from exc
+            failed = write_failed(path, exc, tmp)
+            if failed is not exc:
+                raise failed from exc
         raise
     sync_folder(path.parent)
     return path
@@ -168,16 +170,23 @@ def interrupts_held():
     signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
     try:
         yield
-    finally:
+    except BaseException as exc:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+        if held and not isinstance(exc, KeyboardInterrupt):
+            raise KeyboardInterrupt from exc  # (the Ctrl-C is not lost to the block's own error)
+        raise
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     if held:
         raise KeyboardInterrupt
 
 
-def write_failed(path, exc: OSError) -> OSError:
-    """``exc``, raised while ``path`` was staged in a temporary file beside it, as an error of
-    the same kind (``errno``) that names ``path``: the temporary file is gone, and its hidden
-    name would only puzzle (the original stays as the cause)."""
+def write_failed(path, exc: OSError, tmp=None) -> OSError:
+    """``exc``, raised while ``path`` was staged in the temporary file ``tmp`` beside it, as an
+    error of the same kind (``errno``) that names ``path``: the temporary file is gone, and its
+    hidden name would only puzzle (the original stays as the cause). An error about another
+    file (one the writer reads, say) is ``exc`` itself."""
+    if exc.filename is not None and tmp is not None and os.fspath(exc.filename) != os.fspath(tmp):
+        return exc
     why = exc.strerror or str(exc)
     message = f"could not write {str(path)!r}: {why}"
     return OSError(exc.errno, message) if exc.errno is not None else OSError(message)

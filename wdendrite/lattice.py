@@ -335,7 +335,10 @@ class Lattice:
         """The weight distribution when weights came from one, else None."""
         self._weights = None
         self._device_arrays: dict[str, LatticeArrays] = {}
-        self._arrays_lock = threading.Lock()  # one build of a device's arrays, however many threads ask
+        # one build of a device's arrays, however many threads ask (a lock per device, so that a
+        # slow build on one does not hold up the others; the first lock guards the dict of them)
+        self._arrays_lock = threading.Lock()
+        self._device_locks: dict[str, threading.Lock] = {}
         self._default_delta: float | None = None  # bucket width cached by shortest_paths
         self._num_usable: int | None = None
         self._stored = _checks.flag("store_weights", store_weights)
@@ -490,6 +493,8 @@ class Lattice:
         arrays = self._device_arrays.get(key)
         if arrays is None:
             with self._arrays_lock:
+                lock = self._device_locks.setdefault(key, threading.Lock())
+            with lock:
                 arrays = self._device_arrays.get(key)
                 if arrays is None:
                     arrays = self._copied_arrays(device) if self.stores_weights else self._make_arrays(device, None)

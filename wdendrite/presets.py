@@ -382,7 +382,7 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
     from scipy import ndimage
 
     per_1000 = _checks.positive("paths_per_1000", paths_per_1000)
-    if not isinstance(text, str):  # (str() of bytes or None would have drawn "b'A'" or "None")
+    if mask is None and not isinstance(text, str):  # (str() of bytes or None would have drawn "b'A'" or "None")
         raise TypeError(f"Expected a str for 'text', but got {type(text).__name__} {text!r:.60}")
     region = _text_mask(text, _checks.integer("height", height, low=16)) if mask is None else _checks.bool_array(
         "mask", mask, np.shape(mask))

@@ -441,7 +441,9 @@ class Tropism(_Field):
                 raise ValueError(f"Expected 'center' as finite (x,) in 2D or (y, x) in 3D, but got {self.center!r}")
             _keep(self, "center", tuple(c.tolist()))
         if self.top_at_zero is not None:
-            _keep(self, "top_at_zero", _checks.flag("top_at_zero", self.top_at_zero))
+            if not isinstance(self.top_at_zero, (bool, np.bool_)):
+                raise TypeError(f"Expected a bool or None for 'top_at_zero', but got {self.top_at_zero!r}")
+            _keep(self, "top_at_zero", bool(self.top_at_zero))
 
     def _term(self, shape, op):
         ndim = len(shape)
