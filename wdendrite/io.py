@@ -185,7 +185,7 @@ def write_failed(path, exc: OSError, tmp=None) -> OSError:
     error of the same kind (``errno``) that names ``path``: the temporary file is gone, and its
     hidden name would only puzzle (the original stays as the cause). An error about another
     file (one the writer reads, say) is ``exc`` itself."""
-    if exc.filename is not None and tmp is not None and os.fspath(exc.filename) != os.fspath(tmp):
+    if exc.filename is not None and tmp is not None and str(exc.filename) != str(tmp):
         return exc
     why = exc.strerror or str(exc)
     message = f"could not write {str(path)!r}: {why}"
