@@ -52,13 +52,15 @@ class Region:
 _finite = _checks.finite
 
 
-def _point(name: str, value, ndim: int) -> np.ndarray:
+def _point(name: str, value, ndim: int | tuple[int, ...]) -> np.ndarray:
+    """``value`` as float64 node coordinates, finite: ``ndim`` of them, or (a tuple) any count it holds."""
     try:
         p = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         p = np.array([np.nan])
-    if p.shape != (ndim,) or not np.isfinite(p).all():
-        raise ValueError(f"Expected '{name}' as {ndim} finite node coordinates, but got {value!r}")
+    if p.shape not in [(n,) for n in np.atleast_1d(ndim)] or not np.isfinite(p).all():
+        what = f"{ndim} finite" if isinstance(ndim, int) else "finite (y, x) or (z, y, x)"
+        raise ValueError(f"Expected '{name}' as {what} node coordinates, but got {value!r}")
     return p
 
 
@@ -66,14 +68,7 @@ def _keep_point(region, name: str) -> tuple[float, ...]:
     """Check ``region``'s field ``name`` as finite ``(y, x)`` or ``(z, y, x)`` coordinates when the
     region is made (:meth:`Region.mask` checks them against the lattice's dimension) and store
     them as a tuple of floats, so that the region hashes, compares and prints as written."""
-    value = getattr(region, name)
-    try:
-        p = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        p = np.array([np.nan])
-    if p.shape not in ((2,), (3,)) or not np.isfinite(p).all():
-        raise ValueError(f"Expected '{name}' as finite (y, x) or (z, y, x) node coordinates, but got {value!r}")
-    kept = tuple(p.tolist())
+    kept = tuple(_point(name, getattr(region, name), (2, 3)).tolist())
     object.__setattr__(region, name, kept)
     return kept
 
