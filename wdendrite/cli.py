@@ -363,7 +363,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
             if heightmap and any(p.suffix.lower() == ".png" for p in paths):
                 _heightmap(_field(result, name))  # (refused before any write too)
         seconds = time.perf_counter() - t0
-        bar.set_description_str(f"{name}: writing {len(paths)} file{'s' if len(paths) != 1 else ''}")
+        bar.set_description_str(f"{name}: writing {counted(len(paths), 'file')}")
         t1 = time.perf_counter()
         written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
     rec = {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
