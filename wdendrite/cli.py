@@ -150,11 +150,7 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
                 io.sync_to_disk(tmp)
                 os.chmod(tmp, mode)
             except OSError as exc:
-                # (an error before tmp exists is about making it)
-                failed = io.write_failed(p, exc, exc.filename if tmp is None else tmp)
-                if failed is not exc:
-                    raise failed from exc
-                raise
+                io.raise_write_failed(p, exc, tmp)
         for _, p in staged:  # a file that appeared meanwhile is not clobbered without --force
             what = io.occupied(p)
             if what and not force:

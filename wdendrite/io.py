@@ -13,6 +13,7 @@ import warnings
 import zipfile
 import zlib
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
@@ -123,7 +124,7 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
     try:
         tmp = str(temporary_beside(path, mode))
     except OSError as exc:
-        raise write_failed(path, exc, exc.filename) from exc
+        raise_write_failed(path, exc)
     try:
         write(tmp)
         sync_to_disk(tmp)
@@ -146,9 +147,7 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         if os.path.exists(tmp):
             os.unlink(tmp)
         if isinstance(exc, OSError) and not isinstance(exc, FileExistsError):
-            failed = write_failed(path, exc, tmp)
-            if failed is not exc:
-                raise failed from exc
+            raise_write_failed(path, exc, tmp)
         raise
     sync_folder(path.parent)
     return path
@@ -180,16 +179,16 @@ def interrupts_held():
         raise KeyboardInterrupt
 
 
-def write_failed(path, exc: OSError, tmp=None) -> OSError:
-    """``exc``, raised while ``path`` was staged in the temporary file ``tmp`` beside it, as an
-    error of the same kind (``errno``) that names ``path``: the temporary file is gone, and its
-    hidden name would only puzzle (the original stays as the cause). An error about another
-    file (one the writer reads, say) is ``exc`` itself."""
+def raise_write_failed(path, exc: OSError, tmp=None) -> NoReturn:
+    """Raise ``exc``, caught while ``path`` was staged in the temporary file ``tmp`` beside it
+    (None: while that file was made), as an error of the same kind (``errno``) that names
+    ``path``: the temporary file is gone, and its hidden name would only puzzle (the original
+    stays as the cause). An error about another file (one the writer reads, say) is raised as it is."""
     if exc.filename is not None and tmp is not None and str(exc.filename) != str(tmp):
-        return exc
+        raise exc
     why = exc.strerror or str(exc)
     message = f"could not write {str(path)!r}: {why}"
-    return OSError(exc.errno, message) if exc.errno is not None else OSError(message)
+    raise (OSError(exc.errno, message) if exc.errno is not None else OSError(message)) from exc
 
 
 def sync_to_disk(path) -> None:
