@@ -21,7 +21,7 @@ from . import _checks
 from .dendry import DendryParams, coordinate_limit
 from .render import relief, unit_range
 
-__all__ = ["MODELS", "TABLE1", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
+__all__ = ["MODELS", "TABLE1", "TERRAIN", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
 
 @dataclass(frozen=True)
@@ -170,10 +170,17 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
 
 
 TABLE1 = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
-"""The paper's Table 1 Dendry parameters: the default of the ``dendry`` and ``terrain`` models."""
+"""The paper's Table 1 Dendry parameters, as published."""
+
+TERRAIN = dataclasses.replace(TABLE1, fine_eps=0.0, primitive_eps=0.4, outlets=True)
+"""The default of the ``dendry`` and ``terrain`` models: Table 1's parameters with three additions
+of ours that make terrains drain and remove seams (``benchmarks/table1_hydrology.py`` measures
+both): level-1 rivers get outlets at the border, the finer levels' key points jitter freely, so
+that divides do not follow the level-1 cells' borders, and the terrain primitives lie nearly on a
+grid, so that valley floors follow their rivers (see :class:`wdendrite.DendryParams`)."""
 
 
-def dendry(size: int = 512, *, params: DendryParams = TABLE1,
+def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
            output: Literal["distance", "elevation", "level"] = "distance", extent: float = 4.0,
            control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
@@ -199,7 +206,7 @@ def dendry(size: int = 512, *, params: DendryParams = TABLE1,
     return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
 
 
-def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4.0, control: Control = "perlin",
+def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 4.0, control: Control = "perlin",
             frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
     """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
 
