@@ -22,8 +22,12 @@ Two methods, each on every terrain:
 The baselines (fBm and ridged multifractal, 8 octaves, frequency 4) take the Dendry seeds 0-9
 at the same size.
 
+Variants of the ``terrain`` method (each named as such in the output, never as the paper's):
+``--set FIELD=VALUE`` changes a DendryParams field of it (repeatable; VALUE a number, true, false,
+none or a comma list), ``--raw-control`` leaves its control undrained.
+
 Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--control-seeds 10]
-       [--method terrain|paper|both] [--search exact|paper] [--quick]
+       [--method terrain|paper|both] [--search exact|paper] [--set FIELD=VALUE ...] [--raw-control] [--quick]
 """
 
 from __future__ import annotations
@@ -48,24 +52,37 @@ METHODS = {"terrain": (TERRAIN, True), "paper": (TABLE1, False)}
 DOMAIN = ((0.0, 0.0), (4.0, 4.0))
 
 
-def terrain(method: str, size: int, seed: int, control_seed: int, search: str = "exact") -> np.ndarray:
+def terrain(method: str, size: int, seed: int, control_seed: int, search: str = "exact",
+            variant: tuple | None = None) -> np.ndarray:
     """The (size, size) elevation of Dendry seed ``seed`` on the Perlin control of ``control_seed``,
-    made as the ``terrain`` command makes it (its setup function) with ``method``'s parameters."""
-    params, drained = METHODS[method]
+    made as the ``terrain`` command makes it (its setup function) with ``method``'s parameters, or
+    with ``variant``'s (params, drained) instead."""
+    params, drained = METHODS[method] if variant is None else variant
     setup = dendry_setup(size, params, extent=4.0, control="perlin", frequency=1.0, drained=drained,
                          seed=control_seed, output="elevation")
     setup["params"] = dataclasses.replace(setup["params"], seed=seed, search=search)
     return dendry(**setup, output="elevation")
 
 
-def measure(method: str, size: int, seeds: int, control_seeds: int, search: str = "exact") -> np.ndarray:
+def measure(method: str, size: int, seeds: int, control_seeds: int, search: str = "exact",
+            variant: tuple | None = None) -> np.ndarray:
     """(control_seeds, seeds, 2) depression surface (%) and count of every terrain of the protocol."""
     out = np.zeros((control_seeds, seeds, 2))
     for cs in range(control_seeds):
         for s in range(seeds):
-            d = hydrology.depressions(terrain(method, size, s, cs, search))
+            d = hydrology.depressions(terrain(method, size, s, cs, search, variant))
             out[cs, s] = d.percent, d.count
     return out
+
+
+def _value(text: str):
+    """A --set value: a number, true, false, none, or a comma list of numbers (a tuple)."""
+    low = text.strip().lower()
+    if low in ("true", "false", "none"):
+        return {"true": True, "false": False, "none": None}[low]
+    if "," in text:
+        return tuple(float(v) for v in text.split(","))
+    return int(text) if text.strip().lstrip("-").isdigit() else float(text)
 
 
 def level1_sinks(params: DendryParams, ctl, domain=DOMAIN, *, points: bool = False) -> list[tuple]:
@@ -107,8 +124,26 @@ def main() -> None:
     ap.add_argument("--control-seeds", type=int, default=10, help="Perlin control seeds 0..N-1")
     ap.add_argument("--method", default="both", choices=["terrain", "paper", "both"])
     ap.add_argument("--search", default="exact", choices=["exact", "paper"], help="link neighbourhoods")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="change a DendryParams field of the terrain method (a variant, named as such)")
+    ap.add_argument("--raw-control", action="store_true", help="the terrain method on the undrained control (a variant)")
     ap.add_argument("--quick", action="store_true", help="256^2, 3 seeds on 2 controls (not the protocol)")
     args = ap.parse_args()
+    variant, changes = None, []
+    if args.set or args.raw_control:
+        fields = {}
+        for item in args.set:
+            name, _, text = item.partition("=")
+            try:
+                fields[name] = _value(text)
+            except ValueError:
+                ap.error(f"--set takes FIELD=VALUE with a number, true, false, none or a comma list, got {item!r}")
+            changes.append(f"{name}={text}")
+        try:
+            variant = (dataclasses.replace(TERRAIN, **fields), not args.raw_control)
+        except (TypeError, ValueError) as exc:
+            ap.error(f"--set: {exc}")
+        changes += ["an undrained control"] if args.raw_control else []
     if args.quick:
         args.size, args.seeds, args.control_seeds = 256, 3, 2
     if args.size < 2 or args.seeds < 1 or args.control_seeds < 1:
@@ -124,8 +159,11 @@ def main() -> None:
     t0 = time.perf_counter()
     lines = []
     for method in (("terrain", "paper") if args.method == "both" else (args.method,)):
-        res = measure(method, args.size, args.seeds, args.control_seeds, args.search)
+        res = measure(method, args.size, args.seeds, args.control_seeds, args.search,
+                      variant if method == "terrain" else None)
         title = {"terrain": "the terrain command's defaults", "paper": "the paper's method, as published"}[method]
+        if method == "terrain" and variant is not None:
+            title = "a variant: the terrain command's defaults with " + ", ".join(changes)
         lines += _report(f"Dendry, {title}", res)
     base = {"fBm": hydrology.fbm_terrain, "ridged": hydrology.ridged_terrain}
     lines += ["\n## baselines and the paper\n", "| method | depression surface | # of depressions |", "| --- | ---: | ---: |"]

@@ -169,15 +169,11 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
 
 
 
-TABLE1 = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
+TABLE1 = DendryParams.table1()
 """The paper's Table 1 Dendry parameters, as published."""
 
-TERRAIN = dataclasses.replace(TABLE1, fine_eps=0.0, primitive_eps=0.4, outlets=True)
-"""The default of the ``dendry`` and ``terrain`` models: Table 1's parameters with three additions
-of ours that make terrains drain and remove seams (``benchmarks/table1_hydrology.py`` measures
-both): level-1 rivers get outlets at the border, the finer levels' key points jitter freely, so
-that divides do not follow the level-1 cells' borders, and the terrain primitives lie nearly on a
-grid, so that valley floors follow their rivers (see :class:`wdendrite.DendryParams`)."""
+TERRAIN = DendryParams.terrain()
+"""The default of the ``dendry`` and ``terrain`` models: :meth:`wdendrite.DendryParams.terrain`."""
 
 
 def dendry(size: int = 512, *, params: DendryParams = TERRAIN,

@@ -471,10 +471,10 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     A drained control does not by itself drain the terrain: where a valley or a basin's spill
     point is narrower than a level-1 cell, a key point can lie below all 8 of its jittered
     neighbours (a level-1 sink), and the rivers around it end in a closed basin. This is
-    common in DEM amplification (a map pixel per level-1 cell). A steeper ``slope`` removes
-    those sinks at some cost in fidelity to the map: for notebook 05's 16 x 16 map at 1024^2
-    and 2 levels, ``slope`` 1e-4 / 3e-3 / 1e-2 give 7.9 / 1.4 / 0.84 % of depressions and a
-    correlation with the map of 0.90 / 0.87 / 0.72 (``benchmarks/dem_hydrology.py``).
+    common in DEM amplification (a map pixel per level-1 cell). Level-1 outlets
+    (:attr:`wdendrite.DendryParams.outlets`) remove those sinks without tilting the map; a
+    steeper ``slope`` removes them too, at some cost in likeness to the map
+    (``benchmarks/dem_hydrology.py`` measures both).
 
     Args:
         base: any control function.

@@ -234,6 +234,20 @@ class DendryParams:
             raise ValueError(f"Expected 'search' in {_SEARCHES}, but got {self.search!r}")
         put("search", str(self.search))
 
+    @classmethod
+    def table1(cls, **changes) -> "DendryParams":
+        """The paper's Table 1 parameters (levels 2, eps 0.25, delta 0.1, beta 0.5, noise 0.05), with
+        any field replaced by ``changes``."""
+        return cls(**{**dict(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05), **changes})
+
+    @classmethod
+    def terrain(cls, **changes) -> "DendryParams":
+        """Table 1's parameters with our three additions for terrains: level-1 ``outlets``,
+        ``fine_eps = 0`` (no seams along level-1 cell borders) and ``primitive_eps = 0.4`` (valley
+        floors that follow their rivers); the ``terrain`` command's default (BENCHMARKS.md, "Dendry
+        terrains: depressions", measures what each changes). ``changes`` replace any field."""
+        return cls.table1(**{**dict(outlets=True, fine_eps=0.0, primitive_eps=0.4), **changes})
+
     def epses(self) -> tuple[float, ...]:
         """``eps`` per level (6 values, unused levels repeating the last)."""
         if isinstance(self.eps, tuple):
