@@ -23,14 +23,17 @@ import numpy as np
 
 from . import _checks
 from . import endpoints as _ep
+from . import lightning as _lightning
 from . import geometry as _geo
 from . import render as _r
 from . import weights as _w
 from .dendrite import Dendrite, trace
+from .endpoints import _requested as _endpoints_in
 from .growth import FractalParams, grow
 from .lattice import Lattice
+from .lightning import LightningParams
 from .refine import _check_n_e, refine
-from .sssp import shortest_paths
+from .sssp import _cost_per_node, shortest_paths
 
 __all__ = [
     "LightningParams",
@@ -132,18 +135,6 @@ _REACH = 0.85
 """Fraction of its half-width (in path cost) a fractal preset's schedule reaches: the first
 endpoints lie at cost d from the generator and each later iteration's d / alpha^k beyond the
 dendrite, so its tips reach about d (1 + 1/alpha + ... + 1/alpha^(n-1)) from the centre."""
-
-
-def _cost_per_node(lat: Lattice, centre, radius: float, dist=None) -> float:
-    """Least path cost per node of straight-line distance from ``centre``: the median over the
-    nodes between 0.8 and 1 times ``radius`` away (it is well below the mean weight, since least
-    paths pick cheap edges). ``dist``: the costs from ``centre`` when already searched."""
-    if dist is None:
-        dist = shortest_paths(lat, [centre]).dist
-    grid = np.indices(lat.shape, dtype=np.float64)
-    r = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, centre)))
-    ring = (r >= 0.8 * radius) & (r <= radius) & np.isfinite(dist)
-    return float(np.median(dist[ring] / r[ring])) if ring.any() else float(lat.weights[0].mean())
 
 
 # --------------------------------------------------------------------------- 2D dendrites
@@ -405,134 +396,30 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
 # --------------------------------------------------------------------------- lightning and widths
 
 
-@dataclass(frozen=True)
-class LightningParams:
-    """The papers' lightning: two 2D graphs with power weights, tapering, glow (constructive path planning, Fig. 9)."""
-
-    alpha: float = 3.0
-    """Exponent of the power weights ``R^alpha`` (3: erratic strokes)."""
-    forks: int = 9
-    """Endpoints of side branches in the first graph (besides the main stroke's), >= 0."""
-    minor_forks: int = 14
-    """Endpoints of the second graph, which holds only side branches, >= 0."""
-    main_width: _r.Taper = _r.Taper(2.6, 1.8, along="path")
-    """Width of the main stroke: thick and nearly constant. Widths and the glow radius are pixels of a
-    600^2 picture and scale with the picture's smaller side (by at least 0.5)."""
-    fork_width: _r.Taper = _r.Taper(1.9, 0.45, along="branch")
-    """Width of the first graph's side branches: they taper visibly."""
-    minor_width: _r.Taper = _r.Taper(1.3, 0.35, along="path")
-    """Width of the second graph's branches."""
-    minor_gain: float = 0.8
-    """Brightness of the second graph relative to the first, in [0, 1]."""
-    glow_radius: float = 14.0
-    """Blur radius of the halo (pixels), > 0."""
-    glow_gain: float = 1.4
-    """Strength of the halo, >= 0."""
-    metric: Literal["euclidean", "path"] = "euclidean"
-    """What brightness falls off with: "euclidean", the distance in pixels (smooth strokes), or
-    "path", the papers' path cost over each graph's own random lattice, the widths scaled by its
-    measured cost per pixel (ragged strokes whose glow creeps along cheap edges)."""
-
-    def __post_init__(self):
-        _checks.positive("alpha", self.alpha)
-        if self.metric not in ("euclidean", "path"):
-            raise ValueError(f"Expected 'metric' in ('euclidean', 'path'), but got {self.metric!r}")
-        # the weights' own bound, in this preset's words: Power's default range (1, max), times the
-        # longest edge a lattice may have (sqrt 3), below the supported largest weight
-        top, limit = _w.Power().max, math.log(_w._MAX_WEIGHT / math.sqrt(3.0))
-        if not float(self.alpha) * math.log(top) < limit:
-            raise ValueError(f"'alpha' of the lightning's power weights must keep sqrt(3) * {top:g}**alpha below "
-                             f"{_w._MAX_WEIGHT:g} (alpha < {limit / math.log(top):.4g}), but got {self.alpha!r}")
-        _checks.integer("forks", self.forks, low=0)
-        _checks.integer("minor_forks", self.minor_forks, low=0)
-        for name in ("main_width", "fork_width", "minor_width"):
-            w = getattr(self, name)
-            if not isinstance(w, _r.Taper):
-                _checks.positive(name, w)
-        gain = _checks.nonnegative("minor_gain", self.minor_gain, allow_none=False)
-        if gain > 1:
-            raise ValueError(f"Expected 'minor_gain' in [0, 1], but got {self.minor_gain!r}")
-        _checks.positive("glow_radius", self.glow_radius)
-        _checks.nonnegative("glow_gain", self.glow_gain, allow_none=False)
-
-
-def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed, name: str) -> np.ndarray:
-    """Endpoints near the main stroke, denser lower in the image (2007 paper, section 4); ``name``
-    is the parameter that asked for ``count`` of them (errors name it)."""
-    from scipy import ndimage
-
-    h, w = lat.shape
-    free = np.ones(lat.shape, bool)
-    free[tuple(stroke.nodes.T)] = False
-    near = ndimage.distance_transform_edt(free) < 0.22 * w
-    near[: h // 5] = False
-    return _endpoints_in(name, count, "near the main stroke of", lat.shape, lambda: _ep.biased(
-        lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near, min_spacing=0.04 * min(h, w)))
-
-
-def _sky(shape) -> np.ndarray:
-    y = np.linspace(0.0, 1.0, shape[0], dtype=np.float32)[:, None, None]
-    top, bottom = np.array([0.05, 0.05, 0.12], np.float32), np.array([0.01, 0.01, 0.03], np.float32)
-    return np.broadcast_to(top * (1 - y) + bottom * y, (*shape, 3)).copy()
-
-
-def _scaled(width, s: float):
-    if isinstance(width, _r.Taper):
-        return _r.Taper(width.start * s, width.end * s, width.beta, width.along)
-    return float(width) * s
-
-
 def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), seed: int = 0) -> Result:
-    """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; 2007 paper, Fig. 14).
+    """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; thesis Fig. 4.11).
 
-    The first graph holds the main stroke, from a generator at the top to an
-    endpoint at the bottom, plus forks near it; the second graph, with other
-    weights, holds only side branches, grown from the upper main stroke (the
-    thesis starts both graphs at the same generator; growing the second from
-    the stroke keeps its branches on it). Their brightness images are
-    combined, given a halo and lit over a night sky. Two choices differ from
-    the papers by default: brightness falls off with the distance in pixels,
-    not the path cost over the random lattice (``params.metric = "path"``
-    gives the papers' ragged look), and a blurred halo is added, which the
-    constructive paper says its renderings largely lack (``glow_gain = 0``
-    leaves it out). ``parts`` holds both dendrites, the core brightness
-    ``"value"`` and the halo ``"glow"``.
+    The first graph (power weights, alpha = 3) holds the main channel, from a
+    generator at the top to an endpoint at the bottom, thick and of nearly
+    constant width, and a few side branches; the second, with other weights,
+    holds only side branches, whose endpoints lie near the channel and low in
+    the picture. Branches join the structure above their endpoints and never
+    run alongside it (see :mod:`wdendrite.lightning`), so the bolt is one tree.
+    Brightness is ``exp(-(d/T)^2)`` of the path cost ``d`` from the strokes
+    (``params.metric = "euclidean"`` gives smooth strokes), ``T`` tapered by
+    eq. 2; a blurred halo is optional (``glow_gain``). ``parts`` holds the main
+    channel ``"main"``, the ``"graph"`` of every node (0 main channel, 1 the first
+    graph's branches, 2 the second's), the ``"widths"``, the brightness
+    ``"value"``, the halo ``"glow"`` and the ``"lattices"``.
     """
     shape = _shape(shape, 2)
     if not isinstance(params, LightningParams):
         raise TypeError(f"Expected LightningParams for 'params', but got {type(params).__name__}")
-    rng = _checks.rng(seed)
-    h, w = shape
-    gen = np.array([[2, int(w * rng.uniform(0.4, 0.6))]])
-    lat1 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
-    cf1 = shortest_paths(lat1, gen)
-    main = trace(cf1, [[h - 3, int(w * rng.uniform(0.3, 0.7))]])
-    first = trace(cf1, _forks_near(lat1, main, params.forks, rng, "forks"), extend=main) if params.forks else main
-    # the papers' widths are for 600^2 pictures; keep the look at other sizes
-    s = max(min(h, w) / 600.0, 0.5)
-
-    def value_of(den, lat, width, side=None, dist=None):
-        if params.metric == "euclidean":
-            return _r.brightness(den, _scaled(width, s), side=None if side is None else _scaled(side, s))
-        # widths in path cost: pixels times what a least path costs per pixel on this lattice
-        c = s * _cost_per_node(lat, tuple(den.nodes[den.parent < 0][0]), min(h, w) / 3, dist)
-        return _r.brightness(den, _scaled(width, c), side=None if side is None else _scaled(side, c),
-                             metric="path", lattice=lat)
-
-    v1 = value_of(first, lat1, params.main_width, params.fork_width, cf1.dist)  # (first's root: the generator)
-    layers, gains, second, lat2 = [v1], [1.0], None, None
-    if params.minor_forks:
-        lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
-        # the second graph's branches leave the upper main stroke (its nodes are the generators) and
-        # travel down to endpoints lower in the picture, crossing the first graph's branches
-        stem = main.nodes[(main.nodes[:, 0] > 0.06 * h) & (main.nodes[:, 0] < 0.4 * h)]
-        second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng, "minor_forks"))
-        layers.append(value_of(second, lat2, params.minor_width))
-        gains.append(params.minor_gain)
-    value = _r.composite(layers, mode="max", gains=gains)
-    halo = _r.glow(value, radius=params.glow_radius * s) * params.glow_gain
-    img = _r.colorize(value, colormap="lightning", glow=halo, background=_sky(shape))
-    return Result(img, first, parts={"second": second, "value": value, "glow": halo, "lattices": (lat1, lat2)})
+    made = _lightning.strike(shape, params, seed)
+    den = made["dendrite"]
+    return Result(made["image"], den, parts={"main": made["main"], "graph": den.generation, "widths": made["widths"],
+                                             "value": made["value"], "glow": made["glow"],
+                                             "lattices": made["lattices"]})
 
 
 def _one_path(shape, r: float, seed: int) -> tuple[Dendrite, Lattice]:
@@ -584,15 +471,6 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
 
 
 _GEOMETRIES = ("spheres", "tubes", "isosurface")
-
-
-def _endpoints_in(name: str, count: int, where: str, shape, draw) -> np.ndarray:
-    """``draw()``'s endpoints; a request that cannot be met is reported against the preset's parameter ``name``."""
-    try:
-        return draw()
-    except _ep.TooManyEndpoints as exc:
-        size = " x ".join(map(str, shape))
-        raise ValueError(f"'{name}' = {count} is more than fit {where} the {size} lattice: {exc}") from None
 
 
 # spheres this far apart (a body diagonal) touch when their radius is at least half of it
