@@ -99,7 +99,8 @@ def _ink(value: np.ndarray) -> np.ndarray:
 
 
 def _drawing(den: Dendrite, width=1.6) -> np.ndarray:
-    return _ink(_r.brightness(den, width, metric="euclidean"))
+    """``den`` drawn in antialiased strokes ``width`` pixels wide, dark on white."""
+    return _ink(_r.strokes(den, width))
 
 
 def _tile(panels: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:
