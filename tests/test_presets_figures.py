@@ -13,6 +13,7 @@ SMALL = {
     "fractal_grid": lambda s: presets.fractal_grid(48, alphas=(2.0, 1.2), betas=(2.0,), seed=s),
     "width_demo": lambda s: presets.width_demo((64, 40), seed=s),
     "taper_demo": lambda s: presets.taper_demo((64, 64), endpoints=3, seed=s),
+    "weight_distributions": lambda s: presets.weight_distributions((48, 48), endpoints=5, seed=s),
 }
 
 

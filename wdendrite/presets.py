@@ -417,7 +417,8 @@ def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 
     _checks.stop_if_checking()  # (a check of the preset stops before the weight arrays are drawn)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
                                       seed, connectivity=connectivity)
-    return Result(_tile(panels, len(ns)), dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
+    image = _panels.labelled(panels, [f"n = {n:g}" for n in ns], len(ns))
+    return Result(image, dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
 
 
 def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), strength: float = 12.0,
@@ -449,10 +450,8 @@ def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
     colours = [np.array([0.75, 0.3, 0.1]), np.array([0.1, 0.35, 0.7])]
     img = np.ones((*shape, 3), np.float32)
     for k, c in enumerate(colours):
-        rows = np.flatnonzero(den.label == k)
-        if len(rows):
-            v = _r.brightness(den, 1.4, rows=rows, metric="euclidean")
-            img -= v[..., None] * (1.0 - c)
+        if (den.label == k).any():
+            img -= _r.strokes(den, 1.8, ink=(den.label == k).astype(np.float32))[..., None] * (1.0 - c)
     return Result(np.clip(img, 0, 1), den, parts={"lattice": lat})
 
 
