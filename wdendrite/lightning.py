@@ -17,14 +17,20 @@ path cost per node for each row they descend, so it joins the structure where
 the way up pays, above its endpoint: on a vertical channel at about
 ``asin(descent)`` from the horizontal. A branch ends where it first comes within
 ``gap`` pixels of the structure and joins it by a straight step, so branches
-never run alongside the channel or each other, and the picture stays a tree;
-branches that would climb above where they leave, or that start that close,
-are left out. The papers do not say over which weights their brightness
-search runs; over the strokes' own ``R^3`` weights the light creeps along
-cheap edges into hairy fringes and the channel's width varies several-fold, so
-it runs over the same draws ``R`` with the gentler exponent ``glow_alpha`` (the
-constructive paper's 0.3 makes "nearly straight" paths): the strokes keep a
-slightly irregular edge and the channel a nearly constant width.
+never run alongside the channel or each other, and the picture stays a tree.
+Three candidate endpoints are drawn per branch asked for; in the order drawn,
+a branch is kept unless its endpoint lies that close already or, followed
+outward, it rises more than :data:`CLIMB` rows above the lowest point it has
+passed (lightning does not branch upward), until as many as asked are kept.
+
+The papers do not say over which weights their brightness search runs; over
+the strokes' own ``R^3`` weights the light creeps along cheap edges into hairy
+fringes and the channel's width varies widely along it, so it runs over the
+same draws ``R`` with the gentler exponent ``glow_alpha`` (the constructive
+paper's 0.3 makes "nearly straight" paths): the strokes keep a slightly
+irregular edge and the channel a nearly constant width. A stroke thinner than
+:data:`FULL` pixels lights its nodes in proportion to its width, as a channel
+narrower than a pixel would, so branch tips fade out.
 """
 
 from __future__ import annotations

@@ -340,8 +340,6 @@ def cheap_paths(shape=(200, 200), *, factors=(1.0, 0.8, 0.6, 0.3), former: int =
         if not 0 < f <= 1:
             raise ValueError(f"Expected every entry of 'factors' in (0, 1], but got {f!r}")
         FractalParams(count=former, d=2.0, alpha=2.0, beta=added / former, epsilon=0.5, cheap=f)
-    _checks.seed32(seed)
-    _checks.stop_if_checking()  # (a check of the preset stops before the lattice is filled)
     h, w = shape
     lat = Lattice(shape, connectivity, weights=_w.Uniform(r=10, seed=seed))
     centre = (h // 2, w // 2)
