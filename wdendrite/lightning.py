@@ -74,7 +74,7 @@ class LightningParams:
     """Exponent of the power weights ``R^alpha``, R uniform in (1, 11) (3: the papers' erratic lightning)."""
     forks: int = 6
     """Side branches of the first graph (the main channel's), >= 0: each from an endpoint near the
-    channel; fewer when not that many keep clear of the structure and descend (see :data:`CLIMB`)."""
+    channel; fewer when not that many keep clear of the structure and descend without rising."""
     minor_forks: int = 18
     """Side branches of the second graph, >= 0, likewise (they may also leave the first graph's branches)."""
     descent: float = 0.7
