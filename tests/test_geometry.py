@@ -194,7 +194,9 @@ def test_preview_of_several_meshes_uses_their_colours():
     a = spheres(DEN, 1.0)
     b = tubes(DEN, 0.3)
     b.apply_translation([30.0, 0.0, 0.0])
-    img = preview([a, b], color=[(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], size=(60, 120), elevation=0, azimuth=-90)
+    # one ray per pixel and no shadow on the ground: every pixel is one mesh's colour or the background
+    img = preview([a, b], color=[(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], size=(60, 120), elevation=0, azimuth=-90,
+                  samples=1, ground=False)
     hit = np.any(img < 0.999, axis=2)
     red = hit & (img[..., 0] > 0) & (img[..., 2] == 0)
     blue = hit & (img[..., 2] > 0) & (img[..., 0] == 0)
