@@ -62,8 +62,12 @@ def image_rgb(name: str, image) -> np.ndarray:
                              f"[{arr.min()}, {arr.max()}]")
         return arr.astype(np.float64) / 255.0
     out = arr.astype(np.float64)
-    if not np.isfinite(out).all() or out.min() < 0 or out.max() > 1:
-        raise ValueError(f"Expected finite '{name}' values in [0, 1], but got [{np.nanmin(out)}, {np.nanmax(out)}]")
+    bad = ~np.isfinite(out)
+    if bad.any():
+        raise ValueError(f"Expected finite '{name}' values in [0, 1], but it has {int(bad.sum())} NaN/inf entries")
+    if out.min() < 0 or out.max() > 1:
+        raise ValueError(f"Expected '{name}' values in [0, 1] (floats) or [0, 255] (integers), but got "
+                         f"[{out.min()}, {out.max()}]")
     return out
 
 
@@ -130,7 +134,7 @@ def moss_body(den: Dendrite, radius: Width, image: np.ndarray, *, voxel: float, 
     reach = float(np.maximum(lines.radius, voxel).max()) + 3.0 * voxel
     lo = np.minimum(lines.points.min(axis=0) - reach, g_lo - 3.0 * voxel)
     hi = np.maximum(lines.points.max(axis=0) + reach, g_hi + 3.0 * voxel)
-    field, label, origin = _geo._tube_field(lines, voxel, lo, hi, _checks.device(None))
+    field, label, origin = _geo._tube_field(_geo.meshable(lines, voxel), voxel, lo, hi, _checks.device(None))
     ground = _box_field(field.shape, origin, voxel, g_lo, g_hi)
     label = np.where(ground < field, GROUND, label)
     field = np.minimum(field, ground)
@@ -217,7 +221,7 @@ def crust_body(rock_field: np.ndarray, lines: Skeleton, crust: np.ndarray, crust
     hi = np.maximum(np.maximum(lines.points.max(axis=0), pts.max(axis=0) if len(pts) else -np.inf),
                     inside.max(axis=0)[::-1] + 1.0) + reach
     device = _checks.device(None)
-    ropes, rope_seg, origin = _geo._tube_field(lines, voxel, lo, hi, device)
+    ropes, rope_seg, origin = _geo._tube_field(_geo.meshable(lines, voxel), voxel, lo, hi, device)
     # the rock's field (on lattice nodes, spacing 1) read trilinearly at the grid's nodes
     rock = affine_transform(rock_field.astype(np.float32), [voxel] * 3, offset=origin[::-1], output_shape=ropes.shape,
                             order=1, mode="nearest")

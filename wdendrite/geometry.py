@@ -565,6 +565,19 @@ def _node_of(vertices: np.ndarray, origin_xyz: np.ndarray, voxel: float, shape) 
     return ijk[:, 2], ijk[:, 1], ijk[:, 0]
 
 
+SAGITTA = 0.1
+"""Marching cubes cuts a tube of radius ``r`` on a grid of spacing ``h`` with flat faces between
+vertices on its surface, losing volume: a helix of radius ``h`` kept 78 % of it, of ``2 h`` 95 %. The
+radii of a body grow by ``SAGITTA * h**2 / r`` first (measured on helices of radius ``h`` to ``5 h``:
+their meshes then hold 96-100 % of the tubes' volume)."""
+
+
+def meshable(lines, voxel: float):
+    """``lines`` with radii raised to ``voxel`` at least, then grown by :data:`SAGITTA` ``* voxel**2 / r``."""
+    r = np.maximum(lines.radius, voxel)
+    return dataclasses.replace(lines, radius=r + SAGITTA * voxel**2 / r)
+
+
 def skeleton_mesh(lines, *, voxel: float | None = None, colors=None, device=None):
     """One closed body around smooth centre lines: the surface of their tapered capsules' union.
 
@@ -575,7 +588,9 @@ def skeleton_mesh(lines, *, voxel: float | None = None, colors=None, device=None
     kernel on a grid of spacing ``voxel`` and meshed by marching cubes
     (scikit-image's, whose surfaces of a closed field are closed 2-manifolds).
     A connected skeleton gives one body: radii below ``voxel`` are raised to
-    it, since a thinner tube could fall between the grid's nodes.
+    it, since a thinner tube could fall between the grid's nodes; all radii
+    then grow a little (see :data:`SAGITTA`) so that the mesh holds the tubes'
+    volume. Pockets the tubes enclose (where they nearly touch) are filled.
 
     Args:
         lines: a :class:`~wdendrite.skeleton.Skeleton`.
@@ -605,9 +620,8 @@ def skeleton_mesh(lines, *, voxel: float | None = None, colors=None, device=None
         voxel = max(float(lines.radius.min()), extent / 400.0)
     voxel = _checks.positive("voxel", voxel)
     cols = None if colors is None else _rgb_rows("colors", colors, len(lines), "sample")
-    radius = np.maximum(lines.radius, voxel)
-    grown = dataclasses.replace(lines, radius=radius)
-    reach = float(radius.max()) + 3.0 * voxel  # the border lies beyond every capsule's band
+    grown = meshable(lines, voxel)
+    reach = float(grown.radius.max()) + 3.0 * voxel  # the border lies beyond every capsule's band
     lo, hi = pts.min(axis=0) - reach, pts.max(axis=0) + reach
     device = _checks.device(device)
     field, label, origin = _tube_field(grown, voxel, lo, hi, device)

@@ -737,16 +737,21 @@ _LICHEN_KINDS = ((0.88, 0.58, 0.16), (0.62, 0.7, 0.5))
 
 
 def _check_bands(bands, density) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """Band edges (increasing, > 0, in nodes) and one density in (0, 1] per band."""
-    edges = _entries("bands", bands, "increasing distances", lambda v: _checks.positive("bands", v))
+    """Band edges (increasing, > 0, in nodes), at most one per kind of lichen, and one density in (0, 1]
+    per band."""
+    def numbers(name, values, what):
+        if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, np.ndarray)) or len(values) == 0:
+            raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
+        return [_checks.positive(name, v) for v in values]
+
+    edges = numbers("bands", bands, "increasing distances")
     if any(b <= a for a, b in zip(edges, edges[1:])):
         raise ValueError(f"Expected 'bands' increasing, but got {bands!r}")
-    dens = [_checks.positive("density", v) for v in (density if isinstance(density, (list, tuple, np.ndarray))
-                                                      else [density])]
-    if len(dens) != len(edges) or any(v > 1 for v in dens):
-        raise ValueError(f"Expected one 'density' in (0, 1] per band ({len(edges)}), but got {density!r}")
     if len(edges) > len(_LICHEN_KINDS):
         raise ValueError(f"Expected at most {len(_LICHEN_KINDS)} 'bands' (one per kind of lichen), but got {bands!r}")
+    dens = numbers("density", density, "shares in (0, 1]")
+    if len(dens) != len(edges) or any(v > 1 for v in dens):
+        raise ValueError(f"Expected one 'density' in (0, 1] per band ({len(edges)}), but got {density!r}")
     return tuple(edges), tuple(dens)
 
 

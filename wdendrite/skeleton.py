@@ -171,7 +171,7 @@ def skeleton(
             or an ``(N,)`` array (see :func:`~wdendrite.render.node_widths`).
         side: optional radius of side branches (``radius`` then applies to main paths).
         sigma: width of the Gaussian that smooths each branch, in world units along it
-            (default: 1.5 node spacings, ``1.5 * dendrite.spacing``); 0 keeps the nodes
+            (default: 2 node spacings, ``2 * dendrite.spacing``); 0 keeps the nodes
             and only interpolates.
         samples: samples per node interval of the spline, >= 1.
         min_radius: radii below it are raised to it (world units, >= 0).
@@ -190,7 +190,7 @@ def skeleton(
         raise ValueError("'dendrite' is empty (no nodes): there is no centre line to draw")
     if dendrite.ndim != 3:
         raise ValueError(f"skeleton() needs a 3D dendrite, but the dendrite has shape {tuple(dendrite.shape)}")
-    sigma = 1.5 * float(dendrite.spacing) if sigma is None else _checks.nonnegative("sigma", sigma, allow_none=False)
+    sigma = 2.0 * float(dendrite.spacing) if sigma is None else _checks.nonnegative("sigma", sigma, allow_none=False)
     samples = _checks.integer("samples", samples, low=1)
     min_radius = _checks.nonnegative("min_radius", min_radius, allow_none=False)
     r = np.maximum(node_widths(dendrite, radius, side=side, _name="radius").astype(np.float64), min_radius)
