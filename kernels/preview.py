@@ -44,11 +44,14 @@ class Lights:
 
 
 @wp.func
-def key_dir(lights: Lights, sx: int, sy: int, samples: int) -> wp.vec3:
-    """The key light's direction for the ray ``(sx, sy)`` of a pixel's ``samples x samples``."""
+def key_dir(lights: Lights, state: wp.uint32, sx: int, sy: int, samples: int) -> wp.vec3:
+    """The key light's direction for the ray ``(sx, sy)`` of a pixel's ``samples x samples``: one
+    stratum of the light's square each, at a place within it drawn from the pixel's own random
+    stream (``state``), so that neighbouring pixels do not repeat one pattern (stripes in the
+    penumbra) but differ by grain."""
     inv = 1.0 / float(samples)
-    a = ((float(sx) + 0.5) * inv - 0.5) * lights.spread
-    b = ((float(sy) + 0.5) * inv - 0.5) * lights.spread
+    a = ((float(sx) + wp.randf(state)) * inv - 0.5) * lights.spread
+    b = ((float(sy) + wp.randf(state)) * inv - 0.5) * lights.spread
     return wp.normalize(lights.key + lights.key_u * a + lights.key_v * b)
 
 
@@ -97,6 +100,7 @@ def preview_kernel(
     w = rgb_out.shape[1]
     acc = wp.vec3(0.0, 0.0, 0.0)
     inv = 1.0 / float(samples)
+    state = wp.rand_init(7919, y * w + x)  # (a fixed seed: the same picture every time)
     for sy in range(samples):
         for sx in range(samples):
             px = (float(x) + (float(sx) + 0.5) * inv) / float(w)
@@ -121,7 +125,7 @@ def preview_kernel(
                     n = g
                 p = start + camera.forward * q.t
                 base = colors_in[i0] * q.u + colors_in[i1] * q.v + colors_in[i2] * c
-                key = key_dir(lights, sx, sy, samples)
+                key = key_dir(lights, state, sx, sy, samples)
                 color = base * lit(mesh, p + g * lights.offset, n, camera.forward, key, lights.offset)
             elif lights.ground != 0 and camera.forward[2] < 0.0:
                 t = (lights.ground_z - start[2]) / camera.forward[2]
@@ -129,7 +133,7 @@ def preview_kernel(
                 dx = p[0] - lights.ground_center[0]
                 dy = p[1] - lights.ground_center[1]
                 fade = wp.exp(-(dx * dx + dy * dy) / (lights.ground_radius * lights.ground_radius))
-                key = key_dir(lights, sx, sy, samples)
+                key = key_dir(lights, state, sx, sy, samples)
                 dark = 0.42 * fade * shadowed(mesh, p + wp.vec3(0.0, 0.0, lights.offset), key)
                 color = lights.background * (1.0 - dark)
             acc = acc + wp.vec3(wp.min(color[0], 1.0), wp.min(color[1], 1.0), wp.min(color[2], 1.0))

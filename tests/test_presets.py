@@ -333,8 +333,8 @@ def test_moss_scales_its_default_endpoints_with_the_volume():
     import inspect
 
     assert inspect.signature(presets.moss).parameters["endpoints"].default is None
-    den = presets.moss((12, 16, 16)).dendrite  # 400 at 40 x 96 x 96 would not fit here
-    assert len(den.endpoints) == round(400 * 12 * 16 * 16 / (40 * 96 * 96))
+    den = presets.moss((12, 16, 16)).dendrite  # 800 at 40 x 96 x 96 would not fit here
+    assert len(den.endpoints) == round(800 * 12 * 16 * 16 / (40 * 96 * 96))
 
 
 @pytest.mark.parametrize("seed", range(4))

@@ -146,7 +146,7 @@ def moss_body(den: Dendrite, radius: Width, image: np.ndarray, *, voxel: float, 
         lab = label[_geo._node_of(v, origin, voxel, field.shape)]
         out = seg_colors[np.maximum(lab, 0)]
         on = lab == GROUND
-        out[on] = 0.5 * _at(image, v[on, 1] - org[1], v[on, 0] - org[0], extent_y, extent_x) * 0.8 + 0.5 * soil
+        out[on] = 0.7 * 0.75 * _at(image, v[on, 1] - org[1], v[on, 0] - org[0], extent_y, extent_x) + 0.3 * soil
         return out
 
     return _geo._closed_body(field, origin, voxel, paint), lines

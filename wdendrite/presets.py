@@ -796,8 +796,8 @@ def lichen_cluster(shape=(256, 256), *, count: int = 8, bands=(2.5, 8.0), densit
 lichen_cluster.units = {"bands": "nodes", "density": "fraction"}
 
 
-def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 8, bands=(1.5, 4.0),
-                   density=(0.85, 0.45), on_rock: bool = True, seed: int = 0) -> Result:
+def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 4, bands=(1.0, 3.5),
+                   density=(0.9, 0.6), on_rock: bool = True, seed: int = 0) -> Result:
     """Lichen grown over a rock, as a cluster of crusty patches (2007 paper, Fig. 16 and Table 2:
     128^3; thesis section 5.4, Fig. 5.4 bottom, in 3D). A fractal dendrite grows over the rock's
     surface nodes (generator and endpoints on them); then the surface nodes whose path cost along
@@ -848,7 +848,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     rock_field = gaussian_filter(_geo.signed_region_field(inside, band=3.0), 0.7)
     mesh, _ = _scenes.crust_body(rock_field, lines, crust, kind[tuple(crust.T)], _LICHEN_KINDS, _ROCK,
                                  grain=1.3, thickness=(0.45, 0.3), voxel=0.5, seed=seed)
-    img = _geo.preview(mesh)
+    img = _geo.preview(mesh, elevation=35)
     return Result(img, den, mesh, parts={"kind": kind, "crust": crust, "skeleton": lines, "rock_field": rock_field,
                                          "costfield": cf, "lattice": lichen_lat})
 
@@ -864,7 +864,8 @@ def moss(shape=(40, 96, 96), *, endpoints: int | None = None, image: np.ndarray 
 
     Args:
         shape: lattice shape (D, H, W).
-        endpoints: number of endpoints (default: 400 at the default shape, in proportion to the volume elsewhere).
+        endpoints: number of endpoints (default: 800 at the default shape, a dense cushion, in
+            proportion to the volume elsewhere).
         image: ``(h, w, 3)`` RGB picture (floats in [0, 1] or 8-bit), stretched over the ground
             (rows along the lattice's H axis); default: a procedural mossy picture of greens.
         seed: seed of the weights, the endpoints and the default picture.
@@ -872,7 +873,7 @@ def moss(shape=(40, 96, 96), *, endpoints: int | None = None, image: np.ndarray 
     shape = _shape(shape, 3)
     d, h, w = shape
     if endpoints is None:
-        endpoints = max(1, round(400 * d * h * w / (40 * 96 * 96)))
+        endpoints = max(1, round(800 * d * h * w / (40 * 96 * 96)))
     endpoints = _checks.integer("endpoints", endpoints, low=1)
     picture = _scenes.moss_image((h, w), _checks.seed32(seed)) if image is None else _scenes.image_rgb("image", image)
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
