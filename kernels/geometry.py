@@ -7,7 +7,7 @@ import warp as wp
 
 from . import OPTIONS
 from .lattice import in_bounds, node_index
-from .sssp import UNREACHED, pack_cost, packed_cost, packed_label
+from .sssp import pack_cost
 
 wp.set_module_options(OPTIONS)
 
@@ -129,7 +129,8 @@ def tube_field_kernel(
 ):
     """Each segment (a tapered capsule: distance to the segment minus the radius interpolated at the
     nearest point) writes ``pack(value + offset, segment)`` into every node of its box where the value
-    is below ``band`` (atomic minimum: the least value and, among equal values, the lowest segment)."""
+    is below ``band`` (atomic minimum: the least value and, among equal values, the lowest segment;
+    :func:`wdendrite.kernels.render.unpack_nearest_kernel` splits the words)."""
     s = wp.tid()
     seg = segments_in[s]
     a = points_in[seg[0]]
@@ -164,22 +165,3 @@ def tube_field_kernel(
                 x += 1
             y += 1
         z += 1
-
-
-@wp.kernel
-def unpack_field_kernel(
-    packed_in: wp.array(dtype=wp.uint64),
-    band: float,
-    offset: float,
-    field_out: wp.array(dtype=float),
-    label_out: wp.array(dtype=wp.int32),
-):
-    """Value and segment of every node from :func:`tube_field_kernel`'s words; ``band`` and -1 where none reached."""
-    i = wp.tid()
-    word = packed_in[i]
-    if word == UNREACHED:
-        field_out[i] = band
-        label_out[i] = -1
-    else:
-        field_out[i] = wp.min(packed_cost(word) - offset, band)
-        label_out[i] = packed_label(word)

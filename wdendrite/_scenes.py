@@ -155,18 +155,44 @@ def moss_body(den: Dendrite, radius: Width, image: np.ndarray, *, voxel: float, 
 # --------------------------------------------------------------------------- lichen
 
 
-def cost_bands(lattice: Lattice, sources: np.ndarray, bands, density, seed) -> np.ndarray:
+LICHEN_KINDS = ((0.88, 0.58, 0.16), (0.62, 0.7, 0.5))
+"""Colours of the two kinds of lichen of the clusters: orange near the dendrite, grey-green around it."""
+
+
+def check_bands(bands, density) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Band edges (increasing, > 0, in nodes), at most one per kind of lichen, and one density in (0, 1]
+    per band."""
+    def numbers(name, values, what):
+        if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, np.ndarray)) or len(values) == 0:
+            raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
+        return [_checks.positive(name, v) for v in values]
+
+    edges = numbers("bands", bands, "increasing distances")
+    if any(b <= a for a, b in zip(edges, edges[1:])):
+        raise ValueError(f"Expected 'bands' increasing, but got {bands!r}")
+    if len(edges) > len(LICHEN_KINDS):
+        raise ValueError(f"Expected at most {len(LICHEN_KINDS)} 'bands' (one per kind of lichen), but got {bands!r}")
+    dens = numbers("density", density, "shares in (0, 1]")
+    if len(dens) != len(edges) or any(v > 1 for v in dens):
+        raise ValueError(f"Expected one 'density' in (0, 1] per band ({len(edges)}), but got {density!r}")
+    return tuple(edges), tuple(dens)
+
+
+def cost_bands(lattice: Lattice, sources: np.ndarray, edges, per_node: float, density, seed):
     """The thesis' lichen cluster (section 5.4): costs from ``sources`` (a dendrite's nodes) over
     ``lattice``, and per node the kind of lichen there: ``k`` (1, 2, ...) where the cost lies in band
-    ``k - 1`` (``bands[k - 1] = (low, high)``, path-cost units, half-open) and a draw keeps the node
-    with probability ``density[k - 1]``; 0 elsewhere. Returns ``(kind, cost)``."""
-    top = max(hi for _, hi in bands)
-    cf = shortest_paths(lattice, sources, limit=top)
-    rng = _checks.rng(seed)
-    draw = rng.random(lattice.shape)
+    ``k - 1``, ``[edges[k - 2], edges[k - 1])`` nodes of ``per_node`` path cost each (the first band
+    from 0), and a draw keeps the node with probability ``density[k - 1]``; 0 elsewhere.
+
+    Returns:
+        ``(kind, cost)``: ``(*shape)`` int8 kinds and float32 costs (inf beyond the last band's reach).
+    """
+    lows = (0.0,) + tuple(edges[:-1])
+    cf = shortest_paths(lattice, sources, limit=edges[-1] * per_node)
+    draw = _checks.rng(seed).random(lattice.shape)
     kind = np.zeros(lattice.shape, np.int8)
-    for k, ((low, high), p) in enumerate(zip(bands, density), start=1):
-        kind[(cf.dist >= low) & (cf.dist < high) & (draw < p) & (kind == 0)] = k
+    for k, (low, high, p) in enumerate(zip(lows, edges, density), start=1):
+        kind[(cf.dist >= low * per_node) & (cf.dist < high * per_node) & (draw < p) & (kind == 0)] = k
     return kind, cf.dist
 
 

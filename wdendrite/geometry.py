@@ -491,10 +491,12 @@ def _tube_field(lines, voxel: float, lo: np.ndarray, hi: np.ndarray, device):
                               wp.array(segs.astype(np.int32), dtype=wp.vec2i),
                               wp.vec3(*origin.tolist()), float(voxel), wp.vec3i(*shape), band, offset],
                       outputs=[packed])
-        field = wp.empty(nodes, dtype=float)
+        keyed = wp.empty(nodes, dtype=float)
         label = wp.empty(nodes, dtype=wp.int32)
-        wp.launch(_kg.unpack_field_kernel, dim=nodes, inputs=[packed, band, offset], outputs=[field, label])
-        return field.numpy().reshape(shape), label.numpy().reshape(shape), origin
+        wp.launch(_kr.unpack_nearest_kernel, dim=nodes, inputs=[packed], outputs=[keyed, label])
+        # (unreached nodes hold inf: the band, outside)
+        field = np.minimum(keyed.numpy() - np.float32(offset), np.float32(band))
+        return field.reshape(shape), label.numpy().reshape(shape), origin
 
 
 def _closed_body(field: np.ndarray, origin_xyz: np.ndarray, voxel: float, vertex_rgb=None):

@@ -732,35 +732,6 @@ def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: 
 rock.makes_dendrite = False  # (the command refuses dendrite formats before running it)
 
 
-_LICHEN_KINDS = ((0.88, 0.58, 0.16), (0.62, 0.7, 0.5))
-"""Colours of the two kinds of lichen of the clusters: orange near the dendrite, grey-green around it."""
-
-
-def _check_bands(bands, density) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """Band edges (increasing, > 0, in nodes), at most one per kind of lichen, and one density in (0, 1]
-    per band."""
-    def numbers(name, values, what):
-        if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, np.ndarray)) or len(values) == 0:
-            raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
-        return [_checks.positive(name, v) for v in values]
-
-    edges = numbers("bands", bands, "increasing distances")
-    if any(b <= a for a, b in zip(edges, edges[1:])):
-        raise ValueError(f"Expected 'bands' increasing, but got {bands!r}")
-    if len(edges) > len(_LICHEN_KINDS):
-        raise ValueError(f"Expected at most {len(_LICHEN_KINDS)} 'bands' (one per kind of lichen), but got {bands!r}")
-    dens = numbers("density", density, "shares in (0, 1]")
-    if len(dens) != len(edges) or any(v > 1 for v in dens):
-        raise ValueError(f"Expected one 'density' in (0, 1] per band ({len(edges)}), but got {density!r}")
-    return tuple(edges), tuple(dens)
-
-
-def _band_costs(edges, per_node: float) -> list[tuple[float, float]]:
-    """Cost bands ``[0, e1), [e1, e2), ...`` of the edges (nodes) at ``per_node`` path cost per node."""
-    lows = (0.0,) + edges[:-1]
-    return [(lo * per_node, hi * per_node) for lo, hi in zip(lows, edges)]
-
-
 def lichen_cluster(shape=(256, 256), *, count: int = 8, bands=(2.5, 8.0), density=(0.9, 0.55),
                    seed: int = 0) -> Result:
     """A lichen cluster by cost bands (thesis section 5.4, Fig. 5.4 bottom, in 2D): a fractal dendrite
@@ -779,7 +750,7 @@ def lichen_cluster(shape=(256, 256), *, count: int = 8, bands=(2.5, 8.0), densit
         seed: seed of the weights, the endpoints and the particles.
     """
     shape, count = _shape(shape, 2), _checks.integer("count", count, low=1)
-    edges, dens = _check_bands(bands, density)
+    edges, dens = _scenes.check_bands(bands, density)
     _checks.seed32(seed)
     h, w = shape
     lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
@@ -788,8 +759,8 @@ def lichen_cluster(shape=(256, 256), *, count: int = 8, bands=(2.5, 8.0), densit
     # the dendrite's tips stay clear of the border by the outer band
     half = max(int(min(shape) // 2 - edges[-1] - 2), 4)
     den = grow(lat, [centre], _fractal_params(half, per_node, 1.5, 3.0, 3, count), seed=seed)
-    kind, cost = _scenes.cost_bands(lat, den.nodes, _band_costs(edges, per_node), dens, seed)
-    img = _scenes.crust_picture(kind, _LICHEN_KINDS[: len(edges)], _ROCK, seed)
+    kind, cost = _scenes.cost_bands(lat, den.nodes, edges, per_node, dens, seed)
+    img = _scenes.crust_picture(kind, _scenes.LICHEN_KINDS[: len(edges)], _ROCK, seed)
     return Result(img, den, parts={"kind": kind, "cost": cost, "lattice": lat})
 
 
@@ -823,7 +794,7 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
 
     shape, neighbours = _shape(shape, 3), _checks.integer("neighbours", neighbours, low=4)
     count = _checks.integer("count", count, low=1)
-    edges, dens = _check_bands(bands, density)
+    edges, dens = _scenes.check_bands(bands, density)
     on_rock = _checks.flag("on_rock", on_rock)
     lat, cf = _rock_field(shape, neighbours, seed)
     inside = cf.label == 0
@@ -840,13 +811,13 @@ def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 
     skin = Lattice(shape, 26, weights=weights, mask=on_surface)
     on = den.nodes[on_surface[tuple(den.nodes.T)]]
     per_node = _cost_per_node(Lattice((17, 17, 17), 26, weights=weights), (8, 8, 8), 8)
-    kind, _ = _scenes.cost_bands(skin, on, _band_costs(edges, per_node), dens, seed)
+    kind, _ = _scenes.cost_bands(skin, on, edges, per_node, dens, seed)
     crust = np.argwhere(kind > 0)
     scale = min(shape) / 128.0
     rope = _r.Taper(0.5 * scale + 0.35, 0.2 * scale + 0.3, along="path")
     lines = _centre_lines(den, rope, sigma=_SIGMA, min_radius=0.5)
     rock_field = gaussian_filter(_geo.signed_region_field(inside, band=3.0), 0.7)
-    mesh, _ = _scenes.crust_body(rock_field, lines, crust, kind[tuple(crust.T)], _LICHEN_KINDS, _ROCK,
+    mesh, _ = _scenes.crust_body(rock_field, lines, crust, kind[tuple(crust.T)], _scenes.LICHEN_KINDS, _ROCK,
                                  grain=1.3, thickness=(0.45, 0.3), voxel=0.5, seed=seed)
     img = _geo.preview(mesh, elevation=35)
     return Result(img, den, mesh, parts={"kind": kind, "crust": crust, "skeleton": lines, "rock_field": rock_field,
