@@ -65,23 +65,35 @@ def shadowed(mesh: wp.uint64, p: wp.vec3, key: wp.vec3) -> float:
 
 
 @wp.func
-def lit(mesh: wp.uint64, p: wp.vec3, n: wp.vec3, forward: wp.vec3, key: wp.vec3, offset: float) -> float:
+def lit(mesh: wp.uint64, p: wp.vec3, n: wp.vec3, forward: wp.vec3, key: wp.vec3, toward: wp.vec3,
+        offset: float) -> float:
     """Light reaching point ``p`` of normal ``n``: ambient from the sky (brighter facing up), the key
-    light unless the mesh shadows it, and a little head light."""
+    light (from ``key``) unless the mesh blocks the shadow ray toward ``toward`` (``key`` moved
+    within the light's spread), and a little head light."""
     sky = 0.32 + 0.18 * n[2]
     k = wp.dot(n, key)
     if k > 0.0:
-        k = k * (1.0 - shadowed(mesh, p + n * offset, key))
+        k = k * (1.0 - shadowed(mesh, p + n * offset, toward))
     else:
         k = 0.0
     head = wp.max(wp.dot(n, -forward), 0.0)
     return sky + 0.62 * k + 0.16 * head
 
 
+@wp.func
+def lifted(p: wp.vec3, corner: wp.vec3, n: wp.vec3) -> wp.vec3:
+    """``p`` moved onto the plane through ``corner`` normal to ``n`` when it lies below that plane."""
+    d = wp.dot(p - corner, n)
+    if d < 0.0:
+        return p - n * d
+    return p
+
+
 @wp.kernel
 def preview_kernel(
     # Scene:
     mesh: wp.uint64,
+    points_in: wp.array(dtype=wp.vec3),
     faces_in: wp.array(dtype=wp.int32),
     normals_in: wp.array(dtype=wp.vec3),
     colors_in: wp.array(dtype=wp.vec3),
@@ -124,9 +136,16 @@ def preview_kernel(
                 if wp.dot(n, camera.forward) > 0.0:  # a normal bent away from the viewer
                     n = g
                 p = start + camera.forward * q.t
+                # shadow rays leave from the surface the normals describe, not the flat face: the hit
+                # point lifted onto each corner's tangent plane it lies below, weighted as the normals
+                # (a ray from the face itself could graze its neighbours where the light is low)
+                s_ = lifted(p, points_in[i0], normals_in[i0]) * q.u + lifted(p, points_in[i1], normals_in[i1]) * q.v
+                s_ = s_ + lifted(p, points_in[i2], normals_in[i2]) * c
+                if wp.dot(g, n) < 0.0:  # (a normal turned toward the viewer above: keep the face's point)
+                    s_ = p
                 base = colors_in[i0] * q.u + colors_in[i1] * q.v + colors_in[i2] * c
-                key = key_dir(lights, state, sx, sy, samples)
-                color = base * lit(mesh, p + g * lights.offset, n, camera.forward, key, lights.offset)
+                toward = key_dir(lights, state, sx, sy, samples)
+                color = base * lit(mesh, s_ + g * lights.offset, n, camera.forward, lights.key, toward, lights.offset)
             elif lights.ground != 0 and camera.forward[2] < 0.0:
                 t = (lights.ground_z - start[2]) / camera.forward[2]
                 p = start + camera.forward * t

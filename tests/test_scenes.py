@@ -36,6 +36,7 @@ SMALL = {
     "staghorn_coral": lambda s: presets.staghorn_coral((16, 16, 16), endpoints=4, refine_n=3, seed=s),
     "lichen_on_rock": lambda s: presets.lichen_on_rock((32, 32, 32), count=3, seed=s),
     "moss": lambda s: presets.moss((12, 24, 24), endpoints=20, seed=s),
+    "rock": lambda s: presets.rock((24, 24, 24), seed=s),
 }
 
 

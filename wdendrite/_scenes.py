@@ -238,7 +238,8 @@ def crust_body(rock_field: np.ndarray, lines: Skeleton, crust: np.ndarray, crust
 
     rng = _checks.rng(seed)
     pts = crust[:, ::-1].astype(np.float64)
-    balls = Skeleton(points=pts, radius=np.full(len(pts), float(grain)), offsets=np.arange(len(pts) + 1, dtype=np.int64),
+    balls = Skeleton(points=pts, radius=np.full(len(pts), float(grain)),
+                     offsets=np.arange(len(pts) + 1, dtype=np.int64),
                      row=np.zeros(len(pts), np.int64), parent_branch=np.full(len(pts), -1, np.int64))
     inside = np.argwhere(rock_field < 0.5)
     reach = float(max(lines.radius.max(), grain)) + 3.0 * voxel

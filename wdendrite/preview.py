@@ -185,10 +185,11 @@ def preview(
     device = _checks.device(device)
     with wp.ScopedDevice(device):
         flat_faces = wp.array(faces.astype(np.int32).ravel(), dtype=wp.int32)
-        wmesh = wp.Mesh(points=wp.array(verts.astype(np.float32), dtype=wp.vec3), indices=flat_faces)
+        points = wp.array(verts.astype(np.float32), dtype=wp.vec3)
+        wmesh = wp.Mesh(points=points, indices=flat_faces)
         out = wp.empty((h, w), dtype=wp.vec3)
         wp.launch(_kp.preview_kernel, dim=(h, w),
-                  inputs=[wmesh.id, flat_faces, wp.array(normals.astype(np.float32), dtype=wp.vec3),
+                  inputs=[wmesh.id, points, flat_faces, wp.array(normals.astype(np.float32), dtype=wp.vec3),
                           wp.array(colors, dtype=wp.vec3), cam, lights, samples],
                   outputs=[out])
         return np.clip(out.numpy(), 0.0, 1.0)
