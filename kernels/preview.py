@@ -41,6 +41,10 @@ class Lights:
     background: wp.vec3
     offset: float
     """Distance a shadow ray starts off the surface (against hitting its own triangle)."""
+    skip: float
+    """Distance a shadow ray travels before it looks for blockers: about two triangles, so that where the
+    light grazes a curved surface the ray does not meet the neighbouring flat faces of the same
+    surface (specks along the terminator); blockers farther away cast their shadows."""
 
 
 @wp.func
@@ -56,9 +60,9 @@ def key_dir(lights: Lights, state: wp.uint32, sx: int, sy: int, samples: int) ->
 
 
 @wp.func
-def shadowed(mesh: wp.uint64, p: wp.vec3, key: wp.vec3) -> float:
-    """1 where the mesh blocks the key light from ``p``, else 0."""
-    q = wp.mesh_query_ray(mesh, p, key, 1.0e30)
+def shadowed(mesh: wp.uint64, p: wp.vec3, key: wp.vec3, skip: float) -> float:
+    """1 where the mesh blocks the key light from ``p`` beyond ``skip``, else 0."""
+    q = wp.mesh_query_ray(mesh, p + key * skip, key, 1.0e30)
     if q.result:
         return 1.0
     return 0.0
@@ -66,14 +70,14 @@ def shadowed(mesh: wp.uint64, p: wp.vec3, key: wp.vec3) -> float:
 
 @wp.func
 def lit(mesh: wp.uint64, p: wp.vec3, n: wp.vec3, forward: wp.vec3, key: wp.vec3, toward: wp.vec3,
-        offset: float) -> float:
+        offset: float, skip: float) -> float:
     """Light reaching point ``p`` of normal ``n``: ambient from the sky (brighter facing up), the key
     light (from ``key``) unless the mesh blocks the shadow ray toward ``toward`` (``key`` moved
     within the light's spread), and a little head light."""
     sky = 0.32 + 0.18 * n[2]
     k = wp.dot(n, key)
     if k > 0.0:
-        k = k * (1.0 - shadowed(mesh, p + n * offset, toward))
+        k = k * (1.0 - shadowed(mesh, p + n * offset, toward, skip))
     else:
         k = 0.0
     head = wp.max(wp.dot(n, -forward), 0.0)
@@ -145,7 +149,8 @@ def preview_kernel(
                     s_ = p
                 base = colors_in[i0] * q.u + colors_in[i1] * q.v + colors_in[i2] * c
                 toward = key_dir(lights, state, sx, sy, samples)
-                color = base * lit(mesh, s_ + g * lights.offset, n, camera.forward, lights.key, toward, lights.offset)
+                color = base * lit(mesh, s_ + g * lights.offset, n, camera.forward, lights.key, toward, lights.offset,
+                                   lights.skip)
             elif lights.ground != 0 and camera.forward[2] < 0.0:
                 t = (lights.ground_z - start[2]) / camera.forward[2]
                 p = start + camera.forward * t
@@ -153,7 +158,7 @@ def preview_kernel(
                 dy = p[1] - lights.ground_center[1]
                 fade = wp.exp(-(dx * dx + dy * dy) / (lights.ground_radius * lights.ground_radius))
                 key = key_dir(lights, state, sx, sy, samples)
-                dark = 0.42 * fade * shadowed(mesh, p + wp.vec3(0.0, 0.0, lights.offset), key)
+                dark = 0.42 * fade * shadowed(mesh, p + wp.vec3(0.0, 0.0, lights.offset), key, 0.0)
                 color = lights.background * (1.0 - dark)
             acc = acc + wp.vec3(wp.min(color[0], 1.0), wp.min(color[1], 1.0), wp.min(color[2], 1.0))
     rgb_out[y, x] = acc * (inv * inv)

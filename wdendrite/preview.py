@@ -175,13 +175,15 @@ def preview(
     key_u /= np.linalg.norm(key_u)
     lights.key = wp.vec3(*key.tolist())
     lights.key_u, lights.key_v = wp.vec3(*key_u.tolist()), wp.vec3(*np.cross(key, key_u).tolist())
-    lights.spread = 0.12
+    lights.spread = 0.03
     lights.ground = int(ground)
     lights.ground_z = float(lo[2])
     lights.ground_center = wp.vec2(float(0.5 * (lo[0] + hi[0])), float(0.5 * (lo[1] + hi[1])))
     lights.ground_radius = float(max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) * 0.9 + 1e-6)
     lights.background = wp.vec3(*bg.tolist())
     lights.offset = float(1e-4 * (np.linalg.norm(hi - lo) + 1.0))
+    edges = np.linalg.norm(verts[faces[:, 1]] - verts[faces[:, 0]], axis=1)
+    lights.skip = float(2.0 * np.median(edges))
     device = _checks.device(device)
     with wp.ScopedDevice(device):
         flat_faces = wp.array(faces.astype(np.int32).ravel(), dtype=wp.int32)
