@@ -792,10 +792,13 @@ def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, pro
         # one task per tile (not one graph per tile of a Dask array, whose cost grows with the tiles)
         finished = (f.result() for f in as_completed(client.map(_tile_into, todo, tile_fn=tile_fn,
                                                                 targets=targets, pure=False)))
-    for _ in finished:
-        done += 1
-        if progress:
-            progress(done, len(windows))
+    try:
+        for _ in finished:
+            done += 1
+            if progress:
+                progress(done, len(windows))
+    except OSError as exc:  # (a Zarr store meeting a full disk, say: its records stay for a re-run)
+        raise _naming_output(exc, finals, opened) from exc
     for partial, marks, placed in opened:
         if not placed:
             if partial.is_file():
@@ -822,6 +825,20 @@ def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, pro
         _remove(old)
     for _, marks, _ in opened:
         _clear_records(marks)
+
+
+def _naming_output(exc: OSError, finals: list, opened: list) -> OSError:
+    """``exc``, met while tiles were written, as an error of its kind that names the output whose
+    partial file or records it concerns (the only output when it names none of them)."""
+    where = os.path.abspath(exc.filename) if isinstance(exc.filename, (str, os.PathLike)) else ""
+    ours = [final for final, (partial, marks, _) in zip(finals, opened)
+            if where and any(where == os.path.abspath(r) or where.startswith(os.path.abspath(r) + os.sep)
+                             for r in (partial, marks))]
+    if not ours and len(finals) == 1 and exc.errno is not None:
+        ours = finals
+    if not ours:
+        return exc
+    return OSError(exc.errno, f"could not write {str(ours[0])!r}: {exc.strerror or exc}")
 
 
 def _default_device_kind() -> str:
@@ -1029,8 +1046,11 @@ _BAD_INPUT = (ValueError, TypeError, FileExistsError, MemoryError)
 
 
 def _attempt(call, task: Task, failed: list) -> None:
+    from ._checks import memory_error
+
     try:
         call()
     except Exception as exc:  # one bad task must not stop the others; it is redone next time
+        exc = memory_error(exc) or exc  # (an allocation that failed under another name: out of memory)
         failed.append((task.name, exc))
         print(f"batch: task {task.name} failed: {type(exc).__name__}: {exc}", file=sys.stderr)

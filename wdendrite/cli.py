@@ -528,17 +528,20 @@ def main(argv=None) -> int:
         # the reader of our report went away (``| head``): the outputs are written, the report is not needed
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except MemoryError as exc:
-        print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:  # the system refused a write (disk full, file too large, permissions): no bug
-        print(f"wdendrite: error: {exc}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("wdendrite: interrupted", file=sys.stderr)
         return 130
-    except Exception:  # a bug, not the user's input: show where
-        import traceback
+    except Exception as exc:
+        from ._checks import memory_error
+
+        memory = memory_error(exc)  # (also an allocation beyond the checks' estimates: ulimit -v, a cgroup)
+        if memory is not None:
+            print(f"wdendrite: error: not enough memory: {memory}", file=sys.stderr)
+            return 2
+        if isinstance(exc, OSError):  # the system refused a write (disk full, file too large, permissions): no bug
+            print(f"wdendrite: error: {exc}", file=sys.stderr)
+            return 1
+        import traceback  # a bug, not the user's input: show where
 
         traceback.print_exc()
         print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
