@@ -105,6 +105,20 @@ def _same_file(fd: int, path) -> bool:
     return (st.st_dev, st.st_ino) == (ours.st_dev, ours.st_ino)
 
 
+def _release(fd: int, path) -> None:
+    """Delete the lock file ``path`` (if it is still the file open as ``fd``), then close ``fd``:
+    in this order, no other process can take the lock of a file about to be deleted."""
+    if fcntl is None:  # (Windows: no locks, and an open file cannot be deleted)
+        os.close(fd)
+        Path(path).unlink(missing_ok=True)
+        return
+    try:
+        if _same_file(fd, path):
+            os.unlink(path)
+    finally:
+        os.close(fd)
+
+
 def _remove(path) -> None:
     """Delete a file, a link or a folder (a Zarr store moved aside) at ``path``, if there is one."""
     try:
@@ -230,8 +244,7 @@ class Staging:
         self._made.clear()
         owners = sorted(self._owners.values(), key=lambda o: o == self._journal)
         for fd, path in owners:
-            Path(path).unlink(missing_ok=True)
-            os.close(fd)
+            _release(fd, path)
         self._owners.clear()
         self._journal = None
 
@@ -417,22 +430,23 @@ def locked(paths, *, busy: str = _BUSY):
         yield
     finally:
         for fd, where in reversed(held):
-            if fd is not None:
-                if _same_file(fd, where):
-                    os.unlink(where)
-                os.close(fd)
+            _release(fd, where)
 
 
-def _take(where: Path, path: str, busy: str) -> tuple[int | None, Path]:
+def _take(where: Path, path: str, busy: str) -> tuple[int, Path]:
     """Lock the file ``where`` for the output ``path``; ``(descriptor, where)``."""
     for tries in range(100):
-        fd = os.open(where, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd, mine = os.open(where, os.O_RDWR | os.O_CREAT, 0o644), True
+        except PermissionError:  # another user's lock file (a lock needs no write access)
+            fd, mine = os.open(where, os.O_RDONLY), False
         held = _flock(fd, wait=False)
         if held is None:  # no locks here: the writer goes on unprotected
             return fd, where
         if held and _same_file(fd, where):
-            os.ftruncate(fd, 0)
-            write_at(fd, str(os.getpid()).encode(), 0)
+            if mine:  # (the process id, for the message of a second writer)
+                os.ftruncate(fd, 0)
+                write_at(fd, str(os.getpid()).encode(), 0)
             return fd, where
         holder = None if held else _read_text(fd)
         os.close(fd)

@@ -17,7 +17,7 @@ A job file::
     [[job]]
     preset = "terrain"            # "dendry" or "terrain" with a tile size: the field is
     size = 8192                   # computed tile by tile (a Dask array on a cluster) and
-    tile = 1024                   # written to an NPY memmap or a Zarr store, never whole in memory
+    tile = 1024                   # written to an NPY file or a Zarr store, never whole in memory
     formats = ["npy"]
 
 Every task (one combination) writes its outputs atomically (a temporary name,
@@ -554,13 +554,16 @@ class _Target:
             from ._staging import write_at
 
             rows = np.ascontiguousarray(values, "<f4").reshape(h, w)
+            offset, stride = self.offset + 4 * (r0 * self.width + c0), 4 * self.width
+            if w == self.width:  # whole rows: one piece of the file
+                rows, stride = rows.reshape(1, -1), 0
             fd = os.open(self.path, os.O_WRONLY)
             try:
-                if w == self.width:  # whole rows: one piece of the file
-                    write_at(fd, rows, self.offset + 4 * r0 * self.width)
-                else:
-                    for i in range(h):
-                        write_at(fd, rows[i], self.offset + 4 * ((r0 + i) * self.width + c0))
+                for row in rows:
+                    # (a row written in part, as a full disk may leave it, is written again whole)
+                    if not hasattr(os, "pwrite") or os.pwrite(fd, row, offset) != row.nbytes:
+                        write_at(fd, row, offset)
+                    offset += stride
                 getattr(os, "fdatasync", os.fsync)(fd)  # (the tile is on the disk before its marker)
             finally:
                 os.close(fd)
