@@ -59,10 +59,11 @@ def _ramp(window):
 
 # --------------------------------------------------------------------------- SIGKILL during a write
 
-def killed_at(k: int, work, call) -> str | None:
+def killed_at(k: int, work, call, *, ops=("chmod", "link", "replace", "unlink"), inside: bool = False) -> str | None:
     """Run ``call()`` in a forked child, in the folder ``work``, that sends itself SIGKILL at its
-    ``k``-th file operation (chmod, link, replace, unlink) in that folder; the operation and the
-    file's name (``"replace a.png"``), or None when it finished first."""
+    ``k``-th file operation of ``ops`` (names of ``os`` functions) in that folder (``inside``: or
+    anywhere below it); the operation and the file's name (``"replace a.png"``), or None when it
+    finished first."""
     read, write = os.pipe()
     pid = os.fork()
     if pid == 0:  # (the child never returns into the test)
@@ -74,7 +75,7 @@ def killed_at(k: int, work, call) -> str | None:
             def counted(name, real):
                 def call_(*args, **kwargs):
                     path = os.path.abspath(os.fspath(args[-1] if name in ("link", "replace") else args[0]))
-                    if os.path.dirname(path) == os.getcwd():
+                    if os.path.dirname(path) == os.getcwd() or (inside and path.startswith(os.getcwd() + os.sep)):
                         count[0] += 1
                         if count[0] == k:
                             os.write(write, f"{name} {os.path.basename(path)}".encode())
@@ -82,7 +83,7 @@ def killed_at(k: int, work, call) -> str | None:
                     return real(*args, **kwargs)
                 return call_
 
-            for name in ("chmod", "link", "replace", "unlink"):
+            for name in ops:
                 setattr(os, name, counted(name, getattr(os, name)))
             call()
             os._exit(0)
@@ -443,3 +444,83 @@ result["again"] = batch()
     assert f"task terrain_size256_seed0 failed: OSError: [Errno {errno.ENOSPC}] could not write " in full["err"]
     assert again["code"] == 0 and "1 run, 1 already complete" in again["out"], again
     assert not [n for n in again["files"] if n.startswith(".")]
+
+
+# --------------------------------------------------------------------------- the fault matrix
+
+
+def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
+    """SIGKILL at every file operation of two writes, each followed by what a user does next:
+
+    - ``set``: ``lightning -o a.png -o a.npy -o a.json --force`` over an older set, then any
+      command on the folder (its sweep);
+    - ``tiled``: ``terrain --size TILES --tile 16 -o t.npy -o t.zarr``, then the same command
+      again, and once more with ``--force`` if it refuses an output as existing.
+
+    Returns ``{scenario: {"faults": kills tried, "lost": outputs missing or neither old nor new
+    (tiled: not the image), "mixed": sets holding old and new files (tiled: the two files
+    differing), "leftovers": files beside the outputs after the next command, "refused": (tiled)
+    kills after which the same command refused an output it had made and needed ``--force``}}``.
+    """
+    from wdendrite import cli
+
+    report, cwd = {}, pytest.MonkeyPatch()
+    try:
+        old, new = _references(root, cwd)
+    finally:
+        cwd.undo()
+    counts = report["set"] = dict(faults=0, lost=0, mixed=0, leftovers=0)
+    for k in range(1, 200):
+        work = root / "set"
+        shutil.rmtree(work, ignore_errors=True)
+        shutil.copytree(root / "seed1", work)
+        if killed_at(k, work, _lightning(2)) is None:
+            break
+        counts["faults"] += 1
+        _staging.sweep(work)  # (the first step of any command on the folder)
+        got = {n: (work / n).read_bytes() if (work / n).exists() else None for n in OUTS}
+        counts["lost"] += sum(got[n] not in (old[n], new[n]) for n in OUTS)
+        counts["mixed"] += any(got[n] == old[n] for n in OUTS) and any(got[n] == new[n] for n in OUTS)
+        counts["leftovers"] += len(set(os.listdir(work)) - set(OUTS))
+    import zarr
+
+    ref = root / "ref.npy"
+    assert cli.main(["terrain", "--size", str(tiles), "-o", str(ref), "--quiet", "--device", "cpu"]) == 0
+    counts = report["tiled"] = dict(faults=0, lost=0, mixed=0, leftovers=0, refused=0)
+    for k in range(1, 2000):
+        work = root / "tiled"
+        shutil.rmtree(work, ignore_errors=True)
+        work.mkdir()
+        command = ["terrain", "--size", str(tiles), "--tile", "16", "-o", str(work / "t.npy"), "-o",
+                   str(work / "t.zarr"), "--quiet", "--device", "cpu"]
+        if killed_at(k, work, lambda: cli.main(command), inside=True,
+                     ops=("open", "mkdir", "chmod", "link", "replace", "unlink", "rmdir")) is None:
+            break
+        counts["faults"] += 1
+        done = cli.main(command) == 0
+        if not done and all((work / n).exists() for n in ("t.npy", "t.zarr")):
+            counts["refused"] += 1  # (killed while clearing its tile records, or after: see the report)
+            done = cli.main([*command, "--force"]) == 0
+        a = np.load(work / "t.npy") if done else None
+        b = zarr.open_array(str(work / "t.zarr"), mode="r")[:] if done else None
+        counts["lost"] += (not done) or not np.array_equal(a, np.load(ref))
+        counts["mixed"] += done and not np.array_equal(a, b)
+        counts["leftovers"] += len(set(os.listdir(work)) - {"t.npy", "t.zarr"})
+    return report
+
+
+def test_kills_at_every_step_lose_mix_and_leave_nothing(tmp_path):
+    report = fault_matrix(tmp_path)
+    for scenario, counts in report.items():
+        assert counts["lost"] == counts["mixed"] == counts["leftovers"] == 0, (scenario, counts)
+    assert report["set"]["faults"] >= 25 and report["tiled"]["faults"] >= 20, report
+
+
+if __name__ == "__main__":  # python tests/test_staging.py: the fault matrix as a table
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        print(f"{'scenario':>9} {'faults':>7} {'lost':>5} {'mixed':>6} {'leftovers':>10} {'refused':>8}")
+        for scenario, c in fault_matrix(Path(tmp)).items():
+            print(f"{scenario:>9} {c['faults']:>7} {c['lost']:>5} {c['mixed']:>6} {c['leftovers']:>10} "
+                  f"{c.get('refused', '-'):>8}")

@@ -388,7 +388,7 @@ def fits_in_memory(need: int, device, what: str) -> None:
         wp.synchronize_device(device)
         have = available_bytes(device)
     if need > have:
-        room, why = host_limit() if device.is_cpu else (None, "")
+        room, why = (None, "") if device.is_cuda else host_limit()
         raise MemoryError(
             f"{what} needs about {need / 2**30:.2f} GiB on device '{device}', "
             f"but only {have / 2**30:.2f} GiB are available" + (f" under {why}" if room == have else "")

@@ -207,8 +207,8 @@ class Staging:
             path = Path(path)
             old = identity(path) if os.path.lexists(path) else None
             keep = self.name(path) if old is not None else None
-            plan.append(tuple(None if p is None else os.path.abspath(p) for p in (tmp, path)) +
-                        (old, None if keep is None else os.path.abspath(keep)))  # (a sweep may run elsewhere)
+            # (absolute: the sweep that completes them may run in another folder)
+            plan.append((os.path.abspath(tmp), os.path.abspath(path), old, keep and os.path.abspath(keep)))
         self._write_journal(plan)
         done = []  # (path, where the file it replaced is kept, or None: there was none)
         try:
