@@ -274,6 +274,27 @@ def test_a_read_only_output_is_replaced_and_stays_read_only(tmp_path):
         assert (tmp_path / name).stat().st_mode & 0o7777 == 0o444  # (set-id bits are not carried over)
 
 
+def test_a_link_to_a_device_replaced_with_force_gives_the_new_file_a_file_s_mode(tmp_path):
+    # /dev/null is 0o666 for everyone: the file that replaces a link to it takes what a new file
+    # gets under the umask, not the device's mode (a link to a regular file still passes its mode on)
+    import os
+
+    (tmp_path / "null.png").symlink_to("/dev/null")
+    (tmp_path / "kept.npy").write_bytes(b"old")
+    os.chmod(tmp_path / "kept.npy", 0o640)
+    (tmp_path / "link.npy").symlink_to(tmp_path / "kept.npy")
+    old = os.umask(0o077)
+    try:
+        assert cli.main(["fractal", "--size", "16", "-o", str(tmp_path / "null.png"), "-o", str(tmp_path / "link.npy"),
+                         "--force", "--quiet", "--device", "cpu"]) == 0
+    finally:
+        os.umask(old)
+    for name, mode in (("null.png", 0o600), ("link.npy", 0o640)):
+        out = tmp_path / name
+        assert not out.is_symlink() and out.is_file() and out.stat().st_mode & 0o777 == mode, (name, oct(out.stat().st_mode))
+    assert (tmp_path / "kept.npy").read_bytes() == b"old"
+
+
 def test_outputs_are_written_all_or_nothing(tmp_path, monkeypatch):
     # the second output fails while being written: the first is not left behind, and a file
     # already at the first path keeps its bytes

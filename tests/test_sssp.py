@@ -92,6 +92,29 @@ def test_limit_keeps_costs_up_to_the_bound(problem, limit):
     _check_against_scipy(lat, gens, cf, limit=limit)
 
 
+@pytest.mark.parametrize("schedule", ["one launch", "host rounds", "generations"])
+def test_a_limit_between_two_float32_values_keeps_no_cost_above_it(schedule):
+    # integer weights give exact costs (SciPy's float64 and the kernels' float32 agree); a limit a
+    # hair below a cost c rounds to c in float32, which had kept the nodes costing c: they cost more
+    # than the limit and must be unreached, in the costs, the labels, a band read and a warm start
+    rng = np.random.default_rng(7)
+    w = rng.integers(1, 4, size=(2, 12, 13)).astype(np.float32)
+    lat = wd.Lattice((12, 13), 4, weights=w)
+    gens = np.array([[0, 0], [11, 12]])
+    ref = _scipy_all(lat, gens).min(axis=0).reshape(lat.shape)
+    c = float(np.sort(ref.ravel())[ref.size // 2])  # a cost some nodes have
+    limit = c - 2.0**-30  # (float32 holds no number between c - 2**-30 and c for such a c)
+    assert np.float32(limit) == c and (ref == c).any()
+    hooks = {"one launch": {}, "host rounds": {"_host_rounds": True}, "generations": {"_fifo": False}}[schedule]
+    cf = wd.shortest_paths(lat, gens, limit=limit, device="cpu", **hooks)
+    _check_against_scipy(lat, gens, cf, limit=limit)
+    assert np.array_equal(np.isfinite(cf.dist), ref <= limit) and np.all(cf.label[ref == c] == -1)
+    warm = wd.shortest_paths(lat, np.vstack([gens, [[5, 6]]]), limit=limit, warm_start=cf, device="cpu", **hooks)
+    assert not np.any(np.isfinite(warm.dist) & (warm.dist > limit))
+    with pytest.raises(ValueError, match="limit"):  # (a trace reads the states of its endpoints alone)
+        wd.trace(cf, np.argwhere(ref == c)[:1])
+
+
 @SETTINGS
 @given(problems(), st.floats(0.05, 100.0), st.booleans())
 def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo):

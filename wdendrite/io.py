@@ -176,12 +176,18 @@ def sync_to_disk(path) -> None:
 
 
 def final_mode(path) -> int:
-    """Permissions a file written to ``path`` ends with: those of the file it replaces (without
-    set-id or sticky bits), else what a plain ``open()`` gives a new file."""
+    """Permissions a file written to ``path`` ends with: those of the regular file it replaces
+    (or that a link there leads to), without set-id or sticky bits; else (nothing there, a device,
+    a pipe, a socket, a folder) what a plain ``open()`` gives a new file."""
+    import stat
+
     try:
-        return os.stat(path).st_mode & 0o777
+        st = os.stat(path)
     except OSError:  # nothing there yet (or nothing readable)
-        return 0o666 & ~_umask()
+        st = None
+    if st is not None and stat.S_ISREG(st.st_mode):
+        return st.st_mode & 0o777
+    return 0o666 & ~_umask()  # (a device's mode, /dev/null's 0o666 say, says nothing of a file's)
 
 
 def _png16_rgb(path, rgb: np.ndarray) -> None:

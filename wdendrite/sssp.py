@@ -197,7 +197,7 @@ def _records_pass(arrays, lattice: Lattice, limit: float, *, dist=None, label=No
             _k.records_pass_kernel,
             dim=arrays.usable.shape[0] if listed else pass_threads(lattice.num_nodes, chunk),
             inputs=[arrays.usable if listed else spare_i, int(listed), arrays.state, arrays.mask, arrays.shape3,
-                    arrays.pad3, arrays.stride, limit, int(band is not None), low, high, chunk],
+                    arrays.pad3, arrays.stride, kernel_limit(limit), int(band is not None), low, high, chunk],
             outputs=[spare_f if dist is None else dist, spare_i if label is None else label,
                      spare_i if count is None else count, spare_i if nodes is None else nodes],
         )
@@ -392,7 +392,8 @@ def shortest_paths(
         device: Warp device to run on (default: the warm start's device, else
             Warp's default device).
         limit: search only costs up to this bound; nodes beyond it get
-            ``dist = inf`` and ``label = -1``. Default: no bound. With a warm
+            ``dist = inf`` and ``label = -1`` (costs, float32, are compared with the
+            largest float32 at or below it: none above it is kept). Default: no bound. With a warm
             start it may be lower than the warm start's limit, not higher.
         warm_start: a :class:`CostField` computed earlier on the same lattice
             shape, connectivity and mask, with a ``limit`` at least this one, whose
@@ -498,9 +499,7 @@ def shortest_paths(
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
         fr.max_threads = _max_threads
-        # a finite bound also keeps costs that overflowed float32 out (inf <= max is false)
-        kernel_limit = min(limit_f, float(np.finfo(np.float32).max))
-        launches.begin(kernel_limit, fifo, far_id, one_launch=fifo and not _host_rounds)
+        launches.begin(kernel_limit(limit_f), fifo, far_id, one_launch=fifo and not _host_rounds)
         rounds, relaxed = _run(arrays, fr, launches, delta_f)
         result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
@@ -535,6 +534,18 @@ def load_state(costfield: CostField, arrays) -> None:
     arrays.stamps.owner = weakref.ref(costfield)
 
 
+def kernel_limit(limit: float) -> float:
+    """The bound the kernels compare float32 costs with for ``limit``: the largest float32 at or
+    below it (Warp would round a float64 to the nearest float32, which may lie above it and keep
+    a cost above ``limit``), and at most the largest finite float32 (which also keeps costs that
+    overflowed float32 out: inf <= max is false)."""
+    top = float(np.finfo(np.float32).max)
+    f = np.float32(min(limit, top))
+    if float(f) > limit:
+        f = np.nextafter(f, np.float32(-np.inf))
+    return float(f)
+
+
 def read_states(arrays, nodes: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
     """Costs (float32) and labels (int32) of padded ``nodes`` from the records' states, as
     ``dist``/``label`` would give them (inf and -1 when unreached or above ``limit``);
@@ -546,7 +557,7 @@ def read_states(arrays, nodes: np.ndarray, limit: float) -> tuple[np.ndarray, np
     if count:
         wp.launch(_k.read_states_kernel, dim=count,
                   inputs=[wp.array(np.asarray(nodes, dtype=np.int32), dtype=wp.int32, device=device), arrays.state,
-                          arrays.stride, limit],
+                          arrays.stride, kernel_limit(limit)],
                   outputs=[cost, label], device=device)
     return cost.numpy()[:count], label.numpy()[:count]
 
