@@ -244,6 +244,28 @@ def test_zarr_output(tmp_path):
     assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 30)))
 
 
+def test_workers_beyond_the_cores_are_capped_with_a_message(tmp_path, monkeypatch, capsys):
+    # a million workers had the LocalCluster start worker after worker, growing memory, never a task
+    import os
+
+    distributed = pytest.importorskip("distributed")
+    cores = len(os.sched_getaffinity(0))
+    started, real = [], distributed.LocalCluster
+
+    def counting(*, n_workers, **kw):
+        started.append(n_workers)
+        assert n_workers <= cores, f"{n_workers} workers asked of a LocalCluster on {cores} cores"
+        return real(n_workers=n_workers, **kw)
+
+    monkeypatch.setattr(distributed, "LocalCluster", counting)
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nsize = 16\n')
+    assert batch.run_file(tmp_path / "jobs.toml", scheduler="local", workers=10**6, processes=False, quiet=True,
+                          device="cpu") == 0
+    assert started == [cores] and (tmp_path / "o" / "costs_size16_seed0.png").exists()
+    err = capsys.readouterr().err
+    assert f"--workers 1000000 is more than the {cores} core" in err and f"starting {cores} worker" in err
+
+
 def test_batch_on_a_local_cluster_of_processes(tmp_path):
     pytest.importorskip("distributed")
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "costs"\nseeds = [1, 2]\nsize = 24\n'

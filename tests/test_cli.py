@@ -122,6 +122,23 @@ def test_heightmap_and_npy_equal_the_dendry_function(tmp_path):
     assert png.mode.startswith("I") and np.asarray(png).max() == 65535 and np.asarray(png).min() == 0
 
 
+@pytest.mark.parametrize("seed", [2**32, -1])
+def test_one_seed_range_on_the_command_line_in_config_and_job_files(tmp_path, seed):
+    # lightning had taken 2**32 from the command line and a config file (its own generator takes
+    # any integer), while job files and the weights refuse it: every way in now says the same
+    (tmp_path / "c.toml").write_text(f"seed = {seed}\n")
+    (tmp_path / "jobs.toml").write_text(f'out = "o"\n[[job]]\npreset = "lightning"\nsize = 24\nseed = {seed}\n')
+    for args, where in ((["--seed", seed], "--seed"), (["--config", "c.toml"], "config key 'seed'")):
+        bad(["lightning", "--size", 24, *args, "-o", "l.png"], tmp_path, where, "[0, 2**32)", f"got {seed}")
+    bad(["batch", "jobs.toml"], tmp_path, "job 1 (lightning)", "'seed'", "[0, 2**32)", f"got {seed}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.toml", "jobs.toml"]
+    # the library's own seeds refuse the same values
+    import wdendrite as wd
+
+    with pytest.raises(ValueError, match=re.escape("[0, 2**32)")):
+        wd.weights.Uniform(seed=seed)
+
+
 def test_config_file_and_command_line_override(tmp_path):
     (tmp_path / "c.toml").write_text("size = 40\nseed = 3\ncheap = 0.5\n")
     code, _, err = wd("fractal", "--config", "c.toml", "-o", "a.png", "--quiet", cwd=tmp_path)
@@ -410,6 +427,20 @@ def test_tiled_terrain_from_the_command_equals_the_whole_image(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.npy"]
     bad(["terrain", "--size", 45, "--tile", 16, "-o", "t.png"], tmp_path, "'.png'", ".npy, .zarr")
     bad(["terrain", "--size", 45, "--tile", 4, "-o", "t.npy"], tmp_path, "--tile")
+
+
+def test_a_size_the_whole_image_refuses_is_refused_in_tiles_too(tmp_path):
+    # `--size 1 --tile 8` had written a 1 x 1 terrain that `--size 1` refuses
+    def line(err):
+        return [x for x in err.splitlines() if x.startswith("wdendrite:")]
+
+    whole = bad(["terrain", "--size", 1, "-o", "t.npy"], tmp_path, "'size' >= 2", "got 1", "(--size)")
+    tiled = bad(["terrain", "--size", 1, "--tile", 8, "-o", "t.npy"], tmp_path)
+    assert line(tiled) == line(whole)
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 1\ntile = 8\n'
+                                        'formats = ["npy"]\n')
+    bad(["batch", "jobs.toml"], tmp_path, "job 1 (terrain)", "'size' >= 2")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["jobs.toml"]
 
 
 def test_a_terrain_written_as_npy_alone_skips_its_picture(tmp_path, monkeypatch):

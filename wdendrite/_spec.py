@@ -169,10 +169,12 @@ class Param:
             if self.kind == "nested":
                 given = self._fields(value, typed)
             else:
-                return self._convert(value, typed)
+                got = self._convert(value, typed)
         except (TypeError, ValueError):
             pass
         else:
+            if self.kind != "nested":
+                return self._seed(got, where) if self.name == "seed" and self.kind == "int" else got
             try:
                 return dataclasses.replace(self.default, **given)
             except (TypeError, ValueError) as exc:  # the dataclass names the field and its bounds
@@ -189,6 +191,17 @@ class Param:
         if typed and isinstance(value, str) and self.kind not in ("str", "choice", "strs"):
             extra += " (text: in TOML, write numbers and true/false without quotes)"
         raise UsageError(f"{where} expects {want}, but got {value!r}{extra}")
+
+    @staticmethod
+    def _seed(value: int, where: str) -> int:
+        """A preset's seed in the one range every seed has (the command, config files, job files and
+        the library's weights and Dendry), or :class:`UsageError` naming ``where``."""
+        from ._checks import seed32
+
+        try:
+            return seed32(value)
+        except ValueError:
+            raise UsageError(f"{where} expects an integer in [0, 2**32), but got {value!r}") from None
 
     def _convert(self, v, typed: bool = False):
         k = self.kind

@@ -227,9 +227,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         values.update({p: preset.params[p].convert(v, source=f"{where} grid {p!r}", typed=True)
                        for p, v in zip(grid, combo)})
         if seed is not None:
-            values["seed"] = preset.params["seed"].convert(seed, source=f"{where} seed", typed=True)
-            if not 0 <= values["seed"] < 2**32:
-                raise UsageError(f"{where}: 'seed'/'seeds' must be in [0, 2**32), but got {seed!r}")
+            values["seed"] = preset.params["seed"].convert(seed, source=f"{where}: 'seed'/'seeds'", typed=True)
         if size is not None:
             values[preset.size_param] = sized[size]
         try:
@@ -507,10 +505,13 @@ def _dendry_tile(window, *, setup: dict, output: str, device):
 
 
 def _tiled_setup(task: Task):
+    """``(keywords of wdendrite.dendry, output)`` of a tiled task, once the preset's own checks (those
+    of its whole image, such as a terrain's size of at least 2) have passed its values."""
     from .cli import dendry_setup
 
     preset = all_presets()[task.preset]
     kwargs, _ = resolve(preset, task.values)
+    _check_values(preset, kwargs, set())  # (a tiled image is the image the preset would make, or none)
     p = {n: preset.params[n].default for n in ("extent", "control", "frequency", "drained", "seed")}
     p.update({k: v for k, v in kwargs.items() if k in p})
     params = kwargs.get("params", preset.groups["params"][0])
@@ -895,13 +896,26 @@ def _client(scheduler: str, workers: int | None, processes: bool, timeout: float
     except ImportError:
         raise UsageError("--scheduler needs Dask: pip install 'wdendrite[distributed]'") from None
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=processes,
+        cluster = LocalCluster(n_workers=_local_workers(workers or 1), threads_per_worker=1, processes=processes,
                                dashboard_address=None)
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=f"{timeout}s"), None
     except (OSError, TimeoutError) as exc:
         raise UsageError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+
+
+def _local_workers(workers: int) -> int:
+    """``workers``, at most the cores this process may run on: each worker computes one task at a
+    time, so more would only share those cores, each holding its own copy of Warp and its tiles
+    (a million of them had the LocalCluster start process after process, growing memory, never a task).
+    A capped count is told on stderr."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if workers > cores:
+        print(f"batch: --workers {workers} is more than the {counted(cores, 'core')} this machine gives the "
+              f"batch; starting {counted(cores, 'worker')}", file=sys.stderr)
+        return cores
+    return workers
 
 
 def run_file(path, *, scheduler: str | None = None, device: str | None = None, workers: int | None = None,
