@@ -234,14 +234,14 @@ def test_zarr_output(tmp_path):
         return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 100).astype(np.float32)
 
     batch.write_tiled(value, (20, 30), 8, tmp_path / "v.zarr")
-    assert np.array_equal(zarr.open_array(str(tmp_path / "v.zarr"), mode="r")[:], value((0, 0, 20, 30)))
+    assert np.array_equal(zarr.open_array(str(tmp_path / "v.zarr"), path="field", mode="r")[:], value((0, 0, 20, 30)))
     # both formats of one image, each tile computed once for the two
     calls = []
     outs = batch.write_tiled(lambda w: calls.append(w) or value(w), (20, 30), 8, [tmp_path / "w.npy",
                                                                                   tmp_path / "w.zarr"])
     assert len(calls) == len(batch.tile_windows((20, 30), 8)) + len(batch.probe_windows((20, 30)))
     assert np.array_equal(np.load(outs[0]), value((0, 0, 20, 30)))
-    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], value((0, 0, 20, 30)))
+    assert np.array_equal(zarr.open_array(str(outs[1]), path="field", mode="r")[:], value((0, 0, 20, 30)))
 
 
 def test_workers_beyond_the_cores_are_capped_with_a_message(tmp_path, monkeypatch, capsys):
@@ -285,7 +285,20 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "fractal"\nseedz = [1]\n', ["job 1 (fractal)", "'seedz'", "did you mean 'seed'"]),
     ('out = "o"\n[[job]]\npreset = "fractal"\ngrid = { chaep = [0.1] }\n', ["'chaep'", "did you mean 'cheap'"]),
     ('out = "o"\n[[job]]\npreset = "fractal"\nparams = { cheap = "lots" }\n', ["cheap", "'lots'"]),
-    ('out = "o"\n[[job]]\npreset = "fractal"\nformats = ["tif"]\n', ["unknown format 'tif'"]),
+    ('out = "o"\n[[job]]\npreset = "fractal"\nformats = ["tga"]\n', ["unknown format 'tga'"]),
+    # terrain files: a range needs a 16-bit heightmap to scale, and a raw file a size its engine takes
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["npy", "tif"]\nrange = [0, 1]\n',
+     ["job 1 (terrain)", "'range' scales 16-bit heightmaps", "writes none"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["png"]\nrange = [0, 1]\n', ["writes none"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["r16"]\nrange = [1, 0]\n',
+     ["job 1 (terrain): 'range' expects LO,HI", "[1, 0]"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["r16"]\nrange = "0,inf"\n', ["'range'", "'0,inf'"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nformats = ["png"]\nheightmap = "yes"\n',
+     ["'heightmap' must be true or false"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsizes = [65, 64]\nformats = ["raw"]\n',
+     ["job 1 (terrain)", "64 x 64", "make it 65 x 65"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 48\ntile = 16\nformats = ["npy", "r16"]\n',
+     ["writes npy or zarr only", "'r16'"]),
     ('out = "o"\n[[job]]\npreset = "lightning"\ntile = 64\n', ["'tile' is for"]),
     ('[[job]]\npreset = "fractal"\n', ["needs an output folder"]),
     ('out = "/proc/wdendrite-runs"\n[[job]]\npreset = "fractal"\nsize = 16\n', ["not writable"]),
@@ -611,7 +624,7 @@ def test_tiled_outputs_replace_old_stores_and_links(tmp_path):
     outs[0].symlink_to(theirs)
     batch.write_tiled(lambda w: _ramp(w, 1.0), (20, 17), 8, outs)
     assert not outs[0].is_symlink() and np.array_equal(np.load(outs[0]), _ramp((0, 0, 20, 17), 1.0))
-    assert np.array_equal(zarr.open_array(str(outs[1]), mode="r")[:], _ramp((0, 0, 20, 17), 1.0))
+    assert np.array_equal(zarr.open_array(str(outs[1]), path="field", mode="r")[:], _ramp((0, 0, 20, 17), 1.0))
     assert np.array_equal(np.load(theirs), np.zeros(3))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.npy", "t.npy", "t.zarr"]
 
@@ -641,24 +654,24 @@ def test_a_tiled_image_killed_between_its_renames_is_not_computed_again(tmp_path
     store = tmp_path / "c.zarr"
     store.write_text("not a store")
     batch.write_tiled(_ramp, (21, 19), 8, store)
-    assert np.array_equal(zarr.open_array(str(store), mode="r")[:], _ramp((0, 0, 21, 19)))
+    assert np.array_equal(zarr.open_array(str(store), path="field", mode="r")[:], _ramp((0, 0, 21, 19)))
 
 
 def test_records_left_by_a_kill_vouch_only_for_the_file_they_renamed(tmp_path, monkeypatch):
     # killed while clearing its tile records (after every output took its name): a file put there
     # since, by the user or an untiled run, is not taken for the tiled image
     out = tmp_path / "a.npy"
-    real = shutil.rmtree
+    real = os.replace
 
-    def dies(path, *args, **kwargs):
-        if Path(path).name == ".a.tiles.npy" and out.exists():  # (not the fresh start's clearing)
+    def dies(src, dst):
+        if Path(src).name == ".a.tiles.npy" and out.exists():  # (the records leave in one rename)
             raise KeyboardInterrupt
-        real(path, *args, **kwargs)
+        real(src, dst)
 
-    monkeypatch.setattr(batch.shutil, "rmtree", dies)
+    monkeypatch.setattr(os, "replace", dies)
     with pytest.raises(KeyboardInterrupt):
         batch.write_tiled(_ramp, (20, 20), 8, out)
-    monkeypatch.setattr(batch.shutil, "rmtree", real)
+    monkeypatch.setattr(os, "replace", real)
     assert np.array_equal(np.load(out), _ramp((0, 0, 20, 20))) and (tmp_path / ".a.tiles.npy").is_dir()
     np.save(out, np.zeros((3, 3), np.float32))  # the user's own array under that name
     calls = []
@@ -671,17 +684,17 @@ def test_records_left_by_a_kill_vouch_only_for_the_file_they_renamed(tmp_path, m
 def test_a_complete_tiled_task_has_the_records_a_kill_left_cleared(tmp_path, monkeypatch):
     (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 40\ntile = 16\n'
                                         'formats = "npy"\n')
-    real = shutil.rmtree
+    real = os.replace
 
-    def dies(path, *args, **kwargs):
-        if Path(path).name.endswith(".tiles.npy") and (tmp_path / "o" / "terrain_size40_seed0.npy").exists():
+    def dies(src, dst):
+        if Path(src).name.endswith(".tiles.npy") and (tmp_path / "o" / "terrain_size40_seed0.npy").exists():
             raise KeyboardInterrupt  # after the manifest, while clearing the tile records
-        real(path, *args, **kwargs)
+        real(src, dst)
 
-    monkeypatch.setattr(batch.shutil, "rmtree", dies)
+    monkeypatch.setattr(os, "replace", dies)
     with pytest.raises(KeyboardInterrupt):
         batch.run_file(tmp_path / "jobs.toml", quiet=True, device="cpu")
-    monkeypatch.setattr(batch.shutil, "rmtree", real)
+    monkeypatch.setattr(os, "replace", real)
     out = tmp_path / "o"
     assert (out / ".terrain_size40_seed0.tiles.npy").is_dir()
     assert batch.run_file(tmp_path / "jobs.toml", quiet=True, device="cpu") == 0
@@ -739,7 +752,7 @@ def test_zarr_chunks_fit_the_image_and_the_suffix_is_read_in_any_case(tmp_path):
         return np.add.outer(np.arange(r0, r0 + h), np.arange(c0, c0 + w) * 100).astype(np.float32)
 
     out = batch.write_tiled(value, (5, 7), 8192, tmp_path / "v.ZARR")
-    arr = zarr.open_array(str(out), mode="r")  # (an upper-case suffix had made an NPY file)
+    arr = zarr.open_array(str(out), path="field", mode="r")  # (an upper-case suffix had made an NPY file)
     assert arr.chunks == (5, 7) and np.array_equal(arr[:], value((0, 0, 5, 7)))
 
 

@@ -186,7 +186,7 @@ def test_bad_values_are_named(tmp_path):
     bad(["fractal", "--size", 32, "--device", "gpu", "-o", "f.png"], tmp_path, "--device", "'gpu'")
     bad(["fractal", "--size", 32, "--device", "cuda:7", "-o", "f.png"], tmp_path, "not available")
     bad(["lightning", "--size", 48, "-o", "l.glb"], tmp_path, "no mesh")
-    bad(["fractal", "--size", 32, "-o", "f.tiff"], tmp_path, "unknown suffix", ".png")
+    bad(["fractal", "--size", 32, "-o", "f.tga"], tmp_path, "unknown suffix", ".png")
     # known formats a run does not write are named as such, with what to do instead
     bad(["terrain", "--size", 32, "-o", "t.zarr"], tmp_path, "written tile by tile: add --tile N")
     bad(["terrain", "--size", 32, "--tile", 16, "-o", "t.png"], tmp_path, "'.png' is not written tile by tile",
@@ -308,7 +308,8 @@ def test_a_link_to_a_device_replaced_with_force_gives_the_new_file_a_file_s_mode
         os.umask(old)
     for name, mode in (("null.png", 0o600), ("link.npy", 0o640)):
         out = tmp_path / name
-        assert not out.is_symlink() and out.is_file() and out.stat().st_mode & 0o777 == mode, (name, oct(out.stat().st_mode))
+        assert not out.is_symlink() and out.is_file(), name
+        assert out.stat().st_mode & 0o777 == mode, (name, oct(out.stat().st_mode))
     assert (tmp_path / "kept.npy").read_bytes() == b"old"
 
 
@@ -521,11 +522,13 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["terrain", "--size", "32", "-o", "t.png", "-o", "t.npz"], None, ["'terrain' makes no dendrite"]),
     (["rock", "--size", "16", "-o", "r.svg"], None, ["'rock' makes no dendrite", "or a mesh"]),
     # the formats named are the preset's own (dendry had been told to write .npz, .json or .svg)
-    (["dendry", "--size", "16", "-o", "d.obj"], None, ["'dendry' makes no mesh (it is 2D); write .png or .npy"]),
+    (["dendry", "--size", "16", "-o", "d.obj"], None, ["'dendry' makes no mesh (it is 2D); write .png, .npy, .tif, .r16 "
+                                                         "or .raw"]),
     (["lightning", "--size", "16", "-o", "l.stl"], None, ["'lightning' makes no mesh (it is 2D); write .png, .npy, "
-                                                           ".npz, .json or .svg"]),
+                                                           ".tif, .r16, .raw, .npz, .json or .svg"]),
     (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
-    (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["'seed'"]),
+    (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["--seed expects an integer in [0, 2**32)",
+                                                           "but got -1"]),
     (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),
     # a library check names the Python parameter; the command adds its option
     (["lightning", "--size", "32", "--forks", "-1"], None, ["'forks' >= 0, but got -1 (--forks)"]),
@@ -553,7 +556,7 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["tropisms", "--size", "32", "--toward", "left,left"], None, ["'toward' lists 'left' twice", "(--toward)"]),
     (["weight-distributions", "--size", "32", "--ns", "1,1.0"], None, ["'ns' lists 1.0 twice", "(--ns)"]),
     # a value the config file gave is said to come from it, not from an option never given
-    (["tropism-objects", "--size", "16"], "seed = -3\n", ["but got -3 ('seed' from config file 'c.toml')"]),
+    (["tropism-objects", "--size", "16"], "seed = -3\n", ["config key 'seed' in 'c.toml'", "but got -3"]),
 ])
 def test_more_bad_input_exits_2_with_one_line_naming_it(args, config, words, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
@@ -670,9 +673,13 @@ def test_a_link_to_a_missing_file_is_not_clobbered(tmp_path, monkeypatch, capsys
         io.save_png(tmp_path / "link.png", np.zeros((4, 4)))
 
 
-def test_heightmap_scales_the_finite_values_and_paints_inf_white():
+def test_heightmap_scales_the_finite_values_and_paints_inf_white(tmp_path):
+    from wdendrite import heightmaps
+
     z = np.array([[0.0, np.inf], [1.0, 2.0]])
-    np.testing.assert_array_equal(cli._heightmap(z), [[0.0, 1.0], [0.5, 1.0]])
+    assert cli._heightmap(z) == (0.0, 2.0, 0) and cli._heightmap(z, (0.5, 1.5)) == (0.5, 1.5, 2)
+    heightmaps.save_heightmap(tmp_path / "z.png", z)
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "z.png")), [[0, 65535], [32768, 65535]])
     with pytest.raises(UsageError, match="NaN"):
         cli._heightmap(np.array([[0.0, np.nan]]))
 
@@ -696,7 +703,7 @@ def test_a_config_file_that_is_not_utf8_is_named(tmp_path, monkeypatch, capsys):
     # an option given on the command line is named as the option, even when the file sets it too
     (tmp_path / "c.toml").write_text("seed = 1\n")
     assert cli.main(["tropism-objects", "--size", "16", "--config", "c.toml", "--seed", "-2", "--quiet"]) == 2
-    assert capsys.readouterr().err.strip().endswith("but got -2 (--seed)")
+    assert capsys.readouterr().err.strip().endswith("--seed expects an integer in [0, 2**32), but got -2")
 
 
 def test_the_summary_counts_in_words(tmp_path):
@@ -799,25 +806,26 @@ def test_a_ctrl_c_during_the_renames_waits_for_them_to_end(tmp_path, monkeypatch
 
 
 def test_a_tiled_command_killed_while_clearing_its_records_finishes_when_run_again(tmp_path, monkeypatch):
-    # killed after image.json went, before the record of the renamed image did: the re-run had
-    # refused its own output as the user's, and the records stayed
+    # killed once the first output's records had gone, before the second's did: the re-run had
+    # refused the first output, complete, as the user's file (and needed --force)
     from wdendrite import batch
 
-    out = tmp_path / "a.npy"
-    command = ["terrain", "--size", "40", "--tile", "16", "-o", str(out), "--quiet", "--device", "cpu"]
-    real, killed = batch._remove, []
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    command = ["terrain", "--size", "40", "--tile", "16", "-o", str(a), "-o", str(b), "--quiet", "--device", "cpu"]
+    real, killed = os.replace, []
 
-    def dies_at_whole(path):
-        if Path(path).name == "whole" and not killed:
-            killed.append(path)
-            assert not (Path(path).parent / "image.json").exists()  # every other record is gone
+    def dies_at_b_records(src, dst):
+        if Path(src).name == ".b.tiles.npy":
+            killed.append(src)
+            assert not os.path.lexists(tmp_path / ".a.tiles.npy")  # the first output's records are gone
             raise KeyboardInterrupt
-        real(path)
+        real(src, dst)
 
-    monkeypatch.setattr(batch, "_remove", dies_at_whole)
+    monkeypatch.setattr(batch.os, "replace", dies_at_b_records)
     assert cli.main(command) == 130 and killed
-    monkeypatch.setattr(batch, "_remove", real)
-    first = np.load(out)
+    monkeypatch.setattr(batch.os, "replace", real)
+    first = np.load(a)
     assert cli.main(command) == 0
-    assert np.array_equal(np.load(out), first)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy"]
+    assert np.array_equal(np.load(a), first) and np.array_equal(np.load(b), first)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
+    assert cli.main(command) == 2  # (complete and cleared: existing outputs, as for any run)

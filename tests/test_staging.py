@@ -209,15 +209,15 @@ def test_the_next_command_removes_what_killed_writers_left_and_nothing_else(tmp_
 PAUSE = """
 import os, time
 from pathlib import Path
-from wdendrite import batch
-_real, _control = batch._tile_into, Path(os.environ["CONTROL"])
+from wdendrite import tiles
+_real, _control = tiles._tile_into, Path(os.environ["CONTROL"])
 def _paused(*args, **kwargs):
     out = _real(*args, **kwargs)
     (_control / "started").touch()
     while not (_control / "go").exists():
         time.sleep(0.01)
     return out
-batch._tile_into = _paused
+tiles._tile_into = _paused
 """
 
 
@@ -399,13 +399,13 @@ result["zeros"] = wd(*tiled, "-o", "t.npy", hook=nofallocate)  # (where the syst
 result["zarr"] = wd(*tiled, "-o", "t.zarr")                   # compressed chunks fill it part way
 mount("4m", again=True)                                     # space freed
 result["again"] = wd(*tiled, "-o", "t.npy")
-counting = ("import atexit\\nfrom wdendrite import batch\\n_real, _n = batch._tile_into, [0]\\n"
-            "batch._tile_into = lambda *a, **k: _n.__setitem__(0, _n[0] + 1) or _real(*a, **k)\\n"
+counting = ("import atexit\\nfrom wdendrite import tiles\\n_real, _n = tiles._tile_into, [0]\\n"
+            "tiles._tile_into = lambda *a, **k: _n.__setitem__(0, _n[0] + 1) or _real(*a, **k)\\n"
             f"atexit.register(lambda: open({os.path.join(OUT, 'tiles')!r}, 'w').write(str(_n[0])))\\n")
 result["zarr again"] = wd(*tiled, "-o", "t.zarr", hook=counting)  # resumed: only the tiles it lacks
 import numpy as np, zarr, shutil
 shutil.copy(os.path.join(DISK, "t.npy"), OUT)
-np.save(os.path.join(OUT, "z.npy"), zarr.open_array(os.path.join(DISK, "t.zarr"), mode="r")[:])
+np.save(os.path.join(OUT, "z.npy"), zarr.open_array(os.path.join(DISK, "t.zarr"), path="elevation", mode="r")[:])
 """)
     for case in ("checked", "allocated", "zeros"):
         assert r[case]["code"] == 1 and r[case]["files"] == [], (case, r[case])
@@ -460,7 +460,9 @@ def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
     Returns ``{scenario: {"faults": kills tried, "lost": outputs missing or neither old nor new
     (tiled: not the image), "mixed": sets holding old and new files (tiled: the two files
     differing), "leftovers": files beside the outputs after the next command, "refused": (tiled)
-    kills after which the same command refused an output it had made and needed ``--force``}}``.
+    kills after which the same command refused an output it had made and needed ``--force``,
+    "finished": (tiled) kills after the run had done all it shows (both outputs in place, no tile
+    records left): the same command then refuses the outputs, as after any complete run}}``.
     """
     from wdendrite import cli
 
@@ -486,7 +488,7 @@ def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
 
     ref = root / "ref.npy"
     assert cli.main(["terrain", "--size", str(tiles), "-o", str(ref), "--quiet", "--device", "cpu"]) == 0
-    counts = report["tiled"] = dict(faults=0, lost=0, mixed=0, leftovers=0, refused=0)
+    counts = report["tiled"] = dict(faults=0, lost=0, mixed=0, leftovers=0, refused=0, finished=0)
     for k in range(1, 2000):
         work = root / "tiled"
         shutil.rmtree(work, ignore_errors=True)
@@ -497,12 +499,13 @@ def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
                      ops=("open", "mkdir", "chmod", "link", "replace", "unlink", "rmdir")) is None:
             break
         counts["faults"] += 1
+        records = [n for n in os.listdir(work) if n.startswith(".t.")]  # (tiles, partial files)
         done = cli.main(command) == 0
         if not done and all((work / n).exists() for n in ("t.npy", "t.zarr")):
-            counts["refused"] += 1  # (killed while clearing its tile records, or after: see the report)
+            counts["refused" if records else "finished"] += 1
             done = cli.main([*command, "--force"]) == 0
         a = np.load(work / "t.npy") if done else None
-        b = zarr.open_array(str(work / "t.zarr"), mode="r")[:] if done else None
+        b = zarr.open_array(str(work / "t.zarr"), path="elevation", mode="r")[:] if done else None
         counts["lost"] += (not done) or not np.array_equal(a, np.load(ref))
         counts["mixed"] += done and not np.array_equal(a, b)
         counts["leftovers"] += len(set(os.listdir(work)) - {"t.npy", "t.zarr"})
@@ -512,7 +515,8 @@ def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
 def test_kills_at_every_step_lose_mix_and_leave_nothing(tmp_path):
     report = fault_matrix(tmp_path)
     for scenario, counts in report.items():
-        assert counts["lost"] == counts["mixed"] == counts["leftovers"] == 0, (scenario, counts)
+        assert counts["lost"] == counts["mixed"] == counts["leftovers"] == counts.get("refused", 0) == 0, \
+            (scenario, counts)
     assert report["set"]["faults"] >= 25 and report["tiled"]["faults"] >= 20, report
 
 
@@ -520,7 +524,8 @@ if __name__ == "__main__":  # python tests/test_staging.py: the fault matrix as 
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        print(f"{'scenario':>9} {'faults':>7} {'lost':>5} {'mixed':>6} {'leftovers':>10} {'refused':>8}")
+        print(f"{'scenario':>9} {'faults':>7} {'lost':>5} {'mixed':>6} {'leftovers':>10} {'refused':>8} "
+              f"{'finished':>9}")
         for scenario, c in fault_matrix(Path(tmp)).items():
             print(f"{scenario:>9} {c['faults']:>7} {c['lost']:>5} {c['mixed']:>6} {c['leftovers']:>10} "
-                  f"{c.get('refused', '-'):>8}")
+                  f"{c.get('refused', '-'):>8} {c.get('finished', '-'):>9}")

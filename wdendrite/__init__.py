@@ -17,11 +17,13 @@ Every model of the papers is one call in :mod:`wdendrite.presets` (lightning, tr
 lichen, moss, letters, terrains), also on the command line: ``wdendrite --help``.
 Modules: lattice, weights, sssp (searches), endpoints, dendrite (trace), growth (fractal growth),
 refine, render, skeleton (smooth centre lines), geometry (meshes), preview (ray-cast pictures),
-dendry, control, hydrology, io, presets, batch (``import wdendrite.batch``: job files, tiled
-writing, Dask). Kernels run on the CPU or CUDA: ``device=``.
+dendry, control, hydrology, io, heightmaps (terrain files: 16-bit heightmaps that carry their
+range, raw .r16/.raw, GeoTIFF), presets, batch (``import wdendrite.batch``: job files, Dask) and
+tiles (``import wdendrite.tiles``: images written tile by tile, resumably). Kernels run on the
+CPU or CUDA: ``device=``.
 """
 
-from . import control, endpoints, geometry, hydrology, io, presets, preview, render, skeleton, weights
+from . import control, endpoints, geometry, heightmaps, hydrology, io, presets, preview, render, skeleton, weights
 from .dendrite import Dendrite, trace
 from .dendry import DendryParams, default_control, dendry, dendry_points
 from .growth import FractalParams, grow
@@ -57,6 +59,7 @@ __all__ = [
     "endpoints",
     "geometry",
     "grow",
+    "heightmaps",
     "hydrology",
     "io",
     "presets",

@@ -37,6 +37,10 @@ class Made:
     """A mesh, if any."""
     parts: dict = dataclass_field(default_factory=dict)
     """Further data; ``"field"`` or ``"elevation"`` is what ``.npy`` and ``--heightmap`` write."""
+    quantity: str | None = None
+    """What the field's values are (``"elevation"``, ``"distance"``, ``"cost"``...), as terrain files record it."""
+    domain: tuple | None = None
+    """``((x0, y0), (x1, y1))`` the field covers, in domain units (Dendry models), else None."""
 
     @property
     def image(self) -> np.ndarray:
@@ -77,7 +81,7 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
     # strokes grow brighter and wider with the number of endpoints a node carries (thicker trunks)
     carried = np.log1p(den.downstream) / np.log1p(den.downstream.max())
     img = strokes(den, 0.9 + 1.6 * carried, ink=0.35 + 0.65 * carried)
-    return Made(img, den, parts={"field": img})
+    return Made(img, den, parts={"field": img}, quantity="brightness")
 
 
 def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
@@ -104,7 +108,7 @@ def costs(size: int = 256, *, generators: int = 5, seed: int = 0) -> Made:
     bands = 0.5 + 0.5 * np.cos(d / (top / 12.0 if top > 0 else 1.0) * 2 * np.pi)
     tint = (cf.label * 0.61803) % 1.0
     rgb = np.stack([bands * (0.4 + 0.6 * tint), bands * 0.7, bands * (1.0 - 0.6 * tint)], axis=-1)
-    return Made(rgb, parts={"field": d})
+    return Made(rgb, parts={"field": d}, quantity="cost")
 
 
 Control = Literal["perlin", "ridged", "radial", "plane", "lichtenberg"]
@@ -199,7 +203,8 @@ def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
         img = 1.0 - coverage(np.where(np.isfinite(z), z, np.inf) * (size / extent), 1.5)
     else:
         img = unit_range(z)
-    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
+    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z}, quantity=output,
+                domain=setup["domain"])
 
 
 def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 4.0, control: Control = "perlin",
@@ -233,7 +238,7 @@ def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 
             parts["drainage"] = area
         return relief(z, extent / size, area)
 
-    return Made(picture, parts=parts)
+    return Made(picture, parts=parts, quantity="elevation", domain=setup["domain"])
 
 
 MODELS = {"fractal": fractal, "costs": costs, "dendry": dendry, "terrain": terrain}

@@ -49,16 +49,17 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from ._spec import UsageError, all_presets, canonical_name, counted, nearest, progress_bar, read_toml, resolve
-from ._staging import NAME_BYTES as _NAME_BYTES, identity
+from ._staging import NAME_BYTES as _NAME_BYTES
+# tiled images are written by wdendrite.tiles (its public functions stay importable from here)
+from .tiles import _remove, _tile_records, probe_windows, tile_key, tile_windows, tiled_array, write_tiled
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
            "run_tiled", "tile_windows", "tiled_array", "worker_device", "write_tiled"]
 
 _TOP_KEYS = ("out", "device", "formats", "job")
-_JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile")
+_JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile", "heightmap",
+             "range")
 TILED_PRESETS = ("dendry", "terrain")
 _TILED_FORMATS = ("npy", "zarr")
 
@@ -78,6 +79,10 @@ class Task:
     """Every parameter's value (JSON-ready): what the manifest records and compares."""
     tile: int | None = None
     """Tile side in pixels for a tiled Dendry field (None: the preset runs whole)."""
+    writing: dict = field(default_factory=dict)
+    """How the outputs are written, where not by default: ``heightmap`` (True: ``png`` outputs are
+    16-bit heightmaps) and ``range`` (``[lo, hi]`` of the 16-bit heightmaps). The manifest records
+    it, and a task whose manifest records another is not complete."""
 
     @property
     def manifest(self) -> Path:
@@ -92,8 +97,10 @@ class Task:
         return rec if isinstance(rec, dict) else {}
 
     def complete(self) -> bool:
-        """True when the manifest records these parameters and every output exists."""
-        return self._record().get("params") == self.params and all(Path(p).exists() for p in self.outputs)
+        """True when the manifest records these parameters and ways of writing, and every output exists."""
+        rec = self._record()
+        return rec.get("params") == self.params and rec.get("writing", {}) == self.writing and \
+            all(Path(p).exists() for p in self.outputs)
 
     def foreign(self) -> list[str]:
         """Outputs that exist but that no manifest of this task lists: files a batch did not make.
@@ -220,6 +227,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
     if preset.meshes and "svg" in fmts:
         raise UsageError(f"{where}: preset {name!r} makes a 3D dendrite, which SVG cannot draw; drop 'svg'")
     tile = _tile(job.get("tile"), name, fmts, where)
+    writing = _writing(job, fmts, where)
     tasks = []
     checked = set()  # the values checked already (seeds aside)
     for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
@@ -239,9 +247,10 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         if longest > _NAME_BYTES:
             raise UsageError(f"{where}: the task name {stem[:40]!r}... makes file names of {longest} bytes, "
                              f"more than the {_NAME_BYTES} file systems allow; give the job a shorter 'name'")
-        task = Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile)
+        task = Task(stem, name, values, [str(folder / f"{stem}.{f}") for f in fmts], full, tile, writing)
         if not task.complete():  # (a re-run checks only what it will run)
             try:
+                _check_raw_sizes(preset, kwargs, fmts)
                 _check_values(preset, kwargs, checked)
             except (ValueError, TypeError, OverflowError) as exc:  # the preset refused a value: say which job
                 raise UsageError(f"{where}: {exc}") from None
@@ -249,6 +258,41 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
                 raise UsageError(f"{where}: checking the values ran out of memory ({exc})") from None
         tasks.append(task)
     return tasks
+
+
+def _writing(job: dict, fmts: list[str], where: str) -> dict:
+    """A job's ways of writing (:attr:`Task.writing`) from its ``heightmap`` and ``range`` keys."""
+    from .cli import need_tifffile
+    from .heightmaps import value_range
+
+    need_tifffile([f".{f}" for f in fmts], f"{where}: format")
+    out = {}
+    if "heightmap" in job:
+        if not isinstance(job["heightmap"], bool):
+            raise UsageError(f"{where}: 'heightmap' must be true or false, but got {job['heightmap']!r}")
+        if job["heightmap"]:
+            out["heightmap"] = True
+    if "range" in job:
+        try:
+            out["range"] = list(value_range(job["range"], f"{where}: 'range'"))
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
+        if not ({"r16", "raw"} & set(fmts) or (out.get("heightmap") and "png" in fmts)):
+            raise UsageError(f"{where}: 'range' scales 16-bit heightmaps (formats 'r16' and 'raw', 'png' with "
+                             "heightmap = true), and the job writes none")
+    return out
+
+
+def _check_raw_sizes(preset, kwargs: dict, fmts: list[str]) -> None:
+    """Refuse raw heightmap formats that the Dendry models' size x size field cannot fill (other
+    presets' fields are known only once they ran: their tasks fail then, before any write)."""
+    from .heightmaps import check_raw_shape
+
+    if preset.func.__module__ == "wdendrite._models" and preset.name in TILED_PRESETS:
+        size = kwargs.get("size", preset.params["size"].default)
+        for f in fmts:
+            if f in ("r16", "raw"):
+                check_raw_shape((size, size), f)
 
 
 def _check_values(preset, kwargs: dict, checked: set) -> None:
@@ -336,14 +380,6 @@ def load_jobs(path) -> tuple[list[Task], dict]:
     return tasks, {"out": folder, "device": raw.get("device")}
 
 
-def _remove(path: Path) -> None:
-    """Delete a file, a link (not what it points at) or a folder, if there is one at ``path``."""
-    if path.is_dir() and not path.is_symlink():
-        shutil.rmtree(path, ignore_errors=True)
-    elif os.path.lexists(path):
-        path.unlink()
-
-
 def _sweep_leftovers(task: Task) -> None:
     """Remove what a run killed after a complete task's manifest left behind: the tile records
     of its outputs (a complete task is not run again to clear them), unless a run writing that
@@ -377,8 +413,10 @@ def _manifest(task: Task, rec: dict, started: float) -> dict:
     from . import __version__
 
     return {"name": task.name, "preset": task.preset, "params": task.params, "seed": task.params.get("seed"),
+            **({"writing": task.writing} if task.writing else {}),
             "device": rec["device"], "version": __version__, "outputs": task.outputs,
             "made": rec.get("made", ""), "seconds": rec["seconds"], "write_seconds": rec.get("write_seconds"),
+            **{k: rec[k] for k in ("heightmap_range", "raw") if k in rec},  # (what reads 16-bit heightmaps back)
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(started)),
             "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
@@ -456,45 +494,14 @@ def run_task(task: Task, device: str | None = None, *, quiet: bool = True) -> di
     started = time.time()
     with _claimed(task):
         rec = run_preset(task.preset, task.values, task.outputs, device=worker_device(device), force=True,
-                         quiet=quiet)
+                         quiet=quiet, heightmap=task.writing.get("heightmap", False),
+                         value_range=tuple(task.writing["range"]) if "range" in task.writing else None)
     man = _manifest(task, rec, started)
     _write_manifest(task, man)
     return man
 
 
-# --------------------------------------------------------------------------- tiled fields
-
-
-def _tiling(shape, tile) -> tuple[tuple[int, int], int]:
-    """``shape`` as (H, W) positive ints and ``tile`` as a positive int, or an error naming them."""
-    from ._checks import integer, lattice_shape
-
-    # (tiles are what lets an image exceed 2**31 pixels: only each size must fit an int32)
-    return lattice_shape(shape, ranks=(2,), whole=False), integer("tile", tile, low=1)
-
-
-def tile_windows(shape, tile: int) -> list[tuple[int, int, int, int]]:
-    """``(row0, col0, h, w)`` of the tiles covering an (H, W) image, row by row; edge tiles are smaller."""
-    (h, w), tile = _tiling(shape, tile)
-    return [(r, c, min(tile, h - r), min(tile, w - c)) for r in range(0, h, tile) for c in range(0, w, tile)]
-
-
-def _block(tile_fn, block_info=None):
-    (r0, r1), (c0, c1) = block_info[None]["array-location"]
-    return np.asarray(tile_fn((r0, c0, r1 - r0, c1 - c0)), np.float32)
-
-
-def tiled_array(tile_fn, shape, tile: int):
-    """A lazy Dask array of ``shape`` whose ``tile`` x ``tile`` blocks are ``tile_fn((row0, col0, h, w))``.
-
-    ``tile_fn`` must return the (h, w) values of that window of the whole image and be
-    picklable when the array is computed on a cluster.
-    """
-    import dask.array as da
-
-    shape, tile = _tiling(shape, tile)
-    chunks = tuple(tuple(min(tile, n - s) for s in range(0, n, tile)) for n in shape)
-    return da.map_blocks(_block, tile_fn, chunks=chunks, dtype=np.float32, meta=np.empty((0, 0), np.float32))
+# --------------------------------------------------------------------------- tiled Dendry fields
 
 
 def _dendry_tile(window, *, setup: dict, output: str, device):
@@ -529,320 +536,6 @@ def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", d
         setup = task_or_setup
     fn = functools.partial(_dendry_tile, setup=setup, output=output, device=device)
     return tiled_array(fn, setup["shape"], tile)
-
-
-class _Target:
-    """Where finished tiles go: an NPY file (written in place with ordinary writes, so that a full
-    disk is an error and never a signal) or a Zarr array, plus one marker file per finished tile
-    so an interrupted run knows what is left."""
-
-    def __init__(self, path: Path, marks: Path):
-        self.path, self.marks = str(path), str(marks)
-        if not self.path.lower().endswith(".zarr"):
-            self.offset, self.width = _npy_layout(path)
-
-    def mark(self, window) -> Path:
-        return Path(self.marks) / ("%d_%d" % tuple(window[:2]))
-
-    def write(self, window, values) -> None:
-        r0, c0, h, w = window
-        if self.path.lower().endswith(".zarr"):
-            import zarr
-
-            arr = zarr.open_array(self.path, mode="r+")
-            arr[r0:r0 + h, c0:c0 + w] = values
-        else:
-            from ._staging import write_at
-
-            rows = np.ascontiguousarray(values, "<f4").reshape(h, w)
-            offset, stride = self.offset + 4 * (r0 * self.width + c0), 4 * self.width
-            if w == self.width:  # whole rows: one piece of the file
-                rows, stride = rows.reshape(1, -1), 0
-            fd = os.open(self.path, os.O_WRONLY)
-            try:
-                for row in rows:
-                    # (a row written in part, as a full disk may leave it, is written again whole)
-                    if not hasattr(os, "pwrite") or os.pwrite(fd, row, offset) != row.nbytes:
-                        write_at(fd, row, offset)
-                    offset += stride
-                getattr(os, "fdatasync", os.fsync)(fd)  # (the tile is on the disk before its marker)
-            finally:
-                os.close(fd)
-        self.mark(window).touch()
-
-
-def _npy_header(shape) -> bytes:
-    """The header of an NPY file of a float32 image of ``shape`` (little-endian, rows first)."""
-    import io
-
-    buf = io.BytesIO()
-    np.lib.format.write_array_header_1_0(buf, {"descr": "<f4", "fortran_order": False, "shape": tuple(shape)})
-    return buf.getvalue()
-
-
-def _npy_layout(path) -> tuple[int, int]:
-    """``(offset of the data, image width)`` of a float32 NPY image that :func:`_open_partial` made."""
-    with open(path, "rb") as f:
-        major, _ = np.lib.format.read_magic(f)
-        read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
-        shape, fortran, dtype = read(f)
-        if dtype != np.dtype("<f4") or fortran or len(shape) != 2:
-            raise ValueError(f"{str(path)!r} is not a partial tiled image (a {dtype} array of shape {shape})")
-        return f.tell(), shape[1]
-
-
-def _tile_into(window, tile_fn, targets) -> tuple:
-    """Compute one tile and write it into every target that lacks it; return its window."""
-    values = np.asarray(tile_fn(window), np.float32)
-    for target in targets:
-        if not target.mark(window).exists():
-            target.write(window, values)
-    return window
-
-
-def _tile_records(final: Path) -> list[Path]:
-    """The hidden partial file and tile records of a tiled output (see :func:`_open_partial`)."""
-    return [final.with_name(f".{final.stem}.{what}{final.suffix}") for what in ("partial", "tiles")]
-
-
-def tile_key(params: dict, kind: str) -> str:
-    """What tells one tiled image from another in its tile records: the preset's full
-    parameters and the kind of device (``cpu`` or ``cuda``) its tiles were computed on."""
-    return json.dumps({"params": params, "device": kind}, sort_keys=True)
-
-
-def _image_ident(key: str, shape, tile: int) -> str:
-    """The image a folder of tile records holds tiles of (its ``image.json``)."""
-    return json.dumps({"key": key, "shape": list(shape), "tile": tile}, sort_keys=True)
-
-
-def _whole_image(marks: Path) -> dict | None:
-    """What a folder of tile records says of the whole image a run renamed into place (its
-    ``whole`` file: the file's identity and the image's), or None."""
-    try:
-        whole = json.loads((marks / "whole").read_text())
-    except (OSError, ValueError):
-        return None
-    return whole if isinstance(whole, dict) and isinstance(whole.get("image"), str) else None
-
-
-def placed_by_killed_run(final: Path, key: str) -> bool:
-    """Whether the file at ``final`` is the whole image of tile key ``key`` that a run killed
-    before its clean-up renamed there, untouched since: a re-run of that run may take it
-    (:func:`write_tiled` then keeps it) rather than refuse it as a file of the user's."""
-    _, marks = _tile_records(final)
-    whole = _whole_image(marks)
-    try:
-        same = whole is not None and json.loads(whole["image"]).get("key") == key
-    except (ValueError, AttributeError):
-        return False
-    return same and os.path.lexists(final) and whole.get("file") == identity(final)
-
-
-def _clear_records(marks: Path) -> None:
-    """Delete a folder of tile records, its ``whole`` file last: a kill part way leaves records
-    a re-run still recognises (:func:`placed_by_killed_run`, :func:`_open_partial`)."""
-    if marks.is_dir() and not marks.is_symlink():
-        for entry in sorted(marks.iterdir(), key=lambda e: e.name == "whole"):
-            _remove(entry)
-    _remove(marks)
-
-
-def _partial_state(final: Path, ident: str) -> str:
-    """What the records beside ``final`` hold of the image ``ident`` (:func:`_image_ident`):
-    ``"placed"`` (the whole image, renamed to ``final`` by a run killed before it could clear
-    them), ``"resume"`` (a partial file with some of its tiles) or ``"new"`` (nothing of it)."""
-    partial, marks = _tile_records(final)
-    if not os.path.lexists(partial) and os.path.lexists(final):
-        # the very file a run renamed there, untouched since (its ``whole`` record outlives the others)
-        if _whole_image(marks) == {"file": identity(final), "image": ident}:
-            return "placed"
-    try:
-        same = (marks / "image.json").read_text() == ident
-    except OSError:
-        same = False
-    return "resume" if partial.exists() and same else "new"
-
-
-def _npy_bytes(shape) -> int:
-    """The size of the NPY file of a float32 image of ``shape``, in bytes."""
-    return len(_npy_header(shape)) + 4 * shape[0] * shape[1]
-
-
-def _open_partial(final: Path, shape, tile: int, ident: str, state: str) -> tuple[Path, Path, bool]:
-    """The partial file and the folder of tile markers beside ``final``, made afresh when ``state``
-    (:func:`_partial_state`) is ``"new"`` (an NPY file with its whole size allocated on the disk:
-    a full disk fails here, and the file is deleted); and whether the image is ``"placed"``."""
-    # ".{stem}.partial{suffix}" keeps the suffix that names the format
-    partial, marks = _tile_records(final)
-    if state == "new":
-        _remove(marks)
-        _remove(partial)
-        if final.suffix.lower() == ".zarr":
-            import zarr
-
-            # one chunk per tile (none larger than the image): workers writing different tiles never
-            # touch the same chunk
-            zarr.open_array(str(partial), mode="w", shape=tuple(shape), chunks=tuple(min(tile, n) for n in shape),
-                            dtype="f4")
-        else:
-            from ._staging import reserve, write_at
-
-            fd = os.open(partial, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
-            try:
-                write_at(fd, _npy_header(shape), 0)
-                reserve(fd, _npy_bytes(shape), final)
-            except BaseException:
-                os.close(fd)
-                partial.unlink(missing_ok=True)
-                raise
-            os.close(fd)
-        marks.mkdir()
-        (marks / "image.json").write_text(ident)
-    return partial, marks, state == "placed"
-
-
-def probe_windows(shape) -> list[tuple[int, int, int, int]]:
-    """The one-pixel windows at the image's corners, which :func:`write_tiled` computes first to check
-    the setup before it makes any file (a domain's largest coordinates lie at its corners)."""
-    h, w = shape
-    return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
-
-
-def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None):
-    """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
-
-    ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
-    computed once and written to all of them, and they are renamed into place one after
-    another once every tile is in every file. Finished tiles are recorded; calling again after an
-    interruption computes only the missing ones. On a Dask ``client`` each tile is one
-    task of the workers, which write it straight into the files (they must share the
-    file system). Every finished file replaces its path by a rename.
-
-    Args:
-        tile_fn: ``(row0, col0, h, w) -> (h, w)`` array, the window of the whole image
-            (picklable when a ``client`` computes it).
-        shape: (H, W) of the whole image.
-        tile: tile side in pixels.
-        path: the output file, or a list of them.
-        client: a ``distributed.Client`` (None: compute here, one tile after another).
-        progress: a callable told ``(done, total)`` after every tile.
-        key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
-        placed_all: called with no arguments once every file has its final name, before the
-            tile records and any old stores moved aside are deleted.
-
-    Returns:
-        The written path (a list of them when ``path`` is a list).
-
-    Raises:
-        ValueError, TypeError: a bad ``shape`` or ``tile``; an empty list of paths, one path given
-        twice, a path not ending in ``.npy`` or ``.zarr``, or a ``.npy`` path that is a folder
-        (an existing file or Zarr store at a path is replaced: the caller decides whether it may be);
-        whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
-        pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
-        are made.
-        FileExistsError: another process is writing one of the paths (each is locked while this
-        runs, see :func:`wdendrite._staging.locked`); nothing was touched.
-        OSError: a ``.npy`` file does not fit the free space of its disk (checked before any file
-        is made, then its space is allocated before its first tile: a full disk is never met
-        part way), or exceeds the largest file this process may write; the message names the
-        file and the space needed. The records kept so far stay: a call after space is freed resumes.
-    """
-    shape, tile = _tiling(shape, tile)
-    finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
-    if not finals or len({f.resolve() for f in finals}) != len(finals):
-        raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
-    for final in finals:
-        if final.suffix.lower() not in (".npy", ".zarr"):
-            raise ValueError(f"Expected '.npy' or '.zarr' output paths for 'path', but got {str(final)!r}")
-        if final.suffix.lower() == ".npy" and final.is_dir() and not final.is_symlink():
-            raise ValueError(f"'path' {str(final)!r} is a folder, not a file: it would be replaced with its contents")
-        if not final.parent.is_dir():  # (before the first tile is computed)
-            raise ValueError(f"'path' {str(final)!r}: the folder {str(final.parent)!r} does not exist or is not "
-                             "a folder")
-    if client is None:
-        for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
-            tile_fn(window)
-    from ._staging import Staging, locked
-
-    # (Dask workers write their tiles under the locks this process holds)
-    with locked(finals), Staging() as stage:
-        _write_locked(tile_fn, shape, tile, finals, stage, client=client, progress=progress, key=key,
-                      placed_all=placed_all)
-    return finals if isinstance(path, (list, tuple)) else finals[0]
-
-
-def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all) -> None:
-    """The work of :func:`write_tiled` once its outputs are locked; ``stage`` names old outputs moved aside."""
-    from ._staging import check_space, sync_folder
-    from .io import sync_to_disk
-
-    ident = _image_ident(key, shape, tile)
-    states = [_partial_state(final, ident) for final in finals]
-    # the space is counted before any file is made (a 2000000-pixel square would be a 16 TB file)
-    check_space({final: _npy_bytes(shape) for final, state in zip(finals, states)
-                 if state == "new" and final.suffix.lower() == ".npy"})
-    opened = [_open_partial(final, shape, tile, ident, state) for final, state in zip(finals, states)]
-    # (an image a killed run had renamed into place already needs no tile)
-    targets = [_Target(partial, marks) for partial, marks, placed in opened if not placed]
-    windows = tile_windows(shape, tile)
-    todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
-    done = len(windows) - len(todo)
-    if client is None:
-        finished = (_tile_into(w, tile_fn, targets) for w in todo)
-    else:
-        from distributed import as_completed
-
-        # one task per tile (not one graph per tile of a Dask array, whose cost grows with the tiles)
-        finished = (f.result() for f in as_completed(client.map(_tile_into, todo, tile_fn=tile_fn,
-                                                                targets=targets, pure=False)))
-    try:
-        for _ in finished:
-            done += 1
-            if progress:
-                progress(done, len(windows))
-    except OSError as exc:  # (a Zarr store meeting a full disk, say: its records stay for a re-run)
-        raise _naming_output(exc, finals, opened) from exc
-    for partial, marks, placed in opened:
-        if not placed:
-            if partial.is_file():
-                sync_to_disk(partial)
-            # a kill from here on leaves a whole image: a re-run renames it, or keeps it once renamed
-            (marks / "whole").write_text(json.dumps({"file": identity(partial), "image": ident}))
-    # one rename each, one after another, once every tile is in every file: an old Zarr store (a
-    # folder, which a rename cannot replace), a link or a file where a store goes is moved aside
-    # first (under a staged name: a kill leaves it to the next sweep), and deleted after, so a
-    # final name never holds a half-deleted store
-    moved = []
-    for final, (partial, _, placed) in zip(finals, opened):
-        if placed:
-            continue
-        if final.is_symlink() or final.is_dir() or (partial.is_dir() and os.path.lexists(final)):
-            moved.append(stage.name(final))
-            os.replace(final, moved[-1])
-        os.replace(partial, final)
-    for folder in dict.fromkeys(f.parent for f in finals):
-        sync_folder(folder)
-    if placed_all is not None:
-        placed_all()  # (a batch writes its manifest here: a kill during the clean-up below redoes nothing)
-    for old in moved:
-        _remove(old)
-    for _, marks, _ in opened:
-        _clear_records(marks)
-
-
-def _naming_output(exc: OSError, finals: list, opened: list) -> OSError:
-    """``exc``, met while tiles were written, as an error of its kind that names the output whose
-    partial file or records it concerns (the only output when it names none of them)."""
-    where = os.path.abspath(exc.filename) if isinstance(exc.filename, (str, os.PathLike)) else ""
-    ours = [final for final, (partial, marks, _) in zip(finals, opened)
-            if where and any(where == os.path.abspath(r) or where.startswith(os.path.abspath(r) + os.sep)
-                             for r in (partial, marks))]
-    if not ours and len(finals) == 1 and exc.errno is not None:
-        ours = finals
-    if not ours:
-        return exc
-    return OSError(exc.errno, f"could not write {str(ours[0])!r}: {exc.strerror or exc}")
 
 
 def _default_device_kind() -> str:
@@ -881,9 +574,15 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
         if manifest:
             _write_manifest(task, made)
 
+    from . import __version__
+    from .heightmaps import describe
+
+    attrs = {"wdendrite": __version__, "preset": task.preset, "params": task.params,
+             **describe(setup["shape"], output, setup["domain"])}
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                    key=tile_key(task.params, kind), placed_all=placed_all)
+                    key=tile_key(task.params, kind), placed_all=placed_all, name=output, attrs=attrs,
+                    domain=setup["domain"])
     return made
 
 

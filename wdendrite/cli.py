@@ -33,7 +33,8 @@ __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick
 
 PICTURE, FIELD, SVG = (".png",), (".npy",), (".svg",)
 MESH, DENDRITE = (".obj", ".ply", ".stl", ".glb"), (".npz", ".json")
-SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG
+RAW, GEOTIFF = (".r16", ".raw"), (".tif", ".tiff")  # terrain files (wdendrite.heightmaps)
+SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG + RAW + GEOTIFF
 
 
 # --------------------------------------------------------------------------- devices and outputs
@@ -115,13 +116,16 @@ def _checked_output(p: Path, out: list, force: bool, suffixes, ours=None) -> Pat
     return p
 
 
-def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "") -> list[str]:
+def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset: str = "",
+                  value_range=None) -> list[str]:
     """Write what a preset returned to each path, the format taken from the suffix.
 
     ``.png``: the picture (8-bit RGB), or with ``heightmap`` the 2D field as a 16-bit grey PNG
-    scaled from its finite minimum to its maximum (+inf as white; a field with NaN or without a
-    finite value is refused); ``.npy``: the field (float32; without one, as for the 3D
-    presets, the picture's luminance); ``.obj/.ply/.stl/.glb``:
+    scaled from ``value_range`` (default: its finite minimum to its maximum; +inf as white; a
+    field with NaN or, without a range, without a finite value is refused), which records the
+    range in its text chunks; ``.r16/.raw``: the same levels as raw little-endian uint16;
+    ``.tif/.tiff``: the field as a float32 GeoTIFF (see :mod:`wdendrite.heightmaps`); ``.npy``: the
+    field (float32; without one, as for the 3D presets, the picture's luminance); ``.obj/.ply/.stl/.glb``:
     the mesh; ``.npz/.json``: the dendrite graph; ``.svg``: a 2D dendrite as polylines.
 
     All or nothing: every output is first written to a temporary file beside its path, and
@@ -150,7 +154,7 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
                 tmp = stage.temporary(p, mode)
                 staged.append((tmp, p))
                 with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
-                    _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
+                    _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset, value_range)
                 io.sync_to_disk(tmp)
                 os.chmod(tmp, mode)
             except OSError as exc:
@@ -172,22 +176,47 @@ def _save_npy(path, array: np.ndarray) -> None:
         np.save(f, array)
 
 
-def _heightmap(field) -> np.ndarray:
-    """``field`` scaled from its finite minimum to its maximum onto [0, 1], +inf (a distance image's
-    "no branch in reach") as 1 and -inf as 0; a field without one finite value is refused."""
-    z = np.asarray(field, np.float64)
-    if not np.isfinite(z).any():
-        raise UsageError("--heightmap: the field has no finite value (a distance image with no branch in view, "
-                         "say), so there is no range to scale; nothing was written")
-    if np.isnan(z).any():
-        raise UsageError("--heightmap: the field has NaN values, which no grey level stands for; nothing was written")
-    return np.where(np.isposinf(z), 1.0, unit_range(z))
+def _sixteen_bit(paths, heightmap: bool) -> list[Path]:
+    """The outputs among ``paths`` that are 16-bit heightmaps (.r16, .raw; .png with ``heightmap``)."""
+    return [Path(p) for p in paths
+            if Path(p).suffix.lower() in RAW or (heightmap and Path(p).suffix.lower() == ".png")]
 
 
-def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str) -> None:
+def _heightmap(field, value_range=None, option: str = "--heightmap") -> tuple[float, float, int]:
+    """``(lo, hi, clipped)``: the values grey 0 and 65535 stand for in heightmaps of ``field``
+    (``value_range``, else its finite minimum and maximum) and how many finite values lie outside
+    them; a field with NaN, or without a finite value and a range, is refused naming ``option``."""
+    from . import heightmaps
+
+    try:
+        lo, hi = heightmaps.field_range(field) if value_range is None else value_range
+        if value_range is not None:
+            heightmaps.check_field(field)
+    except ValueError as exc:
+        raise UsageError(f"{option}: {exc}; nothing was written") from None
+    z = np.asarray(field)
+    return lo, hi, int(np.count_nonzero(np.isfinite(z) & ((z < lo) | (z > hi))))
+
+
+def _grid(result) -> dict:
+    """``{"quantity", "domain"}`` of a result's field, as terrain files record them."""
+    quantity = getattr(result, "quantity", None)
+    parts = getattr(result, "parts", {}) or {}
+    if quantity is None:
+        found = [k for k in ("elevation", "field", "value", "values")
+                 if isinstance(parts.get(k), np.ndarray) and parts[k].ndim == 2]
+        quantity = found[0] if found else "luminance"
+    return {"quantity": quantity, "domain": getattr(result, "domain", None)}
+
+
+def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str, value_range=None) -> None:
     """Write one output of ``result`` to ``path`` (an existing temporary file) as ``suf`` says."""
-    if suf == ".png" and heightmap:
-        io.save_png(path, _heightmap(_field(result, preset)), bits=16, overwrite=True)
+    from . import heightmaps
+
+    if suf in RAW or (suf == ".png" and heightmap):
+        heightmaps.save_heightmap(path, _field(result, preset), range=value_range, **_grid(result), overwrite=True)
+    elif suf in GEOTIFF:
+        heightmaps.save_geotiff(path, _field(result, preset), **_grid(result), overwrite=True)
     elif suf == ".png":
         io.save_png(path, _picture(result), overwrite=True)
     elif suf == ".npy":
@@ -211,7 +240,7 @@ def _need(result, attr: str, preset: str):
 def _formats(preset) -> tuple[str, ...]:
     """The output suffixes ``preset`` writes: its picture and field always, then meshes, dendrite
     graphs and (for a 2D dendrite) SVG polylines as it makes them."""
-    out = PICTURE + FIELD + (MESH if preset.meshes else ())
+    out = PICTURE + FIELD + GEOTIFF[:1] + RAW + (MESH if preset.meshes else ())
     if preset.dendrite:
         out += DENDRITE + (() if preset.meshes else SVG)
     return out
@@ -278,15 +307,19 @@ class _Ticker:
 
 
 def run_preset(name: str, values: dict, outputs, *, device: str | None = None, force: bool = False,
-               quiet: bool = True, heightmap: bool = False) -> dict:
+               quiet: bool = True, heightmap: bool = False, value_range=None) -> dict:
     """Run preset ``name`` with parameter ``values`` (already typed) and write ``outputs``.
 
     Everything is validated before the preset runs: parameter names and values, the
-    output suffixes and folders, the device. The outputs are locked while it runs
-    (:func:`wdendrite._staging.locked`): a second run writing one of them at the same time
-    stops at once with ``FileExistsError``. Returns a record of what was done:
-    ``preset``, ``params`` (every parameter, defaults included), ``device``,
-    ``outputs``, ``seconds`` (compute) and ``write_seconds``.
+    output suffixes and folders, the device, ``value_range`` (``(lo, hi)`` of the 16-bit
+    heightmaps among the outputs; refused when there are none). What only the field can tell
+    (NaN, a shape a raw heightmap cannot hold) is refused after the preset ran, before any
+    write. The outputs are locked while it runs (:func:`wdendrite._staging.locked`): a second
+    run writing one of them at the same time stops at once with ``FileExistsError``. Returns a
+    record of what was done: ``preset``, ``params`` (every parameter, defaults included),
+    ``device``, ``outputs``, ``seconds`` (compute) and ``write_seconds``; with 16-bit heightmaps
+    also ``heightmap_range`` (the values of grey 0 and 65535), ``clipped`` (finite values outside
+    it) and ``raw`` (``[path, H, W]`` of each raw file, whose size the file does not hold).
     """
     import warp as wp
 
@@ -303,8 +336,16 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
         if p.suffix.lower() in SVG and preset.meshes:
             raise UsageError(f"preset {name!r} makes a 3D dendrite, which SVG cannot draw; "
                              f"write {_listed(_formats(preset))}")
+    sixteen = _sixteen_bit(paths, heightmap)
+    if value_range is not None and not sixteen:
+        raise UsageError("--range scales 16-bit heightmaps (.png with --heightmap, .r16, .raw), and this run "
+                         "writes none")
+    need_tifffile(paths)
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
+    if preset.func.__module__ == "wdendrite._models" and preset.name in ("dendry", "terrain"):
+        size = kwargs.get("size", preset.params["size"].default)
+        _check_raw(paths, (size, size))  # (their field is size x size: known before they run)
     from ._staging import locked
 
     with locked(paths), _Ticker(f"{name}: making", quiet) as bar:  # (a second run writing them stops at once)
@@ -313,20 +354,47 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
             result = preset.func(**kwargs)
             if not heightmap and any(p.suffix.lower() == ".png" for p in paths):
                 _picture(result)  # a deferred picture is made here: it counts as making, and fails before any write
-            if heightmap and any(p.suffix.lower() == ".png" for p in paths):
-                _heightmap(_field(result, name))  # (refused before any write too)
+            if sixteen:  # (refused before any write too)
+                field = _field(result, name)
+                option = "--heightmap" if heightmap and any(p.suffix.lower() == ".png" for p in paths) else \
+                    f"-o/--out {str(sixteen[0])!r}"
+                lo, hi, clipped = _heightmap(field, value_range, option)
+                _check_raw(paths, field.shape)
         seconds = time.perf_counter() - t0
         bar.set_description_str(f"{name}: writing {counted(len(paths), 'file')}")
         t1 = time.perf_counter()
-        written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name)
+        written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name,
+                                value_range=(lo, hi) if sixteen else None)
     rec = {"preset": name, "params": full, "device": dev, "outputs": written, "seconds": round(seconds, 4),
            "write_seconds": round(time.perf_counter() - t1, 4), "made": _made(result)}
-    if heightmap and any(p.suffix.lower() == ".png" for p in paths):
-        z = np.asarray(_field(result, name), np.float64)
-        fin = z[np.isfinite(z)]
+    if sixteen:
         # grey 0 and 65535 stand for these values: what it takes to read the heightmap back
-        rec["heightmap_range"] = [float(fin.min()), float(fin.max())] if fin.size else [0.0, 0.0]
+        rec.update(heightmap_range=[lo, hi], clipped=clipped,
+                   raw=[[str(p), *field.shape] for p in paths if p.suffix.lower() in RAW])
     return rec
+
+
+def _check_raw(paths, shape) -> None:
+    """Refuse a raw heightmap among ``paths`` that an ``(H, W)`` field cannot fill for its engine."""
+    from .heightmaps import check_raw_shape
+
+    for p in paths:
+        if p.suffix.lower() in RAW:
+            try:
+                check_raw_shape(shape, p.suffix.lower()[1:])
+            except ValueError as exc:
+                raise UsageError(f"-o/--out {str(p)!r}: {exc}; nothing was written") from None
+
+
+def need_tifffile(paths, where: str = "-o/--out") -> None:
+    """Raise :class:`UsageError` when a GeoTIFF output is asked for and tifffile is not installed."""
+    tifs = [p for p in paths if Path(p).suffix.lower() in GEOTIFF]
+    if tifs:
+        try:
+            import tifffile  # noqa: F401
+        except ImportError:
+            raise UsageError(f"{where} {str(tifs[0])!r}: GeoTIFF output needs tifffile: pip install "
+                             "'wdendrite[tiff]' (or write .npy); nothing was written") from None
 
 
 # --------------------------------------------------------------------------- the parser
@@ -369,6 +437,10 @@ def _add_common(p, preset) -> None:
     g.add_argument("--heightmap", action="store_true", default=argparse.SUPPRESS,
                    help="write .png outputs as a 16-bit grey heightmap of the field instead of the picture "
                         "(its finite minimum to its maximum; +inf, such as no branch in reach, as white)")
+    g.add_argument("--range", default=argparse.SUPPRESS, metavar="LO,HI",
+                   help="16-bit heightmaps (.png with --heightmap, .r16, .raw) put grey 0 at LO and 65535 at HI "
+                        "instead of the field's minimum and maximum, so that several runs share one scale "
+                        "(values outside are clipped)")
     if preset.name in ("dendry", "terrain") and preset.func.__module__ == "wdendrite._models":
         g.add_argument("--tile", type=int, default=argparse.SUPPRESS, metavar="N",
                        help="compute the field in N x N tiles (N at least 8) straight into .npy (or .zarr) "
@@ -404,9 +476,11 @@ options of every preset:
   --seed INT            random seed (default: 0); same seed, same output
   --device DEV          cpu, cuda or cuda:N (default: CUDA if present, else cpu)
   -o, --out FILE        repeatable; format from the suffix: .png picture, .npy field (float32),
+                        .tif GeoTIFF (float32), .r16/.raw 16-bit heightmap (Unreal/Unity),
                         .obj/.ply/.stl/.glb mesh (3D presets), .npz/.json dendrite graph, .svg polylines
                         (default: PRESET.png)
   --heightmap           .png outputs hold the field as a 16-bit grey heightmap
+  --range LO,HI         16-bit heightmaps span LO to HI (default: the field's minimum to maximum)
   --config FILE.toml    parameter values from a TOML file (options given here override it)
   --force               overwrite existing outputs
   --quiet               no progress bar
@@ -480,9 +554,22 @@ def _values_from(args, preset, sources: dict | None = None) -> dict:
     return values
 
 
+def _negative_range_glued(argv: list) -> list:
+    """``argv`` with ``--range -1,2`` written ``--range=-1,2``: argparse takes a word that starts with
+    a dash for an option (and then says --range lacks its value)."""
+    out = []
+    for i, a in enumerate(argv):
+        if i and argv[i - 1] == "--range" and out[-1] == "--range" and re.match(r"-\.?\d", a):
+            out[-1] = f"--range={a}"
+        else:
+            out.append(a)
+    return out
+
+
 def main(argv=None) -> int:
     """Entry point of the ``wdendrite`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    argv = _negative_range_glued(argv)
     size_note = ""  # how --size became the preset's shape, for errors about that shape
     preset = None
     sources = {}  # parameters the config file set
@@ -510,14 +597,22 @@ def main(argv=None) -> int:
             sweep(folder)  # what killed runs left there: renames completed, temporary files deleted
         if "tile" in args:
             return _tiled(preset, values, outs, args)
+        value_range = None
+        if "range" in args:
+            from .heightmaps import value_range as _range
+
+            value_range = _range(args.range, "--range")
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
                          force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
-                         heightmap=getattr(args, "heightmap", False))
+                         heightmap=getattr(args, "heightmap", False), value_range=value_range)
         made = f": {rec['made']}" if rec["made"] else ""
         print(f"{preset.name} ({_brief(rec['params'], preset)}){made} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
         if "heightmap_range" in rec:
-            print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]))
+            clipped = f" ({counted(rec['clipped'], 'value')} outside, clipped)" if rec["clipped"] else ""
+            print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]) + clipped)
+        for path, h, w in rec.get("raw", []):  # (engines ask for the size: the file does not hold it)
+            print(f"{path}: {w} x {h} pixels, 16-bit little-endian, row 0 first, no header")
         return 0
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         if size_note and f"'{preset.size_param}'" not in str(exc):
@@ -561,20 +656,23 @@ def _options_named(exc, preset, sources=None) -> str:
 
 
 def _tiled(preset, values: dict, outs: list, args) -> int:
-    """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
-    from .batch import Task, _tile_records, need_zarr, placed_by_killed_run, run_tiled, tile_key
+    """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (:func:`wdendrite.tiles.write_tiled`)."""
+    from .batch import Task, need_zarr, run_tiled
+    from .tiles import _tile_records, placed_by_killed_run, tile_key
     from ._staging import NAME_BYTES as _NAME_BYTES
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
     if getattr(args, "heightmap", False):
         raise UsageError("--heightmap makes .png outputs, which --tile does not write (it writes .npy or .zarr)")
+    if "range" in args:
+        raise UsageError("--range scales 16-bit heightmaps, which --tile does not write (it writes .npy or .zarr)")
     _, full = resolve(preset, values)
     # an output a killed run of this very command renamed into place is its own, not the user's
     key = tile_key(full, pick_device(getattr(args, "device", None)).split(":")[0])
     # tiles go straight into the field's file: no picture, which would need the whole image
     paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"),
-                          ours=lambda p: placed_by_killed_run(p, key))
+                          ours=lambda p: placed_by_killed_run(p, key, outs))
     for p in paths:  # tiles go to a hidden partial file beside it, and their records to a hidden folder
         longest = max(len(os.fsencode(q.name)) for q in _tile_records(p))
         if longest > _NAME_BYTES:

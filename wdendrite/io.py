@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import json
+import math
 import os
 import re
 import warnings
@@ -252,15 +253,23 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
     return atomic_write(path, lambda tmp: pil.save(tmp, format="PNG"), overwrite=overwrite)
 
 
-def _quantized(img: np.ndarray, bits: int) -> np.ndarray:
-    """``round(clip(img, 0, 1) * (2^bits - 1))`` as uint8 / uint16, computed in float64 a band of
-    rows at a time (a whole-image float64 copy of a large picture costs seconds in page faults)."""
+def _quantized(img: np.ndarray, bits: int, *, lo: float = 0.0, hi: float = 1.0) -> np.ndarray:
+    """``round(clip((img - lo) / (hi - lo), 0, 1) * (2^bits - 1))`` as uint8 / uint16 (when
+    ``hi <= lo``, a constant field's range: 0, and the top level above ``lo``), computed in float64 a band of rows at a time (a whole-image float64 copy of a
+    large picture costs seconds in page faults)."""
     top = 255 if bits == 8 else 65535
+    half = not np.isfinite(hi - lo)  # a span float64 cannot hold: halve everything first
+    lo, hi = (lo / 2.0, hi / 2.0) if half else (lo, hi)
+    span = hi - lo if hi > lo else math.inf
     out = np.empty(img.shape, np.uint8 if bits == 8 else np.uint16)
     rows = max(1, (1 << 20) // max(1, img[0].size))  # about 8 MB of float64 per band
     for r in range(0, img.shape[0], rows):
-        band = np.clip(img[r:r + rows].astype(np.float64), 0.0, 1.0)
-        out[r:r + rows] = band * top + 0.5
+        band = img[r:r + rows].astype(np.float64)
+        if half:
+            band /= 2.0
+        if lo != 0.0 or span != 1.0:
+            band = (band - lo) / span if span != math.inf else np.where(band > lo, 1.0, 0.0)
+        out[r:r + rows] = np.clip(band, 0.0, 1.0) * top + 0.5
     return out
 
 
