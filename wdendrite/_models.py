@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _checks
 from .dendry import DendryParams, coordinate_limit
-from .render import relief, unit_range
+from .render import dendry_lines, relief, unit_range
 
 __all__ = ["MODELS", "TABLE1", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
@@ -178,6 +178,11 @@ def dendry(size: int = 512, *, params: DendryParams = TABLE1,
            control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
 
+    The picture of the distance draws the tree's branches dark on paper, antialiased, each level
+    wider than the next finer one (:func:`wdendrite.render.dendry_lines`, which evaluates the tree
+    once per level). The level and the elevation are drawn as grey from their lowest
+    value (black) to their highest (white).
+
     Args:
         size: image side in pixels.
         output: distance (domain units), elevation (control units) or level (1..n of the nearest branch).
@@ -192,11 +197,15 @@ def dendry(size: int = 512, *, params: DendryParams = TABLE1,
     from .dendry import dendry as _dendry
 
     z = _dendry(**setup, output=output)
-    if output == "distance":  # dark branches about 1.5 pixels wide on paper
-        img = 1.0 - np.exp(-((np.where(np.isfinite(z), z, np.inf) / (0.75 * extent / size)) ** 2))
+    if output == "distance":
+        picture = lambda: _grey(1.0 - dendry_lines(**setup, distance=z))  # noqa: E731 (made only for a picture)
     else:
-        img = unit_range(z)
-    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z})
+        picture = _grey(unit_range(z))
+    return Made(picture, parts={"field": z})
+
+
+def _grey(value: np.ndarray) -> np.ndarray:
+    return np.repeat(value[..., None].astype(np.float32), 3, axis=2)
 
 
 def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4.0, control: Control = "perlin",
