@@ -1,5 +1,6 @@
 """The `wdendrite` command, run as a real subprocess (exit codes, messages, files), plus its registry."""
 
+import itertools
 import json
 import os
 import re
@@ -155,6 +156,68 @@ def test_config_file_and_command_line_override(tmp_path):
 def test_unknown_preset_and_option_suggest_the_nearest(tmp_path):
     bad(["lightnin"], tmp_path, "did you mean 'lightning'")
     bad(["fractal", "--sed", "3"], tmp_path, "'--sed'", "did you mean '--seed'")
+
+
+def test_only_names_a_few_edits_away_are_suggested(capsys):
+    # '--colour' is no typo of '--count' (it had been suggested); '--cuont' is
+    assert cli.main(["fractal", "--colour", "red"]) == 2
+    err = capsys.readouterr().err
+    assert "unrecognized option '--colour' for 'fractal'" in err and "did you mean" not in err
+    assert cli.main(["fractal", "--cuont", "3"]) == 2
+    assert "did you mean '--count'?" in capsys.readouterr().err
+
+
+def _edit_counts(alphabet: str, longest: int, swaps: bool) -> dict:
+    """Least single edits between every two words of up to ``longest`` letters, by breadth-first search
+    (insert, delete, substitute; with ``swaps`` also swapping two neighbours)."""
+    words = [""] + ["".join(w) for n in range(1, longest + 1) for w in itertools.product(alphabet, repeat=n)]
+
+    def steps(w):
+        for i in range(len(w) + 1):
+            for ch in alphabet:
+                yield w[:i] + ch + w[i:]
+        for i in range(len(w)):
+            yield w[:i] + w[i + 1:]
+            for ch in alphabet:
+                yield w[:i] + ch + w[i + 1:]
+            if swaps and i + 1 < len(w):
+                yield w[:i] + w[i + 1] + w[i] + w[i + 2:]
+
+    out = {}
+    for a in words:
+        seen, frontier, k = {a: 0}, [a], 0
+        while frontier:
+            k += 1
+            frontier = [v for w in frontier for v in steps(w) if len(v) <= longest + 1 and v not in seen]
+            for v in frontier:
+                seen.setdefault(v, k)
+        out.update({(a, b): seen[b] for b in words})
+    return out
+
+
+def test_edit_counts_lie_between_brute_force_searches_with_and_without_swaps():
+    from wdendrite._spec import edits
+
+    with_swaps, plain = _edit_counts("abc", 3, True), _edit_counts("abc", 3, False)
+    for (a, b), d in plain.items():
+        assert with_swaps[(a, b)] <= edits(a, b) <= d, (a, b)
+        if a[::-1] != a and len(a) == 2:  # one swap of neighbours is one edit
+            assert edits(a, a[::-1]) == 1
+    assert (edits("kitten", "sitting"), edits("chaep", "cheap"), edits("colour", "count")) == (3, 1, 4)
+
+
+@pytest.mark.parametrize("preset, listed", [
+    ("lightning", ".png, .npy, .npz, .json, .svg"),
+    ("terrain", ".png, .npy"),
+    ("tree", ".png, .npy, .obj, .ply, .stl, .glb, .npz, .json"),
+    ("rock", ".png, .npy, .obj, .ply, .stl, .glb"),
+])
+def test_an_unknown_suffix_lists_only_what_the_preset_writes(preset, listed, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main([preset, "-o", "x.jpg"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"wdendrite: error: -o/--out 'x.jpg': unknown suffix '.jpg'; use one of {listed}\n"
+    assert not list(tmp_path.iterdir())
 
 
 def test_bad_values_are_named(tmp_path):
@@ -476,7 +539,7 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
                                                            ".npz, .json or .svg"]),
     (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
     (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["'seed'"]),
-    (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),
+    (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit in the upper three quarters of the 8 x 8"]),
     # a library check names the Python parameter; the command adds its option
     (["lightning", "--size", "32", "--forks", "-1"], None, ["'forks' >= 0, but got -1 (--forks)"]),
     (["lightning", "--size", "32", "--glow-radius", "-3"], None, ["'glow_radius', but got -3.0 (--glow-radius)"]),
@@ -499,7 +562,10 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["costs", "--size", "8", "--generators", "99999999"], None, ["'generators' <= 64", "(--generators)"]),
     # the schedule from so large a d had overflowed its endpoint counts, blamed on --count and --beta
     (["fractal", "--size", "32", "--d", "1e30"], None, ["'d' <= ", "but got 1e+30 (--d)"]),
-    (["tropisms", "--size", "32", "--toward", "left,left"], None, ["'toward' lists 'left' twice", "(--toward)"]),
+    (["tropisms", "--size", "32", "--toward", "left,left", "--roots", "right"], None,
+     ["'toward' lists ('left', 'right') twice", "(--toward)"]),
+    (["tropisms", "--size", "32", "--toward", "left,top"], None,
+     ["one entry of 'roots' per entry of 'toward' (2), or one for all, but got 8", "(--roots, --toward)"]),
     (["weight-distributions", "--size", "32", "--ns", "1,1.0"], None, ["'ns' lists 1.0 twice", "(--ns)"]),
     # a value the config file gave is said to come from it, not from an option never given
     (["tropism-objects", "--size", "16"], "seed = -3\n", ["but got -3 ('seed' from config file 'c.toml')"]),

@@ -35,14 +35,13 @@ _LABEL_PAD = 3
 
 def _label_size(labels: list[str], width: int, height: int) -> int:
     """One font size for every label of a figure: a twelfth of the panel's height (9 to 15 pixels), less
-    where the longest label would not fit the panel's width (down to 6)."""
+    where the longest label would not fit the panel's width (to 1 pixel: a label is never cut)."""
     from PIL import Image, ImageDraw
 
-    size = int(np.clip(round(height / 12), 9, 15))
     draw = ImageDraw.Draw(Image.new("L", (1, 1)))
-    widest = max(draw.textlength(t, font=font(size)) for t in labels)
-    if widest > width - 4:
-        size = max(6, int(size * (width - 4) / widest))
+    size = int(np.clip(round(height / 12), 9, 15))
+    while size > 1 and max(draw.textlength(t, font=font(size)) for t in labels) > width - 2:
+        size -= 1
     return size
 
 

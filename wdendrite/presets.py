@@ -101,7 +101,8 @@ def _drawing(den: Dendrite, width=1.6) -> np.ndarray:
 
 
 def _tile(panels: list[np.ndarray], columns: int, labels: list[str]) -> np.ndarray:
-    """Panels of one size in a grid with white gaps, each over its label (see :func:`wdendrite.figure.panels`)."""
+    """Panels of one size in a grid with white gaps, each over its label (see :func:`wdendrite.figure.panels`);
+    a multi-panel preset keeps the labels in ``parts["labels"]``, in the panels' order."""
     return _fig.panels(panels, columns=columns, labels=labels)
 
 
@@ -221,7 +222,8 @@ def fractal_grid(
             dens[(a, b)] = den
             panels.append(_drawing(den, 1.2))
             labels.append(f"alpha {a:g}, beta {b:g}")
-    return Result(_tile(panels, len(alphas), labels), dens[(alphas[0], betas[0])], parts={"dendrites": dens})
+    return Result(_tile(panels, len(alphas), labels), dens[(alphas[0], betas[0])],
+                  parts={"dendrites": dens, "labels": labels})
 
 
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
@@ -303,8 +305,9 @@ def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 
     _checks.stop_if_checking()  # (a check of the preset stops before the weight arrays are drawn)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
                                       seed, connectivity=connectivity)
-    return Result(_tile(panels, len(ns), [f"n = {n:g}" for n in ns]), dens[1 if len(dens) > 1 else 0],
-                  parts={"dendrites": dict(zip(ns, dens))})
+    labels = [f"n = {n:g}" for n in ns]
+    return Result(_tile(panels, len(ns), labels), dens[1 if len(dens) > 1 else 0],
+                  parts={"dendrites": dict(zip(ns, dens)), "labels": labels})
 
 
 def _toward_words(toward: str) -> str:
@@ -360,7 +363,7 @@ def tropisms(shape=(200, 200), *,
     labels = [f"({chr(97 + i) if i < 26 else i + 1}) {_toward_words(t)}, root {r}"
               for i, (t, r) in enumerate(zip(toward, roots))]
     return Result(_tile(panels, min(4, len(panels)), labels), dens[0],
-                  parts={"dendrites": dict(zip(zip(toward, roots), dens))})
+                  parts={"dendrites": dict(zip(zip(toward, roots), dens)), "labels": labels})
 
 
 def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
@@ -587,8 +590,9 @@ def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
     values += [_r.brightness(thesis_den, _r.thesis_width(k), metric="path", lattice=thesis_lat, clamp=0.7)
                for k in (0.6, 0.2)]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
-    labels = ["T = 5.0", "T = 1.6", "thesis, factor 0.6", "thesis, factor 0.2"]
-    return Result(_tile(panels, 4, labels), den, parts={"values": values, "thesis_dendrite": thesis_den})
+    labels = ["T = 5.0", "T = 1.6", "thesis c = 0.6", "thesis c = 0.2"]
+    return Result(_tile(panels, 4, labels), den, parts={"values": values, "thesis_dendrite": thesis_den,
+                                                        "labels": labels})
 
 
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
@@ -613,7 +617,7 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
     values = [_r.brightness(den, wd_) for wd_ in widths]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
     labels = [f"T = {start:g}", f"T {start:g} to {end:g}, along paths", f"T {start:g} to {end:g}, along branches"]
-    return Result(_tile(panels, 3, labels), den, parts={"values": values})
+    return Result(_tile(panels, 3, labels), den, parts={"values": values, "labels": labels})
 
 
 # --------------------------------------------------------------------------- 3D models
@@ -691,7 +695,8 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
         pics.append(_geo.preview(mesh, size=(320, 320), color=_WOOD, elevation=10))
     labels = [_toward_words(t) for t in toward]
     return Result(_tile(pics, len(pics), labels), dens[toward[0]], meshes[toward[0]], parts={"dendrites": dens,
-                                                                                     "meshes": meshes})
+                                                                                     "meshes": meshes,
+                                                                                     "labels": labels})
 
 
 def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
