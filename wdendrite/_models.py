@@ -197,11 +197,11 @@ def dendry(size: int = 512, *, params: DendryParams = TABLE1,
     from .dendry import dendry as _dendry
 
     z = _dendry(**setup, output=output)
-    if output == "distance":
-        picture = lambda: _grey(1.0 - dendry_lines(**setup, distance=z))  # noqa: E731 (made only for a picture)
-    else:
-        picture = _grey(unit_range(z))
-    return Made(picture, parts={"field": z})
+
+    def lines() -> np.ndarray:  # (the other levels are evaluated only for a picture)
+        return _grey(1.0 - dendry_lines(**setup, distance=z))
+
+    return Made(lines if output == "distance" else _grey(unit_range(z)), parts={"field": z})
 
 
 def _grey(value: np.ndarray) -> np.ndarray:
