@@ -1,82 +1,91 @@
-"""Reproduce Table 1 of the Dendry paper: depressions of Dendry terrains against noise baselines.
+"""Table 1 of the Dendry paper on its own protocol: depressions of Dendry terrains beside noise terrains.
 
-Setup (the authors' Table 1 configuration): 512^2 pixels over the noise domain
-[0, 4]^2, levels 2, eps 0.25, delta 0.1, beta 0.5, noise 0.05, a Perlin control
-function on the rectangle (-0.2, -0.4)-(1.4, 0.7), seeds 0-9. Depressions are
-the cells a priority-flood fill raises, counted as 8-connected components.
+Protocol (the paper, section 6): one Perlin control function, ten Dendry seeds, the mean of the
+ten terrains. Setup (the authors' Table 1 configuration, ../shared/papers/README.md): 512^2
+pixels over the noise domain [0, 4]^2, levels 2, eps 0.25, delta 0.1, beta 0.5, noise 0.05, the
+Perlin control function on the rectangle (-0.2, -0.4)-(1.4, 0.7). Depressions are the cells a
+priority-flood fill raises, counted as 8-connected components.
 
-Our Perlin noise is not the authors', so which field the control shows matters: a
-field with a minimum inside the rectangle gives the terrain a closed basin there,
-and so can a valley too flat along its floor for the jitter (a level-1 key point
-on it may lie below all 8 of its neighbours: a sink). The paper's drainage
-guarantee holds "provided that the control function c does not include too low
-local minima", so by default (``--control-seed draining``) seed s's terrain takes
-the s-th control field, in seed order, on which water runs to the border: a 257^2
-sampling of ``perlin(seed=k)`` over the rectangle has no depression. The fields
-are chosen from the control alone, before any terrain is made. Other choices:
-``--control-seed matched`` gives seed s the field ``perlin(seed=s)`` (ten fields,
-most with an interior minimum), ``--control-seed N`` one field for all seeds.
-The baselines (fBm and ridged multifractal, 8 octaves, frequency 4) use the same
-seeds and size. ``--sinks`` adds a column with the level-1 sinks inside the
-domain (key points lower than their 8 neighbours, whose segments have length
-zero, so the rivers around end in a closed basin): every large Dendry depression
-we measured sits around one.
+Our Perlin noise is not the authors', so one control field could flatter or handicap either
+method: the protocol runs for each of the control seeds 0-9 in turn (with the ten Dendry seeds
+0-9 on each: 100 terrains, none left out), and prints per control seed the mean of its ten
+terrains, then over all of them the mean, the median and the worst terrain.
 
-``--drained`` fills the control's interior minima first (wdendrite.control.drained):
-a variant, not the paper's setup. ``--search paper`` links with the paper's 3 x 3
-cells (as the authors' code does) instead of our exact default (DendryParams.search).
+Two methods, each on every terrain:
 
-Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--control-seed draining|matched|N]
-       [--frequency 1.0] [--drained] [--search exact|paper] [--sinks]
+- ``terrain``: what ``wdendrite terrain`` makes by default (``wdendrite._models.TERRAIN`` on the
+  drained control): Table 1's parameters with our additions (level-1 outlets, free jitter below
+  level 1, primitives nearly on a grid; see ``wdendrite.DendryParams``).
+- ``paper``: the method as the paper publishes it (``wdendrite._models.TABLE1``), on the
+  control as it is.
+
+The baselines (fBm and ridged multifractal, 8 octaves, frequency 4) take the Dendry seeds 0-9
+at the same size.
+
+Variants of the ``terrain`` method (each named as such in the output, never as the paper's):
+``--set FIELD=VALUE`` changes a DendryParams field of it (repeatable; VALUE a number, true, false,
+none or a comma list), ``--raw-control`` leaves its control undrained.
+
+Usage: python benchmarks/table1_hydrology.py [--size 512] [--seeds 10] [--control-seeds 10]
+       [--method terrain|paper|both] [--search exact|paper] [--set FIELD=VALUE ...] [--raw-control] [--quick]
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import time
 
 import numpy as np
 import warp as wp
 
-from wdendrite import control, hydrology
+from wdendrite import hydrology
+from wdendrite._models import TABLE1, TERRAIN, dendry_setup
 from wdendrite.dendry import DendryParams, dendry
 
 PAPER = {"Multifractal (paper)": (35.9, 1352), "Ridged (paper)": (24.5, 2058), "Dendry (paper, 10 seeds)": (0.8, 52),
          "Dendry (authors' code, measured)": (1.10, 70), "Alps DEM (paper)": (3.3, 798)}
+METHODS = {"terrain": (TERRAIN, True), "paper": (TABLE1, False)}
+"""Each method's Dendry parameters and whether its control is drained first."""
 
-
-RECTANGLE = ((-0.2, -0.4), (1.4, 0.7))  # the control's rectangle, onto which the noise domain maps
 DOMAIN = ((0.0, 0.0), (4.0, 4.0))
 
 
-def _control(control_seed: int, frequency: float, drained: bool) -> control.Control:
-    ctl = control.perlin(seed=control_seed, frequency=frequency, domain=RECTANGLE)
-    return control.drained(ctl) if drained else ctl
+def terrain(method: str, size: int, seed: int, control_seed: int, search: str = "exact",
+            variant: tuple | None = None) -> np.ndarray:
+    """The (size, size) elevation of Dendry seed ``seed`` on the Perlin control of ``control_seed``,
+    made as the ``terrain`` command makes it (its setup function) with ``method``'s parameters, or
+    with ``variant``'s (params, drained) instead."""
+    params, drained = METHODS[method] if variant is None else variant
+    setup = dendry_setup(size, params, extent=4.0, control="perlin", frequency=1.0, drained=drained,
+                         seed=control_seed, output="elevation")
+    setup["params"] = dataclasses.replace(setup["params"], seed=seed, search=search)
+    return dendry(**setup, output="elevation")
 
 
-def _params(seed: int, search: str) -> DendryParams:
-    return DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=seed, search=search)
+def measure(method: str, size: int, seeds: int, control_seeds: int, search: str = "exact",
+            variant: tuple | None = None) -> np.ndarray:
+    """(control_seeds, seeds, 2) depression surface (%) and count of every terrain of the protocol."""
+    out = np.zeros((control_seeds, seeds, 2))
+    for cs in range(control_seeds):
+        for s in range(seeds):
+            d = hydrology.depressions(terrain(method, size, s, cs, search, variant))
+            out[cs, s] = d.percent, d.count
+    return out
 
 
-def dendry_terrain(size: int, seed: int, ctl: control.Control, search: str = "exact") -> np.ndarray:
-    return dendry((size, size), domain=DOMAIN, params=_params(seed, search), control=ctl, output="elevation")
+def _value(text: str):
+    """A --set value: a number, true, false, none, or a comma list of numbers (a tuple)."""
+    low = text.strip().lower()
+    if low in ("true", "false", "none"):
+        return {"true": True, "false": False, "none": None}[low]
+    if "," in text:
+        return tuple(float(v) for v in text.split(","))
+    return int(text) if text.strip().lstrip("-").isdigit() else float(text)
 
 
-def draining_fields(count: int, frequency: float = 1.0) -> list[int]:
-    """The first ``count`` control seeds whose field drains to the border: a 257^2 sampling of it
-    over the rectangle has no depression (water anywhere on it runs off an edge)."""
-    found, seed = [], 0
-    while len(found) < count:
-        if seed >= 100 * count + 100:
-            raise RuntimeError(f"fewer than {count} draining fields among control seeds 0-{seed - 1}")
-        if hydrology.depressions(_control(seed, frequency, False).grid((257, 257))).count == 0:
-            found.append(seed)
-        seed += 1
-    return found
-
-
-def level1_sinks(params: DendryParams, ctl: control.Control, domain=DOMAIN, *, points: bool = False) -> list[tuple]:
+def level1_sinks(params: DendryParams, ctl, domain=DOMAIN, *, points: bool = False) -> list[tuple]:
     """Level-1 cells inside ``domain`` (whose corners lie on level-1 cell corners) that the kernels
     link to themselves: no key point of their 8 neighbours lies lower, so their segments have
     length zero and the rivers around end there. As (column, row), read from the cached mode's
@@ -93,79 +102,79 @@ def level1_sinks(params: DendryParams, ctl: control.Control, domain=DOMAIN, *, p
     return [(int(i), int(j)) for i, j in cells[inside]]
 
 
-def _largest_percent(mask: np.ndarray) -> float:
-    """Share of the surface covered by the largest depression (a basin around a control minimum)."""
-    from scipy.ndimage import label
-
-    lab, n = label(mask, structure=np.ones((3, 3), int))
-    return 100.0 * np.bincount(lab.ravel())[1:].max() / mask.size if n else 0.0
+def _report(name: str, res: np.ndarray) -> list[str]:
+    """Per-control-seed lines and the summary row of one method's results."""
+    lines = [f"\n## {name}\n", "| control seed | mean % | mean # | worst % (Dendry seed) |", "| ---: | ---: | ---: | ---: |"]
+    for cs, row in enumerate(res):
+        w = int(np.argmax(row[:, 0]))
+        lines.append(f"| {cs} | {row[:, 0].mean():.2f} | {row[:, 1].mean():.1f} | {row[w, 0]:.2f} ({w}) |")
+    flat = res.reshape(-1, 2)
+    cs, s = np.unravel_index(int(np.argmax(res[..., 0])), res.shape[:2])
+    lines.append(f"\n{name}, all {len(flat)} terrains: mean {flat[:, 0].mean():.2f} % and {flat[:, 1].mean():.1f} "
+                 f"depressions; median {np.median(flat[:, 0]):.2f} % and {np.median(flat[:, 1]):.0f}; worst "
+                 f"{res[cs, s, 0]:.2f} % (control seed {cs}, Dendry seed {s}); above 3 %: "
+                 f"{int((flat[:, 0] > 3.0).sum())}")
+    return lines
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, default=512)
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--control-seed", default="draining", help="'draining' (default), 'matched' or an integer")
-    ap.add_argument("--frequency", type=float, default=1.0, help="Perlin control frequency (features per unit)")
-    ap.add_argument("--drained", action="store_true", help="fill the control's interior minima first (not the paper's setup)")
+    ap.add_argument("--seeds", type=int, default=10, help="Dendry seeds 0..N-1 per control")
+    ap.add_argument("--control-seeds", type=int, default=10, help="Perlin control seeds 0..N-1")
+    ap.add_argument("--method", default="both", choices=["terrain", "paper", "both"])
     ap.add_argument("--search", default="exact", choices=["exact", "paper"], help="link neighbourhoods")
-    ap.add_argument("--sinks", action="store_true", help="list each terrain's level-1 sinks (cells inside the domain)")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="change a DendryParams field of the terrain method (a variant, named as such)")
+    ap.add_argument("--raw-control", action="store_true", help="the terrain method on the undrained control (a variant)")
+    ap.add_argument("--quick", action="store_true", help="256^2, 3 seeds on 2 controls (not the protocol)")
     args = ap.parse_args()
-    if args.size < 2 or args.seeds < 1:
-        ap.error(f"--size must be at least 2 and --seeds at least 1, got {args.size} and {args.seeds}")
-    named = ("matched", "draining")
-    if args.control_seed not in named and not (args.control_seed.isdigit() and int(args.control_seed) < 2**32):
-        ap.error(f"--control-seed must be 'matched', 'draining' or an integer in [0, 2**32), got {args.control_seed!r}")
-    if not (np.isfinite(args.frequency) and args.frequency > 0):
-        ap.error(f"--frequency must be a positive number, got {args.frequency}")
+    variant, changes = None, []
+    if args.set or args.raw_control:
+        fields = {}
+        for item in args.set:
+            name, _, text = item.partition("=")
+            try:
+                fields[name] = _value(text)
+            except ValueError:
+                ap.error(f"--set takes FIELD=VALUE with a number, true, false, none or a comma list, got {item!r}")
+            changes.append(f"{name}={text}")
+        try:
+            variant = (dataclasses.replace(TERRAIN, **fields), not args.raw_control)
+        except (TypeError, ValueError) as exc:
+            ap.error(f"--set: {exc}")
+        changes += ["an undrained control"] if args.raw_control else []
+    if args.quick:
+        args.size, args.seeds, args.control_seeds = 256, 3, 2
+    if args.size < 2 or args.seeds < 1 or args.control_seeds < 1:
+        ap.error(f"--size must be at least 2, --seeds and --control-seeds at least 1, got {args.size}, "
+                 f"{args.seeds} and {args.control_seeds}")
     wp.config.quiet = True
     wp.config.log_level = logging.WARNING  # no start-up banner
     wp.init()
-    rows = {"Dendry (ours)": [], "fBm (ours)": [], "Ridged (ours)": []}
-    print(f"# Table 1 reproduction, {args.size}^2, seeds 0-{args.seeds - 1}, control seed {args.control_seed}, "
-          f"control frequency {args.frequency}{', drained control' if args.drained else ''}, {args.search} search")
-    if args.control_seed == "matched":
-        fields = list(range(args.seeds))
-    elif args.control_seed == "draining":
-        fields = draining_fields(args.seeds, args.frequency)
-        print(f"# draining control fields (control seeds) for Dendry seeds 0-{args.seeds - 1}: {fields}")
-    else:
-        fields = [int(args.control_seed)] * args.seeds
-    extra = (" level-1 sinks |", " --- |") if args.sinks else ("", "")
-    print("| seed | control seed | Dendry % | Dendry # | largest Dendry depression % | fBm % | fBm # | ridged % | ridged # |"
-          + extra[0])
-    print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |" + extra[1])
+    protocol = (args.size, args.seeds, args.control_seeds) == (512, 10, 10)
+    print(f"# Table 1, {args.size}^2, Dendry seeds 0-{args.seeds - 1} on each of the Perlin controls 0-"
+          f"{args.control_seeds - 1}, {args.search} search"
+          + ("" if protocol else " (NOT the paper's protocol: 512^2, 10 seeds, 10 controls)"))
     t0 = time.perf_counter()
-    for seed, cseed in enumerate(fields):
-        ctl = _control(cseed, args.frequency, args.drained)  # (one control per seed: a drained one is a fill)
-        terrains = {
-            "Dendry (ours)": dendry_terrain(args.size, seed, ctl, args.search),
-            "fBm (ours)": hydrology.fbm_terrain((args.size, args.size), seed=seed),
-            "Ridged (ours)": hydrology.ridged_terrain((args.size, args.size), seed=seed),
-        }
-        cells = [str(cseed)]
-        for name, z in terrains.items():
-            d = hydrology.depressions(z)
-            rows[name].append((d.percent, d.count))
-            cells += [f"{d.percent:.2f}", str(d.count)]
-            if name == "Dendry (ours)":
-                cells.append(f"{_largest_percent(d.mask):.2f}")
-        if args.sinks:
-            sinks = level1_sinks(_params(seed, args.search), ctl)
-            cells.append(" ".join(f"({i}, {j})" for i, j in sinks) or "-")
-        print(f"| {seed} | " + " | ".join(cells) + " |")
-    print()
-    print("| method | depression surface | # of depressions |")
-    print("| --- | ---: | ---: |")
-    for name, vals in rows.items():
-        v = np.array(vals)
-        print(f"| {name}, mean of {len(v)} | {v[:, 0].mean():.2f} % | {v[:, 1].mean():.1f} |")
-        if name == "Dendry (ours)":
-            print(f"| {name}, median of {len(v)} | {np.median(v[:, 0]):.2f} % | {np.median(v[:, 1]):.1f} |")
-    for name, (pct, cnt) in PAPER.items():
-        print(f"| {name} | {pct} % | {cnt} |")
+    lines = []
+    for method in (("terrain", "paper") if args.method == "both" else (args.method,)):
+        res = measure(method, args.size, args.seeds, args.control_seeds, args.search,
+                      variant if method == "terrain" else None)
+        title = {"terrain": "the terrain command's defaults", "paper": "the paper's method, as published"}[method]
+        if method == "terrain" and variant is not None:
+            title = "a variant: the terrain command's defaults with " + ", ".join(changes)
+        lines += _report(f"Dendry, {title}", res)
+    base = {"fBm": hydrology.fbm_terrain, "ridged": hydrology.ridged_terrain}
+    lines += ["\n## baselines and the paper\n", "| method | depression surface | # of depressions |", "| --- | ---: | ---: |"]
+    for name, make in base.items():
+        v = np.array([(d.percent, d.count) for d in
+                      (hydrology.depressions(make((args.size, args.size), seed=s)) for s in range(args.seeds))])
+        lines.append(f"| {name} (ours), mean of {len(v)} | {v[:, 0].mean():.2f} % | {v[:, 1].mean():.1f} |")
+    lines += [f"| {name} | {pct} % | {cnt} |" for name, (pct, cnt) in PAPER.items()]
+    print("\n".join(lines))
     if args.size != 512:  # (depression counts grow with the image)
-        print(f"\n(the paper's Dendry rows and the authors' code were measured at 512^2, these at {args.size}^2)")
+        print(f"\n(the paper's figures and the authors' code were measured at 512^2, these at {args.size}^2)")
     print(f"\n(total {time.perf_counter() - t0:.1f} s)")
 
 

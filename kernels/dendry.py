@@ -97,7 +97,8 @@ class Setup:
 
     levels: int
     seed: wp.uint32
-    eps: vec6  # key points in [eps, 1 - eps] of their cells, per level (primitives: the finest level's)
+    eps: vec6  # key points in [eps, 1 - eps] of their cells, per level
+    prim_eps: float  # the same for the terrain primitives (levels beyond the tree's)
     resolution: float
     inv_resolution: float  # 1 / resolution: kernels multiply (a division costs several multiplications)
     delta: vec6  # sideways displacement per level, times the segment length
@@ -121,6 +122,11 @@ class Setup:
     d_lo: wp.vec2
     c_lo: wp.vec2
     scale: wp.vec2
+    # level-1 outlets (wdendrite.dendry.DendryParams.outlets): the values of the level-1 key points of
+    # cells outlet_lo + (0..outlet_n - 1), drained by the host; outlet_n (0, 0) when there are none
+    outlet_lo: wp.vec2i
+    outlet_n: wp.vec2i
+    outlet_z: wp.array(dtype=float)
 
 
 @wp.func
@@ -180,7 +186,9 @@ def jitter(s: Setup, level: int, c: wp.vec2i) -> wp.vec2:
     """The jittered key point of cell ``c``: uniform in the cell shrunk by its level's ``eps`` on
     each side (levels beyond the tree's, the primitives', take the finest level's)."""
     h = cell_size(level)
-    e = s.eps[wp.min(level, s.levels) - 1]
+    e = s.prim_eps
+    if level <= s.levels:
+        e = s.eps[level - 1]
     span = 1.0 - 2.0 * e
     key = cell_key(s.seed, level, c)
     return wp.vec2(
@@ -312,14 +320,26 @@ def write_polyline(
 
 
 @wp.func
+def outlet_value(s: Setup, c: wp.vec2i, z: float) -> float:
+    """The value of level-1 cell ``c``'s key point whose control value is ``z``: the drained one of
+    the outlet table where the table holds the cell, else ``z``."""
+    i = c[0] - s.outlet_lo[0]
+    j = c[1] - s.outlet_lo[1]
+    if i >= 0 and j >= 0 and i < s.outlet_n[0] and j < s.outlet_n[1]:
+        return s.outlet_z[nonneg(j * s.outlet_n[0] + i)]
+    return z
+
+
+@wp.func
 def point1(s: Setup, ctl: Control, c: wp.vec2i) -> wp.vec4:
-    """Level-1 key point of cell ``c``: (x, y, control value, 1 if inside the control's domain)."""
+    """Level-1 key point of cell ``c``: (x, y, value, 1 if inside the control's domain); the value
+    is the control's there, or the drained one where the host gave the cell an outlet."""
     q = jitter(s, 1, c)
     cp = to_control(s, q)
     inside = float(0.0)
     if control_inside(ctl, cp):
         inside = 1.0
-    return wp.vec4(q[0], q[1], control_value(ctl, cp), inside)
+    return wp.vec4(q[0], q[1], outlet_value(s, c, control_value(ctl, cp)), inside)
 
 
 @wp.func
@@ -1907,6 +1927,14 @@ def points1_kernel(
     """Cached mode: level-1 key points of slot 0, one thread per cell."""
     k = wp.tid()
     fill_point1(s, ctl, bases, 0, k, block_cell(blocks, 0, k), pts1_out)
+
+
+@wp.kernel
+def table1_kernel(s: Setup, ctl: Control, lo: wp.vec2i, width: int, pts1_out: wp.array(dtype=wp.vec4)):
+    """Level-1 key points of the cells ``lo + (k % width, k // width)``, one thread per cell (the
+    host drains them into the outlet table)."""
+    k = wp.tid()
+    pts1_out[k] = point1(s, ctl, wp.vec2i(lo[0] + k % width, lo[1] + k // width))
 
 
 @wp.kernel

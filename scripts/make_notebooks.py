@@ -191,11 +191,15 @@ show(moss.image)'''),
                "bright is high, and the tree's branches are the dark valleys.\n\nThe first Dendry call of a "
                "fresh install compiles its kernels (about 15 s, once; later runs load them from Warp's cache)."),
         ("code", SETUP),
+        ("md", "`DendryParams.terrain()` is the paper's Table 1 setup (2 levels, eps 0.25, delta 0.1, beta 0.5, "
+               "noise 0.05) with three additions of ours for terrains: level-1 `outlets` (no river ends in a closed "
+               "basin), `fine_eps = 0` (no straight seams along level-1 cell borders) and `primitive_eps = 0.4` (valley "
+               "floors follow their rivers). `DendryParams.table1()` is the method as published. Here at 3 levels:"),
         ("code", '''\
 from wdendrite import control, hydrology
 n = 128 if SMALL else 512
 ctl = control.drained(control.perlin(seed=1, domain=((-0.2, -0.4), (1.4, 0.7))))
-p = wd.DendryParams(levels=2 if SMALL else 3, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=1)
+p = wd.DendryParams.terrain(levels=2 if SMALL else 3, seed=1)
 kw = dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl)
 dist = wd.dendry((n, n), output="distance", **kw)
 show(np.exp(-dist / np.median(dist)))'''),
@@ -204,29 +208,54 @@ z = wd.dendry((n, n), output="elevation", **kw)
 win = wd.dendry((n, n), output="elevation", window=(n // 4, n // 3, 20, 30), **kw)
 assert np.array_equal(win, z[n // 4: n // 4 + 20, n // 3: n // 3 + 30])   # a window is the same region
 show((z - z.min()) / (z.max() - z.min()))'''),
-        ("md", "The straight, steep slopes along some vertical and horizontal lines at whole domain units (here x = 1 "
-               "and x = 2) are level-1 cell borders. With `eps = 0.25` every level keeps its key points away from cell "
-               "borders, so the subtrees of neighbouring level-1 cells meet there; where they hang at different "
-               "altitudes, the elevation (which takes the altitude of the nearest tree point, the paper's eq. 4) "
-               "climbs steeply along a straight line. `eps = 0` lets these divides wander like the rest of the tree; "
-               "one eps per level, `(0.25, 0, ...)`, frees them while level 1 keeps its key points near their cells' "
-               "centres. Left to right: `eps = 0.25` as above, `eps = (0.25, 0, ...)` and `eps = 0`:"),
+        ("md", "**Seams.** With the paper's `eps = 0.25` at every level, no key point of any level lies near a level-1 "
+               "cell's border (here at x = 1, 2, 3 and y = 1, 2, 3), so the subtrees of neighbouring cells end short of "
+               "it and their divide runs straight along it; where they hang at different altitudes the elevation "
+               "(the altitude of the nearest tree point plus a slope, the paper's eq. 4) steps along a straight line "
+               "(left). `fine_eps = 0` lets the finer branches reach across, so divides wander (right)."),
         ("code", '''\
 import dataclasses
-z_finer = wd.dendry((n, n), output="elevation",
-                    **dict(kw, params=dataclasses.replace(p, eps=(0.25,) + (0.0,) * (p.levels - 1))))
-z_free = wd.dendry((n, n), output="elevation", **dict(kw, params=dataclasses.replace(p, eps=0.0)))
-show([(a - a.min()) / (a.max() - a.min()) for a in (z, z_finer, z_free)],
-     labels=["eps = 0.25", "eps = (0.25, 0, ...)", "eps = 0"])'''),
-        ("md", "Hydrology: depressions (priority-flood) against an fBm baseline, and drainage area on the filled "
-               "terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it)."),
+z_paper_eps = wd.dendry((n, n), output="elevation", **dict(kw, params=dataclasses.replace(p, fine_eps=None)))
+show([wd.render.relief(a, 4.0 / n) for a in (z_paper_eps, z)], labels=["eps 0.25 at every level", "fine_eps = 0"])'''),
+        ("md", "**Hydrology.** Depressions (cells a priority-flood fill raises) of the terrain, of the same terrain "
+               "by the method as published (no outlets, the paper's jitter) and of an fBm baseline; then the drainage "
+               "area on the filled terrain: D8 (left) and D-infinity (right; the paper's Figure 16 uses it). "
+               "`benchmarks/table1_hydrology.py` measures the paper's Table 1 protocol on 100 terrains."),
         ("code", '''\
-for name, terrain in [("dendry", z), ("fBm", hydrology.fbm_terrain((n, n), seed=1))]:
+paper = wd.DendryParams.table1(levels=p.levels, seed=1)
+z_paper = wd.dendry((n, n), output="elevation", **dict(kw, params=paper, control=ctl))
+for name, terrain in [("terrain()", z), ("table1()", z_paper), ("fBm", hydrology.fbm_terrain((n, n), seed=1))]:
     d = hydrology.depressions(terrain)
-    print(f"{name:7s} depressions: {d.count:4d}, {d.percent:5.1f} % of the surface")
+    print(f"{name:10s} depressions: {d.count:4d}, {d.percent:5.2f} % of the surface")
 d8 = hydrology.flow_accumulation(z, filled=True)
 dinf = hydrology.flow_accumulation(z, filled=True, method="dinf")
 show([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], labels=["D8", "D-infinity"])'''),
+        ("md", "**The slope power beta** (the paper's Fig. 13 and eq. 7): around a tree point of elevation h the "
+               "slope is `smootherstep` of `h^beta` between the control's minimum and maximum. With beta near 0 every "
+               "slope is steep; larger values widen the valleys of the low ground, and beyond 1 the high ground rises "
+               "in cliffs over wide plains. Its effect shows where the tree's elevations span the control's range: "
+               "here a plane rising from 0 (top) to 1 (bottom), beta = 0, 0.5, 1 and 2:"),
+        ("code", '''\
+ramp = control.plane((0.0, 1.0))                                  # 0 at the top, 1 at the bottom
+slopes = [wd.dendry((n, n), domain=((0.0, 0.0), (4.0, 4.0)), control=ramp, output="elevation",
+                    params=dataclasses.replace(p, beta=b)) for b in (0.0, 0.5, 1.0, 2.0)]
+show([wd.render.relief(a, 4.0 / n) for a in slopes], labels=["beta 0", "beta 0.5", "beta 1", "beta 2"])'''),
+        ("md", "**A sketch as the control** (the paper's Fig. 11: a U-shaped user sketch and the terrain made from "
+               "it). Any drawing works: dark strokes are low ground, and the main valleys follow them. Here a U drawn "
+               "with a few brush strokes, blurred, scaled to [0, 1] and drained so that it leads to the border:"),
+        ("code", '''\
+from scipy.ndimage import gaussian_filter
+sketch = Image.new("L", (64, 64), 255)
+pen = ImageDraw.Draw(sketch)
+pen.line([(16, 4), (17, 34), (24, 48), (32, 52), (40, 48), (47, 34), (48, 4)], fill=40, width=9, joint="curve")
+drawn = gaussian_filter(np.asarray(sketch, np.float32), 3.0)
+drawn = (drawn - drawn.min()) / np.ptp(drawn)                      # 0 in the strokes, 1 on the paper
+u_shape = control.drained(control.image(drawn, domain=((0.0, 0.0), (1.0, 1.0))))
+z_u = wd.dendry((n, n), domain=((0.0, 0.0), (6.0, 6.0)), control=u_shape, output="elevation",
+                params=wd.DendryParams.terrain(levels=p.levels, seed=5, beta=1.0))
+big_sketch = np.kron(drawn, np.ones((n // 64, n // 64)))           # shown at the terrain's size
+show([big_sketch, wd.render.relief(z_u, 6.0 / n, hydrology.flow_accumulation(z_u, filled=True))],
+     labels=["the sketch", "the terrain and its rivers"])'''),
         ("md", "## The Lichtenberg figure, levels and points\n\nThe Lichtenberg variant joins each new branch 45 "
                "degrees downstream of the point nearest to it, on the paper's bowl control (lowest at its edge's "
                "middle, here the bottom). `wd.render.dendry_lines` draws the tree as antialiased lines, each level "
@@ -252,17 +281,18 @@ print("in the image: ", z[rows, cols])'''),
                "to the border. One level-1 cell per map pixel: the main valleys follow the map's low ground and the "
                "finer levels add the branches it cannot hold. Left: the map as the control reads it (bicubic); "
                "right: the terrain. Where the map's valleys are narrower than a level-1 cell, some key points lie "
-               "below all their neighbours and the terrain keeps closed basins around them (7 % of this one); a "
-               "steeper `slope` in `control.drained` drains them at some cost in likeness to the map (figures in "
-               "its docstring)."),
+               "below all their neighbours; with the paper's parameters the terrain keeps closed basins around "
+               "them, and level-1 outlets (`DendryParams.terrain()`) give each an outlet instead "
+               "(`benchmarks/dem_hydrology.py` measures both)."),
         ("code", '''\
 coarse = hydrology.fbm_terrain((16, 16), seed=4)
 coarse = (coarse - coarse.min()) / np.ptp(coarse)                      # scaled to [0, 1]
 dem = control.drained(control.image(coarse, domain=((0.0, 0.0), (1.0, 1.0))))
-pa = wd.DendryParams(levels=3, eps=0.25, delta=0.1, beta=0.5, noise=0.05, seed=2)
+pa = wd.DendryParams.terrain(levels=3, seed=2)
 big = wd.dendry((256, 256), domain=((0.0, 0.0), (16.0, 16.0)), params=pa, control=dem, output="elevation")
 smooth = dem.grid((256, 256))
 print("correlation with the map:", round(float(np.corrcoef(smooth.ravel(), big.ravel())[0, 1]), 3))
+print(f"depressions: {hydrology.depressions(big).percent:.2f} % of the surface")
 show([smooth, (big - big.min()) / np.ptp(big)], labels=["the 16 x 16 map, smoothly sampled", "the terrain"])'''),
         ("md", "The command draws the same terrain, shaded, with its rivers: `wdendrite terrain --size 512 --levels 3 "
                "--seed 1 -o terrain.png`."),

@@ -360,7 +360,7 @@ def _terrain(p, tree, pts):
     for u in pts * p.resolution:
         c = np.floor(u * f).astype(int)
         ci, cj = np.meshgrid(np.arange(c[0] - 2, c[0] + 3), np.arange(c[1] - 2, c[1] + 3), indexing="ij")
-        q = _key_points(p.seed, p.epses()[p.levels - 1], pl, ci.ravel(), cj.ravel())  # the finest level's
+        q = _key_points(p.seed, p.primitive_epsilon(), pl, ci.ravel(), cj.ravel())
         d, z, _ = tree.nearest(q)
         # eq. 7: smooth step from the control's minimum to its maximum at h^beta
         t = np.clip((np.maximum(z, 0) ** p.beta - CTL.minimum) / (CTL.maximum - CTL.minimum), 0, 1)
@@ -409,11 +409,14 @@ def test_level1_elevation_equals_bruteforce_primitives(device, beta, steps):
     np.testing.assert_allclose(got, _terrain(p, _tree(p), pts), atol=5e-5)
 
 
-@pytest.mark.parametrize("steps, eps", [(3, 0.25), (3, (0.25, 0.0)), (1, (0.25, 0.5))])
-def test_level2_elevation_equals_bruteforce_primitives(device, steps, eps):
-    # the default primitive step (3) and others, and one eps per level: the primitives take the
-    # finest level's (the reference draws them so), their noise the primitives' own level
-    p = _straight(levels=2, eps=eps, resolution=2.0, seed=1, beta=0.5, noise=0.1, primitive_steps=steps)
+@pytest.mark.parametrize("steps, eps, kw", [(3, 0.25, {}), (3, (0.25, 0.0), {}), (1, (0.25, 0.5), {}),
+                                           (3, 0.25, dict(fine_eps=0.0, primitive_eps=0.45)),
+                                           (2, 0.25, dict(fine_eps=0.5, primitive_eps=0.0))])
+def test_level2_elevation_equals_bruteforce_primitives(device, steps, eps, kw):
+    # the default primitive step (3) and others, one eps per level and the finer levels' and the
+    # primitives' own: the primitives take primitive_eps, else the finest level's (the reference
+    # draws them so), their noise the primitives' own level
+    p = _straight(levels=2, eps=eps, resolution=2.0, seed=1, beta=0.5, noise=0.1, primitive_steps=steps, **kw)
     tree = _tree(p)
     tree.add_level(2, DendryParams.min_slopes()[1])
     pts = np.random.default_rng(6).uniform(0.3, 1.7, (25, 2))

@@ -21,7 +21,7 @@ from . import _checks
 from .dendry import DendryParams, coordinate_limit
 from .render import dendry_lines, relief, unit_range
 
-__all__ = ["MODELS", "TABLE1", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
+__all__ = ["MODELS", "TABLE1", "TERRAIN", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
 
 @dataclass(frozen=True)
@@ -169,11 +169,14 @@ def dendry_setup(size: int, params, *, extent: float, control: str, frequency: f
 
 
 
-TABLE1 = DendryParams(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05)
-"""The paper's Table 1 Dendry parameters: the default of the ``dendry`` and ``terrain`` models."""
+TABLE1 = DendryParams.table1()
+"""The paper's Table 1 Dendry parameters, as published."""
+
+TERRAIN = DendryParams.terrain()
+"""The default of the ``dendry`` and ``terrain`` models: :meth:`wdendrite.DendryParams.terrain`."""
 
 
-def dendry(size: int = 512, *, params: DendryParams = TABLE1,
+def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
            output: Literal["distance", "elevation", "level"] = "distance", extent: float = 4.0,
            control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
@@ -208,7 +211,7 @@ def _grey(value: np.ndarray) -> np.ndarray:
     return np.repeat(value[..., None].astype(np.float32), 3, axis=2)
 
 
-def terrain(size: int = 512, *, params: DendryParams = TABLE1, extent: float = 4.0, control: Control = "perlin",
+def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 4.0, control: Control = "perlin",
             frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
     """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
 

@@ -27,7 +27,7 @@ from ._checks import (
 )
 from .kernels import noise as _kn
 
-__all__ = ["Control", "drained", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
+__all__ = ["Control", "drained", "flood", "image", "lichtenberg", "perlin", "plane", "radial", "ridged"]
 
 Rect = tuple[tuple[float, float], tuple[float, float]]
 
@@ -420,28 +420,29 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
 
 
-def _flood(z0: np.ndarray, rise: np.float32) -> np.ndarray:
-    """``z0`` (float32, square) filled by a priority flood from its border, each filled cell at
-    least ``rise`` (or one float32 step, when ``rise`` > 0) above the cell it drains into."""
+def flood(z0: np.ndarray, rise: np.float32, seeds: np.ndarray | None = None) -> np.ndarray:
+    """``z0`` ((H, W) float32) filled by a priority flood (Barnes et al. 2014) from the ``seeds``
+    ((H, W) bool; default: the border cells), which keep their values: every other cell reached
+    over 8-connected neighbours ends at least ``rise`` (or one float32 step, when ``rise`` > 0)
+    above the cell it was reached from, so each has a strictly lower neighbour and a descending
+    path to a seed (with ``rise`` 0, a path that never climbs). Cells no seed reaches keep their values."""
     import heapq
 
-    z = z0.copy()
+    z = np.array(z0, dtype=np.float32)
+    h, w = z.shape
+    if seeds is None:
+        seeds = np.zeros((h, w), bool)
+        seeds[[0, -1], :] = seeds[:, [0, -1]] = True
     up = np.float32(np.inf)
-    n = z.shape[0]
-    done = np.zeros(z.shape, bool)
-    heap = []
-    for r in range(n):
-        for c in range(n):
-            if r in (0, n - 1) or c in (0, n - 1):
-                heap.append((z[r, c], r, c))
-                done[r, c] = True
+    done = np.array(seeds, dtype=bool)
+    heap = [(z[r, c], r, c) for r, c in zip(*np.nonzero(done))]
     heapq.heapify(heap)
     while heap:
         v, r, c = heapq.heappop(heap)
         for dr in (-1, 0, 1):
             for dc in (-1, 0, 1):
                 rr, cc = r + dr, c + dc
-                if 0 <= rr < n and 0 <= cc < n and not done[rr, cc]:
+                if 0 <= rr < h and 0 <= cc < w and not done[rr, cc]:
                     done[rr, cc] = True
                     # the lowest value it may keep: above the cell it drains into, by the rise or at
                     # least one float32 step (level with it when there is no rise)
@@ -470,10 +471,10 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     A drained control does not by itself drain the terrain: where a valley or a basin's spill
     point is narrower than a level-1 cell, a key point can lie below all 8 of its jittered
     neighbours (a level-1 sink), and the rivers around it end in a closed basin. This is
-    common in DEM amplification (a map pixel per level-1 cell). A steeper ``slope`` removes
-    those sinks at some cost in fidelity to the map: for notebook 05's 16 x 16 map at 1024^2
-    and 2 levels, ``slope`` 1e-4 / 3e-3 / 1e-2 give 7.9 / 1.4 / 0.84 % of depressions and a
-    correlation with the map of 0.90 / 0.87 / 0.72 (``benchmarks/dem_hydrology.py``).
+    common in DEM amplification (a map pixel per level-1 cell). Level-1 outlets
+    (:attr:`wdendrite.DendryParams.outlets`) remove those sinks without tilting the map; a
+    steeper ``slope`` removes them too, at some cost in likeness to the map
+    (``benchmarks/dem_hydrology.py`` measures both).
 
     Args:
         base: any control function.
@@ -502,14 +503,14 @@ def drained(base: Control, *, samples: int = 129, slope: float = 1.0e-4) -> Cont
     if not z0.max() > z0.min():
         raise ValueError(f"'base' takes the one value {float(z0.min())!r} at all {samples} x {samples} samples: there is "
                          "no slope to drain along and no range for the fill's rises; use the base as it is")
-    z = _flood(z0, rise)
+    z = flood(z0, rise)
     # a basin whose rim holds the maximum fills above it, out of the base's range (a terrain's [0, 1]
     # then refused the result): scale the samples towards their minimum by the excess, keeping the
     # rises, and fill again (a scale that keeps the order: the same basins fill)
     lo, top = float(z0.min()), float(base.maximum)
 
     def scaled(k: float) -> np.ndarray:  # the samples scaled towards their minimum by k, filled
-        return _flood((lo + (z0.astype(np.float64) - lo) * k).astype(np.float32), rise)
+        return flood((lo + (z0.astype(np.float64) - lo) * k).astype(np.float32), rise)
 
     k = 1.0
     for _ in range(8):

@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from ._checks import device as _device, finite, fits_in_memory, flag, integer, lattice_shape, seed32, stop_if_checking
-from .control import Control, perlin, plane, radial, rectangle
+from .control import Control, flood, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
 from .kernels import dendry_pixels as _kp
 
@@ -136,15 +136,8 @@ class DendryParams:
     """Seed of every random number (key points, displacements, terrain noise), in [0, 2**32)."""
     eps: float | tuple[float, ...] = 0.25
     """Key points are drawn in ``[eps, 1 - eps]`` of each cell: 0 is free jitter, 0.5 a regular grid;
-    one value for every level, or a tuple of one per level (the terrain's primitives take the
-    finest level's). Below 0.25 at any level links search 5 x 5 or 7 x 7 cells (see ``search``).
-
-    In terrains, every level keeps its key points ``eps`` away from cell borders, so the
-    subtrees of neighbouring level-1 cells meet along those borders; where they hang at
-    different altitudes (each from its own level-1 segment), the elevation, which takes
-    the altitude of the nearest tree point (paper, eq. 4), rises steeply along a straight
-    line there. ``eps = 0`` lets these divides wander like the rest of the tree, and
-    ``(0.25, 0, ...)`` does so while keeping level 1's key points near their cells' centres."""
+    one value for every level, or a tuple of one per level. Below 0.25 at any level links search
+    5 x 5 or 7 x 7 cells (see ``search``)."""
     delta: float | tuple[float, ...] = 0.0
     """Sideways displacement of subdivided points, as a fraction of the segment length, in [0, 1].
     One value means ``delta`` at level 1, ``delta / 4`` at level 2, ``delta / 16`` at level 3 and
@@ -182,12 +175,49 @@ class DendryParams:
     the paper's parameters and more at larger jitter or displacement (DendryParams' docstring has
     the measured rates)."""
 
+    outlets: bool = False
+    """Give every level-1 river an outlet at the domain's border (our addition to the paper's method).
+
+    The paper links each level-1 key point to the lowest of its 3 x 3 neighbours by the control's
+    value there, so a key point below all 8 of its (jittered) neighbours is a sink: the rivers
+    around it end there and a terrain gets a closed basin. The paper's drainage guarantee holds
+    only "provided that the control function c does not include too low local minima", and with
+    one key point per level-1 cell a valley narrower than a cell makes sinks even where the
+    control itself drains. With ``outlets``, before any pixel is evaluated the level-1 key points
+    of the cells that overlap ``domain`` take values filled by a priority flood over their
+    8-connected grid from the key points outside ``domain``, which keep the control's values:
+    each ends at least ``OUTLET_RISE`` times the control's range (and at least one float32 step)
+    above the neighbour the flood reached it from, so every one has a lower neighbour and every
+    level-1 river runs down to the border. Values only rise: key points that descend to the
+    border more steeply than that keep their values and links; a filled basin's points link
+    towards its outlet and, as level-1 elevations, rise gently upstream from it. The fill depends
+    on the whole ``domain`` (not on the window or the points asked
+    for), so windows and points still equal the whole image bit for bit."""
+    fine_eps: float | None = None
+    """``eps`` of levels 2..n (None: the same as level 1's); a tuple ``eps`` gives every level's and
+    overrides it.
+
+    With ``eps`` > 0 at every level, no key point of any level lies within ``eps`` of a level-1
+    cell's border (each level's cells share those borders), so the subtrees of neighbouring
+    level-1 cells end short of the border on both sides and their divide runs straight along it.
+    Where the two hang at different altitudes, a terrain's elevation (which takes the altitude of
+    the nearest tree point, eq. 4) steps along that straight line: a seam. ``fine_eps = 0`` lets
+    the finer branches reach across, so divides wander like the rest of the tree, while level 1
+    keeps the spacing ``eps`` gives the main branches."""
+    primitive_eps: float | None = None
+    """``eps`` of the terrain primitives' key points (None: the finest level's). The elevation at
+    a river is a blend of primitives on both banks; the more regular they lie, the less that blend
+    rises and falls along the river (jittered primitives dam it into small ponds)."""
+
     def __post_init__(self):
         # every field is checked, then stored as a plain Python value (int, float, bool, str, tuple)
         put = functools.partial(object.__setattr__, self)
         put("levels", integer("levels", self.levels, low=1, high=6))
         put("seed", seed32(self.seed))
         put("eps", _per_level("eps", self.eps, self.levels, 0.5))
+        for name in ("fine_eps", "primitive_eps"):
+            if getattr(self, name) is not None:
+                put(name, _float_in(name, getattr(self, name), 0.0, 0.5))
         put("delta", _per_level("delta", self.delta, self.levels, 1.0))
         # (from 1e-30 on, 1 / resolution and distances in domain units stay finite in float32)
         put("resolution", _float_in("resolution", self.resolution, 1.0e-30, 1.0e6))
@@ -196,6 +226,7 @@ class DendryParams:
         put("beta", _float_in("beta", self.beta, 0.0, 2.0))
         put("noise", _float_in("noise", self.noise, 0.0, 1.0))
         put("primitive_steps", integer("primitive_steps", self.primitive_steps, low=1, high=4))
+        put("outlets", flag("outlets", self.outlets))
         if not isinstance(self.rule, str) or self.rule not in _RULES:
             raise ValueError(f"Expected 'rule' in {_RULES}, but got {self.rule!r}")
         put("rule", str(self.rule))
@@ -203,10 +234,32 @@ class DendryParams:
             raise ValueError(f"Expected 'search' in {_SEARCHES}, but got {self.search!r}")
         put("search", str(self.search))
 
+    @classmethod
+    def table1(cls, **changes) -> "DendryParams":
+        """The paper's Table 1 parameters (levels 2, eps 0.25, delta 0.1, beta 0.5, noise 0.05), with
+        any field replaced by ``changes``."""
+        return cls(**{**dict(levels=2, eps=0.25, delta=0.1, beta=0.5, noise=0.05), **changes})
+
+    @classmethod
+    def terrain(cls, **changes) -> "DendryParams":
+        """Table 1's parameters with our three additions for terrains: level-1 ``outlets``,
+        ``fine_eps = 0`` (no seams along level-1 cell borders) and ``primitive_eps = 0.4`` (valley
+        floors that follow their rivers); the ``terrain`` command's default (BENCHMARKS.md, "Dendry
+        terrains: depressions", measures what each changes). ``changes`` replace any field."""
+        return cls.table1(**{**dict(outlets=True, fine_eps=0.0, primitive_eps=0.4), **changes})
+
     def epses(self) -> tuple[float, ...]:
         """``eps`` per level (6 values, unused levels repeating the last)."""
-        per = list(self.eps) if isinstance(self.eps, tuple) else [self.eps] * self.levels
+        if isinstance(self.eps, tuple):
+            per = list(self.eps)
+        else:
+            fine = self.eps if self.fine_eps is None else self.fine_eps
+            per = [self.eps] + [fine] * (self.levels - 1)
         return tuple(per + [per[-1]] * (6 - len(per)))
+
+    def primitive_epsilon(self) -> float:
+        """``eps`` of the terrain primitives: ``primitive_eps``, else the finest level's."""
+        return self.epses()[self.levels - 1] if self.primitive_eps is None else self.primitive_eps
 
     def deltas(self) -> tuple[float, ...]:
         """Displacement per level (6 values, unused levels 0)."""
@@ -310,6 +363,7 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.levels = p.levels
     s.seed = wp.uint32(p.seed)
     s.eps = _kd.vec6(*p.epses())
+    s.prim_eps = p.primitive_epsilon()
     s.resolution = p.resolution
     s.inv_resolution = 1.0 / p.resolution
     s.delta = _kd.vec6(*p.deltas())
@@ -336,7 +390,55 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     s.d_lo = wp.vec2(dx0, dy0)
     s.c_lo = wp.vec2(cx0, cy0)
     s.scale = wp.vec2((cx1 - cx0) / (dx1 - dx0), (cy1 - cy0) / (dy1 - dy0))
+    s.outlet_lo = wp.vec2i(0, 0)
+    s.outlet_n = wp.vec2i(0, 0)  # (no outlet table: see _give_outlets)
     return s
+
+
+OUTLET_RISE = 0.03
+"""With :attr:`DendryParams.outlets`, the least rise of a filled level-1 key point above the one it
+drains into, relative to the control's range."""
+
+_OUTLET_CELLS = 2**20  # the most level-1 cells an outlet table holds (a flood over them takes seconds)
+
+
+def _outlet_cells(params: DendryParams, domain) -> tuple[tuple[int, int], tuple[int, int]]:
+    """First level-1 cell (i, j) and (width, height) of the outlet table of ``domain``: every cell
+    that overlaps it and a ring of one cell around them."""
+    res = params.resolution
+    (x0, y0), (x1, y1) = domain
+    lo = (math.floor(x0 * res) - 1, math.floor(y0 * res) - 1)
+    return lo, (math.floor(x1 * res) + 2 - lo[0], math.floor(y1 * res) + 2 - lo[1])
+
+
+def _check_outlets(params: DendryParams, domain) -> None:
+    """Refuse outlets over a domain too many level-1 cells wide for the table."""
+    if params.outlets:
+        _, (w, h) = _outlet_cells(params, domain)
+        if w * h > _OUTLET_CELLS:
+            raise ValueError(
+                f"'params' with outlets=True drain the level-1 key points of the whole 'domain' {domain!r}, here "
+                f"{w} x {h} cells, beyond the {_OUTLET_CELLS} the table holds: lower the resolution, narrow the "
+                "domain, or set outlets=False")
+
+
+def _give_outlets(s: _kd.Setup, ctl: _kd.Control, params: DendryParams, control: Control, domain, device) -> None:
+    """With ``params.outlets``, fill the outlet table of ``s`` (see :attr:`DendryParams.outlets`)."""
+    if not params.outlets:
+        return
+    (i0, j0), (w, h) = _outlet_cells(params, domain)
+    pts = wp.empty(w * h, dtype=wp.vec4, device=device)
+    wp.launch(_kd.table1_kernel, dim=w * h, inputs=[s, ctl, wp.vec2i(i0, j0), w], outputs=[pts], device=device)
+    p = pts.numpy().reshape(h, w, 4)
+    res = params.resolution
+    (x0, y0), (x1, y1) = domain
+    x, y = p[..., 0].astype(np.float64), p[..., 1].astype(np.float64)
+    inside = (p[..., 3] > 0.0) & (x >= x0 * res) & (x <= x1 * res) & (y >= y0 * res) & (y <= y1 * res)
+    rise = np.float32(OUTLET_RISE * max(control.maximum - control.minimum, 1e-12))
+    z = flood(p[..., 2], rise, seeds=~inside)
+    s.outlet_lo = wp.vec2i(i0, j0)
+    s.outlet_n = wp.vec2i(w, h)
+    s.outlet_z = wp.array(z.ravel(), dtype=float, device=device)
 
 
 def _plan_ranges(p: DendryParams, qlo: int, qhi: int) -> list[tuple[int, int]]:
@@ -432,6 +534,7 @@ def _check_common(params, control, domain, control_domain):
     if control is not None and not isinstance(control, Control):
         raise TypeError(f"Expected a wdendrite.control.Control for 'control', but got {type(control).__name__}")
     domain = rectangle("domain", domain)
+    _check_outlets(params, domain)
     if control_domain is None:
         control_domain = control.domain if control is not None else _DEFAULT_CONTROL_DOMAIN
     return domain, rectangle("control_domain", control_domain)
@@ -772,13 +875,15 @@ def _cached_tree(shape, *, domain, params: DendryParams, control: Control | None
     control = default_control() if control is None else control
     device = wp.get_device(device)
     s = _setup(params, domain, control_domain, "elevation")
+    ctl = control.struct(device)
+    _give_outlets(s, ctl, params, control, domain, device)
     res = params.resolution
     step = ((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
     u_first = (domain[0][0] * res + 0.5 * step[0], domain[0][1] * res + 0.5 * step[1])
     u_last = (domain[0][0] * res + (shape[1] - 0.5) * step[0], domain[0][1] * res + (shape[0] - 0.5) * step[1])
     plan = _host_plan(params, "distance", u_first, u_last)
     slots = _cached_slots(plan, params, device)
-    _fill_cached(s, control.struct(device), params, "distance", slots, plan[2], device)
+    _fill_cached(s, ctl, params, "distance", slots, plan[2], device)
     blocks, bases = slots.blocks.numpy(), slots.bases.numpy()
     keyp, verts = slots.keyp.numpy(), slots.verts.numpy().reshape(-1, _STRIDE, 3)
     out = []
@@ -862,6 +967,7 @@ def dendry(
         fits_in_memory(4 * h * w, "cpu", f"The host copy of a Dendry image of shape {(h, w)}")
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
+    _give_outlets(s, ctl, params, control, domain, device)
     res = params.resolution
     x0 = wp.vec2(domain[0][0] * res, domain[0][1] * res)
     step = wp.vec2((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
@@ -970,6 +1076,7 @@ def dendry_points(
     control = default_control() if control is None else control
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
+    _give_outlets(s, ctl, params, control, domain, device)
     code = _OUTPUTS[output]
     # grid units, as float32: the same numbers whichever way a point is evaluated
     u_host = (pts.astype(np.float64) * params.resolution).astype(np.float32)
