@@ -19,7 +19,7 @@ import logging, os
 import numpy as np
 import warp as wp
 from IPython.display import display
-from PIL import Image
+from PIL import Image, ImageDraw
 
 wp.config.log_level = logging.WARNING          # no start-up banner
 wp.init()   # (without an NVIDIA driver, Warp prints one harmless CUDA warning here and runs on the CPU)
