@@ -6,7 +6,9 @@ field with the same seed and schedule):
 
 - simple dendrite: 600^2, 8-connected, weights 1 + 10 R, 15 endpoints;
 - fractal dendrite: 512^2, new generators, schedule reaching about 8930 endpoints;
-- lightning structure: 600^2, power weights (alpha 3), 24 endpoints denser low;
+- lightning structure: the lightning preset's default path planning on 600^2 power weights (alpha 3):
+  the main channel, then the branch candidates of its two graphs (18 and 54), each stage over
+  its graph's lattice with the structure's edges made cheap per row descended (three searches);
 - 3D tree: 80^3, 26-connected, upward tropism, 17 endpoints in the crown;
 - coral: 50^3, 26-connected, 24 endpoints, then refinement with 3^3 sublattices.
 
@@ -110,11 +112,30 @@ def simple(quick):
 
 
 def lightning(quick):
+    """The path planning of the lightning preset's default (``wdendrite.lightning``), in three stages
+    over 600^2 8-connected lattices of power weights (alpha 3): the main channel (one search from
+    the top, one endpoint at the bottom); then 18 candidate endpoints of the first graph's branches
+    and 54 of the second's, each stage searched over its graph's lattice whose structure edges cost
+    ``descent`` per row and traced onto the structure. The lattices and endpoints are made by a run
+    of our own beforehand (keeping every traced branch: the preset's choice among them is NumPy
+    work on both sides alike, left out)."""
+    from wdendrite import lightning as lt
+    from wdendrite.sssp import _cost_per_node
+
     n = 150 if quick else 600
-    lat = wd.Lattice((n, n), 8, weights=wd.weights.Power(alpha=3, max=11, seed=3))
-    gens = np.array([[0, n // 2]])
-    ends = wd.endpoints.biased(lat, 24, seed=4, power=3)
-    return lat, gens, ends
+    p = lt.LightningParams()
+    rng = np.random.default_rng(3)
+    gens = np.array([[2, n // 2]])
+    lats = [wd.Lattice((n, n), 8, weights=wd.weights.Power(alpha=p.alpha, seed=k)) for k in (3, 4)]
+    den = wd.trace(wd.shortest_paths(lats[0], gens), [[n - 3, int(n * 0.45)]])
+    stages = [(lats[0], np.array([[n - 3, int(n * 0.45)]]))]
+    for lat, count, reach, top, spacing in ((lats[0], p.forks, 0.3, n // 8, 0.08), (lats[1], p.minor_forks, 0.18, n // 6, 0.04)):
+        region = lt._near(den.nodes, (n, n), 0.03 * n, reach * n, top)
+        ends = lt._candidates(lat, "forks", count, region, rng, spacing * n)
+        desc = lt._descent(lat, den, p.descent * _cost_per_node(lat, tuple(gens[0]), n / 3))
+        den = wd.trace(wd.shortest_paths(desc, gens), ends, extend=den)
+        stages.append((desc, ends))
+    return stages, gens
 
 
 def tree(quick):
@@ -162,7 +183,25 @@ def _sides(name, quick):
         ours = lambda: wd.grow(rebuilt(), gens, params, seed=0)
         theirs = lambda: scipy_fractal(lat, gens, params, seed=0)
         return ours, theirs, lambda den, res: f"{len(den.endpoints)} / {res[1]} endpoints, {len(den)} / {res[0]} nodes"
-    lat, gens, ends = {"simple": simple, "lightning": lightning, "tree": tree, "coral": coral}[name](quick)
+    if name == "lightning":
+        stages, gens = lightning(quick)
+        rebuilt = [(_rebuilder(lat), ends) for lat, ends in stages]
+
+        def ours():
+            den = None
+            for build, ends in rebuilt:
+                den = wd.trace(wd.shortest_paths(build(), gens), ends, extend=den)
+            return den
+
+        def theirs():
+            visited = np.zeros(stages[0][0].num_nodes, bool)
+            for lat, ends in stages:
+                _, pred = scipy_paths(lat, gens)
+                scipy_backtrack(pred, np.ravel_multi_index(tuple(ends.T), lat.shape), visited)
+            return int(visited.sum())
+
+        return ours, theirs, lambda den, size: f"{len(den)} / {size} nodes"
+    lat, gens, ends = {"simple": simple, "tree": tree, "coral": coral}[name](quick)
 
     rebuilt = _rebuilder(lat)
 

@@ -53,15 +53,19 @@ def best_of(fn, repeat: int):
 
 
 def lightning_setup(size: int, seed: int):
-    from wdendrite import presets, render
+    """The preset's two layers, each as its own dendrite with the preset's tapered widths (pixels)."""
+    from wdendrite import presets
+    from wdendrite.dendrite import Dendrite
 
     res = presets.lightning((size, size), seed=seed)
-    s = max(size / 600.0, 0.5)
-    p = presets.LightningParams()
-    first, second = res.dendrite, res.parts["second"]
-    w1 = render.node_widths(first, presets._scaled(p.main_width, s), side=presets._scaled(p.fork_width, s))
-    w2 = render.node_widths(second, presets._scaled(p.minor_width, s))
-    return [(first, w1), (second, w2)], p.minor_gain
+    den, graph, widths = res.dendrite, res.parts["graph"], res.parts["widths"]
+    layers = []
+    for rows in (np.flatnonzero(graph <= 1), np.flatnonzero(graph == 2)):
+        index = np.full(len(den), -1)
+        index[rows] = np.arange(len(rows))
+        parent = np.where(den.parent[rows] >= 0, index[np.maximum(den.parent[rows], 0)], -1)
+        layers.append((Dendrite.from_arrays(den.shape, den.nodes[rows], parent, cost=den.cost[rows]), widths[rows]))
+    return layers, presets.LightningParams().minor_gain
 
 
 def ours_brightness(layers, gain, metric):

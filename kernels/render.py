@@ -159,6 +159,57 @@ def brightness_packed_kernel(
     value_out[i] = v
 
 
+@wp.kernel
+def stroke_kernel(
+    start_in: wp.array(dtype=wp.vec2),
+    end_in: wp.array(dtype=wp.vec2),
+    radius_in: wp.array(dtype=wp.vec2),
+    ink_in: wp.array(dtype=float),
+    sigma: float,
+    height: int,
+    width: int,
+    value_out: wp.array(dtype=float),
+):
+    """Each segment draws a round-capped stroke, its radius going linearly from ``radius_in[i][0]``
+    at ``start_in[i]`` to ``[1]`` at ``end_in[i]`` (pixels, (row, column) coordinates), into the
+    image (atomic maximum of ``ink * coverage``). A pixel's coverage is the stroke seen through a
+    Gaussian pixel filter of standard deviation ``sigma`` (pixels):
+    ``(erf((r - d) / (sigma sqrt 2)) + erf((r + d) / (sigma sqrt 2))) / 2``, with ``d`` the distance
+    from the pixel's centre to the segment and ``r`` the radius at the nearest point. Summed across
+    a stroke it gives ``2 r`` whatever the stroke's slope (a box filter's ``clamp(r + 0.5 - d)``
+    inks a thin diagonal through pixel centres 12 % more than a level one).
+    """
+    i = wp.tid()
+    a = start_in[i]
+    b = end_in[i]
+    ra = radius_in[i][0]
+    rb = radius_in[i][1]
+    ink = ink_in[i]
+    reach = wp.max(ra, rb) + 4.0 * sigma
+    y0 = wp.max(int(wp.floor(wp.min(a[0], b[0]) - reach)), 0)
+    y1 = wp.min(int(wp.ceil(wp.max(a[0], b[0]) + reach)), height - 1)
+    x0 = wp.max(int(wp.floor(wp.min(a[1], b[1]) - reach)), 0)
+    x1 = wp.min(int(wp.ceil(wp.max(a[1], b[1]) + reach)), width - 1)
+    ab = b - a
+    length2 = wp.dot(ab, ab)
+    y = int(y0)
+    while y <= y1:
+        x = int(x0)
+        while x <= x1:
+            p = wp.vec2(float(y), float(x))
+            t = float(0.0)
+            if length2 > 0.0:
+                t = wp.clamp(wp.dot(p - a, ab) / length2, 0.0, 1.0)
+            d = wp.length(p - (a + t * ab))
+            r = ra + t * (rb - ra)
+            k = 1.0 / (sigma * 1.41421356)
+            cover = 0.5 * (wp.erf((r - d) * k) + wp.erf((r + d) * k))
+            if cover > 0.0:
+                wp.atomic_max(value_out, nonneg(y * width + x), ink * cover)
+            x += 1
+        y += 1
+
+
 BLEND_MAX = wp.constant(0)
 BLEND_ADD = wp.constant(1)
 BLEND_SCREEN = wp.constant(2)

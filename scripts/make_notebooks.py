@@ -83,10 +83,25 @@ show(res.image)'''),
                "papers' unless `SMALL`."),
         ("code", SETUP),
         ("md", "**Fractal dendrites** for attenuation alpha (columns) and branching beta (rows), thesis Fig. 3.13 "
-               "(the 2007 paper's Fig. 8 puts the alphas right to left). Columns, left to right: alpha = 2.0, 1.5, 1.2; rows, top to bottom: beta = 2, 3, 4 (the preset's "
-               "defaults; every panel grows 3 iterations from the same weights and seed):"),
+               "(the 2007 paper's Fig. 8 puts the alphas right to left). Columns, left to right: alpha = 2.0, 1.5, 1.2; "
+               "rows, top to bottom: beta = 2, 3, 4 (the preset's defaults, each panel labelled). Every panel grows "
+               "3 iterations from the same weights, seed and first cost d: a larger alpha shrinks d faster, so later "
+               "endpoints stay closer to the dendrite (compact, sparse); a larger beta places more of them:"),
         ("code", '''\
 res = presets.fractal_grid(48 if SMALL else 170)
+print("first cost d:", round(res.parts["d"], 1))
+show(res.image)'''),
+        ("md", "**Power weights** `e = R^alpha`, R uniform in (1, 11), the same 30 endpoints above a root at the bottom "
+               "(constructive path planning, Fig. 2). Panels: alpha = 0.3 (\"very direct branches, nearly straight "
+               "lines\"), 1.0 (\"a conventional model\"), 3.0 (\"more erratic yet\"):"),
+        ("code", '''\
+show(presets.power_weights((64, 64) if SMALL else (200, 200), endpoints=10 if SMALL else 30).image)'''),
+        ("md", "**Cheap former paths** (thesis Fig. 3.14): four former paths from the centre (black), then later "
+               "paths (red) traced over the lattice whose former edges cost D times their weight, D = 1, 0.8, 0.6, 0.3. "
+               "The cheaper the former paths, the sooner the later ones join them (fewer new nodes):"),
+        ("code", '''\
+res = presets.cheap_paths((80, 80) if SMALL else (200, 200))
+print({d: int((den.generation > 0).sum()) for d, den in res.parts["dendrites"].items()}, "new nodes per D")
 show(res.image)'''),
         ("md", "**Weight distributions** `W = 1 + v^n`, the same 20 endpoints in every panel. Panels, left to right: n "
                "= 0 (Manhattan-like), n = 1, n = 4 and n = 8 (erratic); thesis 4.2 (for n > 4 the preset draws v from "
@@ -114,43 +129,47 @@ display(show(presets.dla_imitation((96, 96) if SMALL else (500, 500)).image))
 show(presets.letters("wd", height=48 if SMALL else 300).image)'''),
     ],
     "03_lightning": [
-        ("md", "# Lightning\n\nTwo graphs with power weights: the main stroke and its forks, and a second graph of "
-               "side branches; widths taper along paths (eq. 2), a halo glows around them."),
+        ("md", "# Lightning\n\nThe constructive paper's lightning: a main channel from one graph of power weights "
+               "(alpha = 3), thick and of nearly constant width; side branches from it and from a second graph, "
+               "joining the structure above their endpoints; brightness `exp(-(d/T)^2)` of the path cost `d` from "
+               "the strokes, `T` tapered by eq. 2; no halo unless asked for."),
         ("code", SETUP),
         ("code", '''\
 n = 128 if SMALL else 600
 res = presets.lightning((n, n), seed=7)
+print(res.dendrite, "- nodes per graph (main channel, first graph's branches, second's):",
+      np.bincount(res.parts["graph"]))
 show(res.image)'''),
         ("md", "Every field of `LightningParams` is documented; the same settings are options of `wdendrite "
-               "lightning`. First a calm stroke (alpha = 1.5, 3 forks, no minor forks, glow gain 0.6), then a wild one "
-               "(alpha = 4.0, 16 forks, 24 minor forks, glow radius 20) (the picture above has the defaults: alpha = "
-               "3.0, 9 forks, 14 minor forks):"),
+               "lightning`. First a calm stroke (alpha = 1.5, 3 forks, no minor forks), then a wild one with a halo "
+               "(alpha = 4.0, 10 forks, 30 minor forks, glow gain 1, radius 20) (the picture above has the defaults: "
+               "alpha = 3.0, 6 forks, 18 minor forks, no halo):"),
         ("code", '''\
-calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0, glow_gain=0.6)
-wild = presets.LightningParams(alpha=4.0, forks=16, minor_forks=24, glow_radius=20)
+calm = presets.LightningParams(alpha=1.5, forks=3, minor_forks=0)
+wild = presets.LightningParams(alpha=4.0, forks=10, minor_forks=30, glow_gain=1.0, glow_radius=20)
 display(show(presets.lightning((n, n), params=calm, seed=7).image))
 show(presets.lightning((n, n), params=wild, seed=7).image)'''),
-        ("md", "By default brightness falls off with the distance in pixels. The papers use the path cost over the "
-               "lattice the stroke was planned on (`metric=\"path\"`): the same strokes, left, become ragged, right, "
-               "their light creeping along cheap edges:"),
+        ("md", "Brightness falls off with the path cost from the strokes (left, the default): the strokes keep a "
+               "slightly irregular edge. `metric=\"euclidean\"` uses the distance in pixels instead (right): smooth "
+               "strokes. The main channel keeps its width either way:"),
         ("code", '''\
 import dataclasses
-plain = presets.lightning((n, n), seed=7)
-ragged = presets.lightning((n, n), params=dataclasses.replace(presets.LightningParams(), metric="path"), seed=7)
-show([plain.image, ragged.image], labels=["euclidean", "path"])'''),
-        ("md", "One path at the papers' widths (constructive path planning Fig. 3, thesis Fig. 4.9). Panels, left to "
-               "right: brightness `exp(-(d/T)^2)` with T = 5.0 pixels (a wide glow) and T = 1.6 (a thin stroke); then "
-               "the thesis' rule `exp(-a (c d)^2)`, a = 1/10000, with width factor c = 0.6 and c = 0.2, on a path over "
-               "rougher weights (r = 100), d being the path cost to the path over those weights.\n\nThe width factor "
-               "multiplies that cost, so a *smaller* factor gives a *wider* path: 0.6 is like T = 167 cost units "
-               "(about 3 pixels here), 0.2 like T = 500 (about 10 pixels). Panels 3-4 look saturated white because the "
-               "thesis then sets every brightness above 0.7 to 1: everything within about 0.6 T of the path is pure "
-               "white, a core about 10 pixels wide for 0.6 and 30 for 0.2, with a ragged halo outside it."),
+path = presets.lightning((n, n), seed=7)
+smooth = presets.lightning((n, n), params=dataclasses.replace(presets.LightningParams(), metric="euclidean"), seed=7)
+show([path.image, smooth.image], labels=["path cost", "euclidean"])'''),
+        ("md", "One stroke at the papers' widths, brightness by path cost (constructive path planning Fig. 3, thesis "
+               "Fig. 4.9). Panels, left to right: `exp(-(d/T)^2)` with T = 5.0 and T = 1.6 path cost units over the "
+               "stroke's own weights `R^3`, R in (1, 2): the wider one has \"a weak halo around it, obtained without "
+               "additional computation\"; then the thesis' rule `exp(-a (c d)^2)`, a = 1/10000, with width factor "
+               "c = 0.6 and c = 0.2, on a path over weights `1 + 100 R`.\n\nThe width factor multiplies that cost, so "
+               "a *smaller* factor gives a *wider* path: 0.6 is like T = 167 cost units, 0.2 like T = 500. Panels 3-4 "
+               "look saturated white because the thesis then sets every brightness above 0.7 to 1."),
         ("code", '''\
 show(presets.width_demo((100, 60) if SMALL else (200, 120)).image)'''),
-        ("md", "Widths (constructive path planning Fig. 4), 6 endpoints, panels left to right: constant T = 5.0; "
-               "tapering by eq. 2 from 5.0 at the generator to 0.8 at each path's tip; the same taper along branches "
-               "(every side branch starts again at 5.0 where it leaves its parent):"),
+        ("md", "Widths (constructive path planning Fig. 4), 6 endpoints, brightness by path cost as above; panels "
+               "left to right: constant T = 5.0; tapering by eq. 2 from 5.0 at the generator to 0.8 at each path's "
+               "tip; the same taper along branches (every side branch starts again at 5.0 where it leaves its "
+               "parent):"),
         ("code", '''\
 show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
     ],

@@ -1,4 +1,4 @@
-"""Figures of labelled panels: panels keep their pixels, each label is its text, centred under its panel."""
+"""Figures of labelled panels: panels keep their pixels, each label is its text, centred over its panel."""
 
 import numpy as np
 import pytest
@@ -30,7 +30,7 @@ def test_panels_sit_in_a_grid_and_keep_their_pixels():
     assert grey.shape == (8, 20, 3) and np.all(grey[:, :8] == 0.0) and np.all(grey[:, 12:] == 1.0)
 
 
-def test_each_label_is_its_text_centred_under_its_panel():
+def test_each_label_is_its_text_centred_over_its_panel():
     labels = ["alpha 2, beta 3", "n = 0", ""]
     pics = _panels(3)
     out = figure.panels(pics, labels=labels, gap=4)
@@ -40,8 +40,8 @@ def test_each_label_is_its_text_centred_under_its_panel():
     assert out.shape == (60 + strip, 3 * 90 + 2 * 4, 3)
     for k, text in enumerate(labels):
         x = k * 94
-        np.testing.assert_array_equal(out[:60, x: x + 90], pics[k])  # the label never covers its panel
-        cols = _ink_columns(out[60:, x: x + 90])
+        np.testing.assert_array_equal(out[strip:, x: x + 90], pics[k])  # the label never covers its panel
+        cols = _ink_columns(out[:strip, x: x + 90])
         if not text:
             assert cols.size == 0
             continue
@@ -53,7 +53,7 @@ def test_each_label_is_its_text_centred_under_its_panel():
 
 def test_a_long_label_shrinks_every_label_to_fit():
     out = figure.panels(_panels(2, (120, 60)), labels=["a label far too long for a narrow panel", "b"])
-    cols = _ink_columns(out[120:, :60])
+    cols = _ink_columns(out[: out.shape[0] - 120, :60])
     assert cols.size and cols[0] > 0 and cols[-1] < 59  # the whole text, inside its panel's width
     short = figure.panels(_panels(2, (120, 60)), labels=["a", "b"])
     assert out.shape[0] < short.shape[0]  # one smaller font for the whole figure: a lower strip

@@ -417,6 +417,96 @@ def test_a_lattice_without_path_costs_an_unhashable_colormap_and_endless_passes_
     assert launches  # so the empty record above means that no kernel ran
 
 
+def _line_dendrite(shape, a, b):
+    """A dendrite along the rounded straight line from node ``a`` (its root) to node ``b``."""
+    n = int(np.abs(np.subtract(b, a)).max())
+    pts = np.rint(np.asarray(a) + np.outer(np.arange(n + 1) / n, np.subtract(b, a))).astype(np.int64)
+    return Dendrite.from_arrays(shape, pts, np.arange(-1, n))
+
+
+def _stroke_reference(den, width, ink=None, sigma=0.45):
+    """The strokes by NumPy: every pixel's largest ink x Gaussian-filtered coverage over the edges."""
+    from scipy.special import erf
+
+    h, w = den.shape
+    py, px = np.mgrid[:h, :w].astype(float)
+    radius = 0.5 * np.asarray(node_widths(den, width), float)
+    ink = np.ones(len(den)) if ink is None else np.asarray(ink, float)
+    out = np.zeros((h, w))
+    for row in range(len(den)):
+        p = den.parent[row] if den.parent[row] >= 0 else row
+        a, b = den.nodes[row].astype(float), den.nodes[p].astype(float)
+        ab = b - a
+        t = np.clip(((py - a[0]) * ab[0] + (px - a[1]) * ab[1]) / max(ab.dot(ab), 1e-300), 0, 1)
+        d = np.hypot(py - a[0] - t * ab[0], px - a[1] - t * ab[1])
+        r = radius[row] + t * (radius[p] - radius[row])
+        k = 1 / (sigma * np.sqrt(2))
+        out = np.maximum(out, ink[row] * 0.5 * (erf((r - d) * k) + erf((r + d) * k)))
+    return out
+
+
+@pytest.mark.parametrize("end", [(40, 8), (36, 28), (8, 40), (30, 30)])
+@pytest.mark.parametrize("width", [1.0, 2.5])
+def test_strokes_equal_a_numpy_reference(end, width, device):
+    den = _line_dendrite((48, 48), (4, 4), end)
+    v = wd.render.strokes(den, width, device=device)
+    np.testing.assert_allclose(v, _stroke_reference(den, width), atol=2e-6)
+    assert v.max() <= 1.0
+
+
+@pytest.mark.parametrize("width", [1.0, 1.5, 2.5])
+def test_strokes_weigh_the_same_at_every_slope(width):
+    # the ink per unit length of the drawn path is the stroke's width, level, at slope 1/2 and
+    # diagonal (through pixel centres); lit nodes (brightness by distance to nodes) weigh a diagonal
+    # 1/sqrt(2) as much as a level line
+    per_length = []
+    for end in ((4, 92), (48, 92), (92, 92)):
+        den = _line_dendrite((96, 96), (4, 4), end)
+        caps = np.pi * (width / 2) ** 2  # the two round ends make one disc
+        length = np.linalg.norm(np.diff(den.nodes, axis=0), axis=1).sum()  # the lattice path's, zigzags and all
+        per_length.append((wd.render.strokes(den, width).sum() - caps) / length)
+    assert np.allclose(per_length, width, rtol=0.02), per_length
+    # exact across a level stroke 2 wide centred on row 10: erf profile, 2 pixels of ink in each column
+    den = _line_dendrite((20, 40), (10, 5), (10, 34))
+    column = wd.render.strokes(den, 2.0)[:, 20]
+    assert column.sum() == pytest.approx(2.0, rel=1e-3) and column[10] > 0.97 and column[9] == column[11]
+
+
+def test_strokes_taper_and_take_ink_per_node():
+    base = _line_dendrite((30, 60), (15, 3), (15, 56))
+    den = Dendrite.from_arrays(base.shape, base.nodes, base.parent, cost=np.arange(len(base), dtype=float))
+    ink = np.linspace(1.0, 0.5, len(den))
+    v = wd.render.strokes(den, Taper(6.0, 1.0, along="path"), ink=ink)
+    np.testing.assert_allclose(v, _stroke_reference(den, Taper(6.0, 1.0, along="path"), ink), atol=2e-6)
+    across = v[:, 5:55].sum(axis=0)
+    assert np.all(np.diff(across) < 0)  # thinner and fainter away from the root
+
+
+@pytest.mark.parametrize("call, exc, match", [
+    (lambda: wd.render.strokes(DEN, 0.0), ValueError, "'width'"),
+    (lambda: wd.render.strokes(DEN, 1.0, ink=np.full(len(DEN), 2.0)), ValueError, r"'ink' value in \[0, 1\]"),
+    (lambda: wd.render.strokes(DEN, 1.0, ink=np.ones(3)), ValueError, "'ink' of shape"),
+    (lambda: wd.render.strokes(empty_dendrite(), 1.0), ValueError, "empty"),
+    (lambda: wd.render.strokes(_line_dendrite((8, 8, 8), (1, 1, 1), (5, 5, 5)), 1.0), ValueError, "2D"),
+])
+def test_strokes_refuse_bad_input_before_any_kernel(call, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        call()
+    assert launches == []
+
+
+def test_coverage_of_a_distance_field_sums_to_the_width_and_refuses_bad_distances():
+    d = np.abs(np.arange(-12.0, 13.0) - 0.3)[:, None] * np.ones((1, 4))  # a level line 0.3 px off the centres
+    for width in (0.8, 1.5, 4.0):
+        c = wd.render.coverage(d, width)
+        np.testing.assert_allclose(c.sum(axis=0), width, rtol=5e-3)  # (pixel sampling: within 0.3 %)
+    assert wd.render.coverage(np.array([np.inf]), 2.0)[0] == 0.0
+    with pytest.raises(ValueError, match="'distance'"):
+        wd.render.coverage(np.array([-1.0]), 1.0)
+    with pytest.raises(ValueError, match="'width'"):
+        wd.render.coverage(np.array([1.0]), 0.0)
+
+
 # Dendry trees drawn as lines
 
 _BOWL = dict(domain=((0.0, 0.0), (2.0, 2.0)), control=wd.control.lichtenberg())
@@ -439,14 +529,14 @@ def test_dendry_lines_draw_each_level_at_its_own_width(device):
     n = 128
     cover = wd.render.dendry_lines((n, n), params=_TREE, device=device, **_BOWL)
     assert cover.shape == (n, n) and cover.dtype == np.float32 and 0 <= cover.min() and cover.max() <= 1
-    # the documented widths: the finest level an eighth of its 16-pixel cell, within [0.75, 1.5]; x 1.4 a level
+    # the documented widths: the finest level an eighth of its 16-pixel cell, within [1, 1.5]; x 1.4 a level
     widths = [1.5 * 1.4**2, 1.5 * 1.4, 1.5]
     px = 2.0 / n
     d = wd.dendry((n, n), params=_TREE, output="distance", device=device, **_BOWL) / px
     level = wd.dendry((n, n), params=_TREE, output="level", device=device, **_BOWL)
 
-    def line(w):  # a line of width w covers clip(w/2 - d + 1/2, 0, 1) of a pixel d from its middle
-        return np.clip(w / 2 - d + 0.5, 0.0, 1.0)
+    def line(w):  # a stroke of width w, seen by a pixel d from its middle (coverage's own tests hold it)
+        return wd.render.coverage(d, w)
 
     # nearest to the trunk: the trunk's own width; elsewhere between the finest and the trunk's
     np.testing.assert_allclose(cover[level == 1], line(widths[0])[level == 1], atol=1e-6)

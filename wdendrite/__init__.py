@@ -37,7 +37,7 @@ def _document_fields() -> None:
 
     from . import _spec
 
-    for part in ("dendry", "growth", "hydrology", "presets", "render", "sssp", "weights"):
+    for part in ("dendry", "growth", "hydrology", "lightning", "presets", "render", "sssp", "weights"):
         _spec.document_fields(importlib.import_module(f"{__name__}.{part}"))  # (wdendrite.dendry is also a function)
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _checks
 from .dendry import DendryParams, coordinate_limit
-from .render import dendry_lines, relief, unit_range
+from .render import dendry_lines, relief, strokes, unit_range
 
 __all__ = ["MODELS", "TABLE1", "TERRAIN", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
@@ -74,9 +74,9 @@ def fractal(size: int = 256, *, count: int = 6, d: float | None = None, alpha: f
                            epsilon=0.12 * size if epsilon is None else epsilon, cheap=cheap)
     lat = Lattice((size, size), connectivity=8, weights=weights.Uniform(r=10.0, seed=seed))
     den = grow(lat, [[size // 2, size // 2]], params, seed=seed, progress=progress)
-    # brightness grows with the number of endpoints a node carries (thicker trunks)
-    img = np.zeros(lat.shape)
-    img[tuple(den.nodes.T)] = 0.35 + 0.65 * np.log1p(den.downstream) / np.log1p(den.downstream.max())
+    # strokes grow brighter and wider with the number of endpoints a node carries (thicker trunks)
+    carried = np.log1p(den.downstream) / np.log1p(den.downstream.max())
+    img = strokes(den, 0.9 + 1.6 * carried, ink=0.35 + 0.65 * carried)
     return Made(img, den, parts={"field": img})
 
 

@@ -454,6 +454,16 @@ def _sample(shape, cand: np.ndarray, count: int, rng, density, min_spacing, why:
     return np.stack(np.unravel_index(flat, shape), axis=1).astype(np.int64)
 
 
+def _requested(name: str, count: int, where: str, shape, draw) -> np.ndarray:
+    """``draw()``'s endpoints; a request that cannot be met is reported against the caller's parameter
+    ``name`` (``count`` endpoints asked for, ``where`` on the lattice of ``shape``)."""
+    try:
+        return draw()
+    except TooManyEndpoints as exc:
+        size = " x ".join(map(str, shape))
+        raise ValueError(f"'{name}' = {count} is more than fit {where} the {size} lattice: {exc}") from None
+
+
 def _describe(why: list) -> str:
     return ", ".join(w() for w in why)
 

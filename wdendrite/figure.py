@@ -1,4 +1,4 @@
-"""Figures of several panels: pictures of one size in a grid, each over a label naming what made it.
+"""Figures of several panels: pictures of one size in a grid, each under a label naming what made it.
 
 Every multi-panel picture of :mod:`wdendrite.presets` (and of the notebooks) is laid out here, so
 that a reader can match each panel to its parameter values::
@@ -47,9 +47,9 @@ def _label_size(labels: list[str], width: int, height: int) -> int:
 
 def panels(images: Sequence[np.ndarray], *, columns: int | None = None, labels: Sequence[str] | None = None,
            gap: int = 4) -> np.ndarray:
-    """Pictures of one size in a grid on white paper, each over its label (a figure's panels).
+    """Pictures of one size in a grid on white paper, each under its label (a figure's panels).
 
-    A label is one line of dark text, centred in a strip of paper under its panel, in one font size
+    A label is one line of dark text, centred in a strip of paper above its panel, in one font size
     for the whole figure (a twelfth of a panel's height, 9 to 15 pixels, smaller where the longest
     label would overflow the panel's width). Panels keep their pixels: a label never covers them.
 
@@ -100,12 +100,12 @@ def panels(images: Sequence[np.ndarray], *, columns: int | None = None, labels: 
     for i, p in enumerate(pics):
         r, c = divmod(i, columns)
         y, x = r * (h + strip + gap), c * (w + gap)
-        out[y: y + h, x: x + w] = p
+        out[y + strip: y + strip + h, x: x + w] = p
         if labels and labels[i]:
             # black text on white paper: the strip is the text's coverage, inverted
             canvas = Image.new("L", (w, strip), 0)
             draw = ImageDraw.Draw(canvas)
             left = (w - draw.textlength(labels[i], font=font(size))) / 2
             draw.text((max(left, 0.0), _LABEL_PAD), labels[i], fill=255, font=font(size))
-            out[y + h: y + h + strip, x: x + w] = 1.0 - np.asarray(canvas, np.float32)[..., None] / 255.0
+            out[y: y + strip, x: x + w] = 1.0 - np.asarray(canvas, np.float32)[..., None] / 255.0
     return out

@@ -24,18 +24,22 @@ import numpy as np
 from . import _checks
 from . import endpoints as _ep
 from . import figure as _fig
+from . import lightning as _lightning
 from . import geometry as _geo
 from . import render as _r
 from . import weights as _w
 from .dendrite import Dendrite, trace
+from .endpoints import _requested as _endpoints_in
 from .growth import FractalParams, grow
 from .lattice import Lattice
+from .lightning import LightningParams
 from .refine import _check_n_e, refine
-from .sssp import shortest_paths
+from .sssp import _cost_per_node, shortest_paths
 
 __all__ = [
     "LightningParams",
     "Result",
+    "cheap_paths",
     "competition",
     "dla_imitation",
     "elm_tree",
@@ -44,6 +48,7 @@ __all__ = [
     "lichen_on_rock",
     "lightning",
     "moss",
+    "power_weights",
     "rock",
     "simple_dendrite",
     "staghorn_coral",
@@ -97,7 +102,8 @@ def _ink(value: np.ndarray) -> np.ndarray:
 
 
 def _drawing(den: Dendrite, width=1.6) -> np.ndarray:
-    return _ink(_r.brightness(den, width, metric="euclidean"))
+    """``den`` drawn in antialiased strokes ``width`` pixels wide, dark on white."""
+    return _ink(_r.strokes(den, width))
 
 
 def _tile(panels: list[np.ndarray], columns: int, labels: list[str]) -> np.ndarray:
@@ -130,18 +136,6 @@ endpoints lie at cost d from the generator and each later iteration's d / alpha^
 dendrite, so its tips reach about d (1 + 1/alpha + ... + 1/alpha^(n-1)) from the centre."""
 
 
-def _cost_per_node(lat: Lattice, centre, radius: float, dist=None) -> float:
-    """Least path cost per node of straight-line distance from ``centre``: the median over the
-    nodes between 0.8 and 1 times ``radius`` away (it is well below the mean weight, since least
-    paths pick cheap edges). ``dist``: the costs from ``centre`` when already searched."""
-    if dist is None:
-        dist = shortest_paths(lat, [centre]).dist
-    grid = np.indices(lat.shape, dtype=np.float64)
-    r = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, centre)))
-    ring = (r >= 0.8 * radius) & (r <= radius) & np.isfinite(dist)
-    return float(np.median(dist[ring] / r[ring])) if ring.any() else float(lat.weights[0].mean())
-
-
 # --------------------------------------------------------------------------- 2D dendrites
 
 
@@ -164,15 +158,15 @@ def _spacing(shape, endpoints: int) -> float:
     return min(min(shape) / 12, 0.5 * math.sqrt(shape[0] * shape[1] / endpoints))
 
 
-def _fractal_params(half: int, per_node: float, alpha: float, beta: float, iterations: int,
-                    count: int) -> FractalParams:
-    """A schedule of ``iterations`` steps whose tips reach about :data:`_REACH` of ``half`` nodes,
-    paths costing ``per_node`` per node (see :func:`_cost_per_node`)."""
-    FractalParams(count=count, d=2.0, alpha=alpha, beta=beta, epsilon=1.0)  # alpha, beta and count first
-    a = float(alpha)  # > 1, checked above
-    reach = (1.0 - a ** -float(iterations)) / (1.0 - 1.0 / a)  # 1 + 1/a + ... + 1/a^(n-1)
-    d = _REACH * half * per_node / reach
-    # epsilon between the last and the next d, so the schedule has exactly `iterations` steps
+def _reach(alpha: float, iterations: int) -> float:
+    """``1 + 1/alpha + ... + 1/alpha^(n-1)``: how far a schedule's tips reach, in units of its first d."""
+    a = float(alpha)
+    return (1.0 - a ** -float(iterations)) / (1.0 - 1.0 / a)
+
+
+def _schedule(d: float, alpha: float, beta: float, iterations: int, count: int) -> FractalParams:
+    """First cost ``d``, and an epsilon between the last and the next d, so the schedule has exactly
+    ``iterations`` steps."""
     try:
         eps = d / float(alpha) ** (iterations - 0.5)
     except OverflowError:
@@ -181,6 +175,14 @@ def _fractal_params(half: int, per_node: float, alpha: float, beta: float, itera
         raise ValueError(f"'alpha' = {alpha!r} over 'iterations' = {iterations!r} shrinks the cost d below the "
                          "smallest float: lower either")
     return FractalParams(count=count, d=d, alpha=alpha, beta=beta, epsilon=eps)
+
+
+def _fractal_params(half: int, per_node: float, alpha: float, beta: float, iterations: int,
+                    count: int) -> FractalParams:
+    """A schedule of ``iterations`` steps whose tips reach about :data:`_REACH` of ``half`` nodes,
+    paths costing ``per_node`` per node (see :func:`_cost_per_node`)."""
+    FractalParams(count=count, d=2.0, alpha=alpha, beta=beta, epsilon=1.0)  # alpha, beta and count first
+    return _schedule(_REACH * half * per_node / _reach(alpha, iterations), alpha, beta, iterations, count)
 
 
 def fractal_grid(
@@ -193,10 +195,15 @@ def fractal_grid(
     seed: int = 0,
 ) -> Result:
     """Fractal dendrites for every attenuation alpha (columns, left to right) and branching beta (rows)
-    (thesis Fig. 3.13; the 2007 paper's Fig. 8 puts the alphas right to left). Each panel's first
-    cost d is set from the lattice's measured path cost per node so that its tips reach about 85 %
-    of the way to the border. ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's; ``parts["dendrites"]``
-    holds every panel's, keyed by ``(alpha, beta)``.
+    (thesis Fig. 3.13; the 2007 paper's Fig. 8 puts the alphas right to left): "α = 2, 1.5, 1.2",
+    "β = 2, 3, 4", and "All dendrites were built with three iterations" (2007 paper, Fig. 8).
+    Every panel grows from the same weights and starts from the same cost d, each iteration
+    dividing d by alpha and multiplying the endpoint count by beta, so a smaller alpha places later
+    endpoints farther out (a wider, denser dendrite) and a larger beta places more of them. d is
+    set from the lattice's measured path cost per node so that the farthest-reaching schedule (the
+    smallest alpha) reaches about 85 % of the way to the border. Panels are labelled with their
+    alpha and beta. ``Result.dendrite`` (and the command's dendrite outputs) is the first panel's;
+    ``parts["dendrites"]`` holds every panel's, keyed by ``(alpha, beta)``.
 
     Args:
         cell: side of each panel's lattice in nodes (>= 16).
@@ -208,22 +215,26 @@ def fractal_grid(
     """
     cell, iterations = _checks.integer("cell", cell, low=16), _checks.integer("iterations", iterations, low=1)
     alphas, betas = _entries("alphas", alphas, "attenuations"), _entries("betas", betas, "branching factors")
+    for a in alphas:
+        if not _checks.finite("alphas", a) > 1:
+            raise ValueError(f"Expected every entry of 'alphas' > 1 (each iteration divides d by it), but got {a!r}")
     for b in betas:  # every panel's schedule checked before the first grows
         for a in alphas:
             _fractal_params(cell // 2, 1.0, a, b, iterations, count)
-    panels, dens, per_node, labels = [], {}, None, []
+    widest = min(alphas)  # (every alpha > 1, checked above: the smallest reaches farthest)
+    panels, labels, dens, d = [], [], {}, None
     for b in betas:
         for a in alphas:
             lat = Lattice((cell, cell), 8, weights=_w.Uniform(r=10, seed=seed))
-            if per_node is None:  # every panel has the same weights
+            if d is None:  # every panel has the same weights
                 per_node = _cost_per_node(lat, (cell // 2, cell // 2), cell // 2)
-            p = _fractal_params(cell // 2, per_node, a, b, iterations, count)
-            den = grow(lat, [[cell // 2, cell // 2]], p, seed=seed)
+                d = _fractal_params(cell // 2, per_node, widest, b, iterations, count).d
+            den = grow(lat, [[cell // 2, cell // 2]], _schedule(d, a, b, iterations, count), seed=seed)
             dens[(a, b)] = den
-            panels.append(_drawing(den, 1.2))
-            labels.append(f"alpha {a:g}, beta {b:g}")
+            panels.append(_drawing(den, 1.3))
+            labels.append(f"alpha = {a:g}, beta = {b:g}")
     return Result(_tile(panels, len(alphas), labels), dens[(alphas[0], betas[0])],
-                  parts={"dendrites": dens, "labels": labels})
+                  parts={"dendrites": dens, "d": d, "labels": labels})
 
 
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
@@ -247,6 +258,99 @@ def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, 
     p = _fractal_params(min(shape) // 2, _cost_per_node(lat, centre, min(shape) // 2), alpha, beta, iterations, count)
     den = grow(lat, [centre], p, seed=seed)
     return Result(_drawing(den, 1.0), den, parts={"lattice": lat, "params": p})
+
+
+def _connectivity(connectivity) -> int:
+    if _checks.integer("connectivity", connectivity) not in (4, 8):
+        raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
+    return int(connectivity)
+
+
+def power_weights(shape=(200, 200), *, alphas=(0.3, 1.0, 3.0), endpoints: int = 30, connectivity: int = 8,
+                  seed: int = 0) -> Result:
+    """The same endpoints under power weights ``e = R^alpha`` for each alpha (constructive path planning, eq. 1, Fig. 2).
+
+    The paper draws R uniformly from (1, max) and shows "α = 0.3, α = 1.0, and α = 3.0": at 0.3
+    "very direct branches, nearly straight lines", at 1.0 "a conventional model, with slight
+    variation in the paths", at 3.0 paths "more erratic yet, willing to diverge considerably
+    from the Euclidean shortest distance". As in its Fig. 1, the root sits at the bottom and the
+    endpoints are scattered above it; every panel has the same draws R and the same endpoints.
+    The paper gives neither max nor a lattice size: R spans (1, 11) here (:class:`~wdendrite.weights.Power`'s
+    default) on 200 x 200 nodes. Its lattices are four-connected "to conserve memory" (2007
+    paper, section 3), which notes that eight-connectivity reduces lattice artifacts: on four
+    neighbours every path is a staircase of axis steps, so the default is 8 (diagonal edges
+    weighted by their length); ``connectivity=4`` gives the paper's lattice.
+
+    Args:
+        shape: lattice shape (H, W) of each panel.
+        alphas: exponents alpha of the weights, one panel each (each > 0).
+        endpoints: endpoints, the same in every panel, in the upper 85 % of the lattice.
+        connectivity: 8 (default) or 4 (the paper's).
+        seed: seed of the draws R and of the endpoints.
+    """
+    shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
+    connectivity = _connectivity(connectivity)
+    alphas = _entries("alphas", alphas, "exponents", lambda a: _checks.finite("alphas", a))
+    for a in alphas:
+        if not a > 0:
+            raise ValueError(f"Expected every entry of 'alphas' > 0, but got {a!r}")
+        _w.Power(alpha=a, seed=_checks.seed32(seed))  # (its bound on the largest weight)
+    h, w = shape
+    ends = _endpoints_in("endpoints", endpoints, "above the root of", shape, lambda: _ep.random(
+        shape, endpoints, seed=seed, within=_ep.Box((1, 1), (int(0.85 * h), w - 2)),
+        min_spacing=_spacing(shape, endpoints)))
+    dens = {a: trace(shortest_paths(Lattice(shape, connectivity, weights=_w.Power(alpha=a, seed=seed)),
+                                    [[h - 2, w // 2]]), ends) for a in alphas}
+    labels = [f"alpha = {a:g}" for a in alphas]
+    return Result(_tile([_drawing(d, 1.3) for d in dens.values()], len(alphas), labels), dens[alphas[0]],
+                  parts={"dendrites": dens, "labels": labels})
+
+
+def cheap_paths(shape=(200, 200), *, factors=(1.0, 0.8, 0.6, 0.3), former: int = 4, added: int = 24,
+                connectivity: int = 8, seed: int = 0) -> Result:
+    """Later paths attaching to former ones whose edges cost D times as much, for each D (thesis section 3.3.2, Fig. 3.14).
+
+    The thesis multiplies the weights of the former dendrite's edges by a decreasing factor D ("the
+    new edge weight W_new = W x D") and shows "paths obtained with D=1, 0.8, 0.6, 0.3": "when D
+    decreases from 1 to 0.3, the added paths attach to the former structure more eagerly and the
+    paths look more outspread". Here a generator at the centre first reaches ``former``
+    endpoints at a path cost d (set so that they lie about 85 % of the way to the border), drawn
+    in black; then ``added`` endpoints at cost d / 2 from that structure are traced, in colour,
+    over the lattice whose former edges cost D times their weight (:func:`~wdendrite.grow`'s cheap
+    former paths). Every panel has the same weights, former paths and added endpoints, and is
+    labelled with its D. The thesis' weights are ``W = 1 + alpha R`` with alpha in 10-100 (10 here)
+    on a four-connected lattice; the default is 8-connected, as :func:`power_weights` explains.
+
+    Args:
+        shape: lattice shape (H, W) of each panel.
+        factors: weight factors D of the former edges, one panel each (each in (0, 1]).
+        former: endpoints of the former paths.
+        added: endpoints of the later paths (about as many; fewer where the band holds fewer).
+        connectivity: 8 (default) or 4 (the thesis').
+        seed: seed of the weights and the endpoints.
+    """
+    shape, connectivity = _shape(shape, 2), _connectivity(connectivity)
+    former, added = _checks.integer("former", former, low=1), _checks.integer("added", added, low=1)
+    factors = _entries("factors", factors, "weight factors D", lambda f: _checks.finite("factors", f))
+    for f in factors:
+        if not 0 < f <= 1:
+            raise ValueError(f"Expected every entry of 'factors' in (0, 1], but got {f!r}")
+        FractalParams(count=former, d=2.0, alpha=2.0, beta=added / former, epsilon=0.5, cheap=f)
+    h, w = shape
+    lat = Lattice(shape, connectivity, weights=_w.Uniform(r=10, seed=seed))
+    centre = (h // 2, w // 2)
+    d = _REACH * min(h, w) / 2 * _cost_per_node(lat, centre, min(h, w) / 2)
+    dens, panels = {}, []
+    for f in factors:
+        den = grow(lat, [centre], FractalParams(count=former, d=d, alpha=2.0, beta=added / former, epsilon=d / 3,
+                                                cheap=f), seed=seed)
+        dens[f] = den
+        new = (den.generation > 0).astype(np.float32)
+        rust = np.array([0.2, 0.75, 0.9], np.float32)  # light each later stroke takes away (a rust red)
+        img = 1.0 - _r.strokes(den, 2.2, ink=1.0 - new)[..., None] - _r.strokes(den, 1.3, ink=new)[..., None] * rust
+        panels.append(np.clip(img, 0.0, 1.0))
+    labels = [f"D = {f:g}" for f in factors]
+    return Result(_tile(panels, 2, labels), dens[factors[0]], parts={"dendrites": dens, "labels": labels})
 
 
 def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, roots=None, connectivity: int = 8,
@@ -296,8 +400,7 @@ def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 
         seed: seed of the weights and the endpoints.
     """
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
-    if _checks.integer("connectivity", connectivity) not in (4, 8):
-        raise ValueError(f"Expected 'connectivity' 4 or 8, but got {connectivity!r}")
+    connectivity = _connectivity(connectivity)
     ns = _entries("ns", ns, "exponents", lambda n: _checks.finite("ns", n))
     if any(n < 0 for n in ns):
         raise ValueError(f"Expected every entry of 'ns' >= 0, but got {min(ns)!r}")
@@ -382,10 +485,8 @@ def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
     colours = [np.array([0.75, 0.3, 0.1]), np.array([0.1, 0.35, 0.7])]
     img = np.ones((*shape, 3), np.float32)
     for k, c in enumerate(colours):
-        rows = np.flatnonzero(den.label == k)
-        if len(rows):
-            v = _r.brightness(den, 1.4, rows=rows, metric="euclidean")
-            img -= v[..., None] * (1.0 - c)
+        if (den.label == k).any():
+            img -= _r.strokes(den, 1.8, ink=(den.label == k).astype(np.float32))[..., None] * (1.0 - c)
     return Result(np.clip(img, 0, 1), den, parts={"lattice": lat})
 
 
@@ -442,197 +543,105 @@ def letters(text: str = "Hello", *, height: int = 300, mask=None, paths_per_1000
 # --------------------------------------------------------------------------- lightning and widths
 
 
-@dataclass(frozen=True)
-class LightningParams:
-    """The papers' lightning: two 2D graphs with power weights, tapering, glow (constructive path planning, Fig. 9)."""
-
-    alpha: float = 3.0
-    """Exponent of the power weights ``R^alpha`` (3: erratic strokes)."""
-    forks: int = 9
-    """Endpoints of side branches in the first graph (besides the main stroke's), >= 0."""
-    minor_forks: int = 14
-    """Endpoints of the second graph, which holds only side branches, >= 0."""
-    main_width: _r.Taper = _r.Taper(2.6, 1.8, along="path")
-    """Width of the main stroke: thick and nearly constant. Widths and the glow radius are pixels of a
-    600^2 picture and scale with the picture's smaller side (by at least 0.5)."""
-    fork_width: _r.Taper = _r.Taper(1.9, 0.45, along="branch")
-    """Width of the first graph's side branches: they taper visibly."""
-    minor_width: _r.Taper = _r.Taper(1.3, 0.35, along="path")
-    """Width of the second graph's branches."""
-    minor_gain: float = 0.8
-    """Brightness of the second graph relative to the first, in [0, 1]."""
-    glow_radius: float = 14.0
-    """Blur radius of the halo (pixels), > 0."""
-    glow_gain: float = 1.4
-    """Strength of the halo, >= 0."""
-    metric: Literal["euclidean", "path"] = "euclidean"
-    """What brightness falls off with: "euclidean", the distance in pixels (smooth strokes), or
-    "path", the papers' path cost over each graph's own random lattice, the widths scaled by its
-    measured cost per pixel (ragged strokes whose glow creeps along cheap edges)."""
-
-    def __post_init__(self):
-        _checks.positive("alpha", self.alpha)
-        if self.metric not in ("euclidean", "path"):
-            raise ValueError(f"Expected 'metric' in ('euclidean', 'path'), but got {self.metric!r}")
-        # the weights' own bound, in this preset's words: Power's default range (1, max), times the
-        # longest edge a lattice may have (sqrt 3), below the supported largest weight
-        top, limit = _w.Power().max, math.log(_w._MAX_WEIGHT / math.sqrt(3.0))
-        if not float(self.alpha) * math.log(top) < limit:
-            raise ValueError(f"'alpha' of the lightning's power weights must keep sqrt(3) * {top:g}**alpha below "
-                             f"{_w._MAX_WEIGHT:g} (alpha < {limit / math.log(top):.4g}), but got {self.alpha!r}")
-        _checks.integer("forks", self.forks, low=0)
-        _checks.integer("minor_forks", self.minor_forks, low=0)
-        for name in ("main_width", "fork_width", "minor_width"):
-            w = getattr(self, name)
-            if not isinstance(w, _r.Taper):
-                _checks.positive(name, w)
-        gain = _checks.nonnegative("minor_gain", self.minor_gain, allow_none=False)
-        if gain > 1:
-            raise ValueError(f"Expected 'minor_gain' in [0, 1], but got {self.minor_gain!r}")
-        _checks.positive("glow_radius", self.glow_radius)
-        _checks.nonnegative("glow_gain", self.glow_gain, allow_none=False)
-
-
-def _forks_near(lat: Lattice, stroke: Dendrite, count: int, seed, name: str) -> np.ndarray:
-    """Endpoints near the main stroke, denser lower in the image (2007 paper, section 4); ``name``
-    is the parameter that asked for ``count`` of them (errors name it)."""
-    from scipy import ndimage
-
-    h, w = lat.shape
-    free = np.ones(lat.shape, bool)
-    free[tuple(stroke.nodes.T)] = False
-    near = ndimage.distance_transform_edt(free) < 0.22 * w
-    near[: h // 5] = False
-    return _endpoints_in(name, count, "near the main stroke of", lat.shape, lambda: _ep.biased(
-        lat, count, seed=seed, power=1.5, axis=0, toward="end", within=near, min_spacing=0.04 * min(h, w)))
-
-
-def _sky(shape) -> np.ndarray:
-    y = np.linspace(0.0, 1.0, shape[0], dtype=np.float32)[:, None, None]
-    top, bottom = np.array([0.05, 0.05, 0.12], np.float32), np.array([0.01, 0.01, 0.03], np.float32)
-    return np.broadcast_to(top * (1 - y) + bottom * y, (*shape, 3)).copy()
-
-
-def _scaled(width, s: float):
-    if isinstance(width, _r.Taper):
-        return _r.Taper(width.start * s, width.end * s, width.beta, width.along)
-    return float(width) * s
-
-
 def lightning(shape=(600, 600), *, params: LightningParams = LightningParams(), seed: int = 0) -> Result:
-    """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; 2007 paper, Fig. 14).
+    """Forked lightning made of two graphs (constructive path planning, Figs. 3, 4, 9; thesis Fig. 4.11).
 
-    The first graph holds the main stroke, from a generator at the top to an
-    endpoint at the bottom, plus forks near it; the second graph, with other
-    weights, holds only side branches, grown from the upper main stroke (the
-    thesis starts both graphs at the same generator; growing the second from
-    the stroke keeps its branches on it). Their brightness images are
-    combined, given a halo and lit over a night sky. Two choices differ from
-    the papers by default: brightness falls off with the distance in pixels,
-    not the path cost over the random lattice (``params.metric = "path"``
-    gives the papers' ragged look), and a blurred halo is added, which the
-    constructive paper says its renderings largely lack (``glow_gain = 0``
-    leaves it out). ``parts`` holds both dendrites, the core brightness
-    ``"value"`` and the halo ``"glow"``.
+    The first graph (power weights, alpha = 3) holds the main channel, from a
+    generator at the top to an endpoint at the bottom, thick and of nearly
+    constant width, and a few side branches; the second, with other weights,
+    holds only side branches, whose endpoints lie near the channel and low in
+    the picture. Branches join the structure above their endpoints and never
+    run alongside it (see :mod:`wdendrite.lightning`), so the bolt is one tree.
+    Brightness is ``exp(-(d/T)^2)`` of the path cost ``d`` from the strokes
+    (``params.metric = "euclidean"`` gives smooth strokes), ``T`` tapered by
+    eq. 2; a blurred halo is optional (``glow_gain``). ``parts`` holds the main
+    channel ``"main"``, the ``"graph"`` of every node (0 main channel, 1 the first
+    graph's branches, 2 the second's), the ``"widths"``, the brightness
+    ``"value"``, the halo ``"glow"`` and the ``"lattices"``.
     """
     shape = _shape(shape, 2)
     if not isinstance(params, LightningParams):
         raise TypeError(f"Expected LightningParams for 'params', but got {type(params).__name__}")
-    rng = _checks.rng(seed)
-    h, w = shape
-    gen = np.array([[2, int(w * rng.uniform(0.4, 0.6))]])
-    lat1 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
-    cf1 = shortest_paths(lat1, gen)
-    main = trace(cf1, [[h - 3, int(w * rng.uniform(0.3, 0.7))]])
-    first = trace(cf1, _forks_near(lat1, main, params.forks, rng, "forks"), extend=main) if params.forks else main
-    # the papers' widths are for 600^2 pictures; keep the look at other sizes
-    s = max(min(h, w) / 600.0, 0.5)
-
-    def value_of(den, lat, width, side=None, dist=None):
-        if params.metric == "euclidean":
-            return _r.brightness(den, _scaled(width, s), side=None if side is None else _scaled(side, s))
-        # widths in path cost: pixels times what a least path costs per pixel on this lattice
-        c = s * _cost_per_node(lat, tuple(den.nodes[den.parent < 0][0]), min(h, w) / 3, dist)
-        return _r.brightness(den, _scaled(width, c), side=None if side is None else _scaled(side, c),
-                             metric="path", lattice=lat)
-
-    v1 = value_of(first, lat1, params.main_width, params.fork_width, cf1.dist)  # (first's root: the generator)
-    layers, gains, second, lat2 = [v1], [1.0], None, None
-    if params.minor_forks:
-        lat2 = Lattice(shape, 8, weights=_w.Power(alpha=params.alpha, seed=int(rng.integers(2**31))))
-        # the second graph's branches leave the upper main stroke (its nodes are the generators) and
-        # travel down to endpoints lower in the picture, crossing the first graph's branches
-        stem = main.nodes[(main.nodes[:, 0] > 0.06 * h) & (main.nodes[:, 0] < 0.4 * h)]
-        second = trace(shortest_paths(lat2, stem), _forks_near(lat2, main, params.minor_forks, rng, "minor_forks"))
-        layers.append(value_of(second, lat2, params.minor_width))
-        gains.append(params.minor_gain)
-    value = _r.composite(layers, mode="max", gains=gains)
-    halo = _r.glow(value, radius=params.glow_radius * s) * params.glow_gain
-    img = _r.colorize(value, colormap="lightning", glow=halo, background=_sky(shape))
-    return Result(img, first, parts={"second": second, "value": value, "glow": halo, "lattices": (lat1, lat2)})
+    made = _lightning.strike(shape, params, seed)
+    den = made["dendrite"]
+    return Result(made["image"], den, parts={"main": made["main"], "graph": den.generation, "widths": made["widths"],
+                                             "value": made["value"], "glow": made["glow"],
+                                             "lattices": made["lattices"]})
 
 
-def _one_path(shape, r: float, seed: int) -> tuple[Dendrite, Lattice]:
-    lat = Lattice(shape, 8, weights=_w.Uniform(r=r, seed=seed))
+_STROKE_MAX = 2.0
+"""Upper end of R in the figures of widths, whose weights are ``R^3``: see :func:`width_demo`."""
+
+
+def _one_path(shape, weights) -> tuple[Dendrite, Lattice]:
+    lat = Lattice(shape, 8, weights=weights)
     den = trace(shortest_paths(lat, [[4, shape[1] // 2]]), [[shape[0] - 5, shape[1] // 2]])
     return den, lat
 
 
 def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
-    """One path at several widths: T = 5.0 (with a halo) and 1.6, and the thesis' factors 0.6 and 0.2
-    with ``exp(-a (c Ts)^2)``, a = 1/10000, clamped above 0.7 (constructive path planning Fig. 3, thesis Fig. 4.9).
-    The thesis' panels use their own path over rougher weights (``r`` = 100, within the thesis' 10-100),
-    whose path costs set the widths; at factor 0.2 the glow fills the panel."""
+    """One stroke at the papers' widths, brightness by path cost (constructive path planning Fig. 3, thesis Fig. 4.9).
+
+    Constructive path planning: "For a pixel at distance d, and a thickness factor T, we compute a
+    brightness value V as V = exp(-(d/T)^2)", d "the path cost found by Dijkstra's algorithm";
+    Fig. 3 shows "a wider one (T = 5.0) and a narrower one (T = 1.6)", the thicker with "a weak
+    halo around it, obtained without additional computation", on its lightning's power weights
+    ``R^alpha``, alpha = 3. The paper gives T in path cost units but not R's range; R spans (1, 2)
+    here, so edges cost 1 to 8 and T = 5.0 spans a few pixels, with a ragged halo where cheap edges
+    lead away (with R up to 11 both strokes would be one pixel wide). The thesis (Figs. 4.8-4.9):
+    ``V = exp(-a (c(N) Ts)^2)`` with "α around 1/10000", width factors Ts = 0.6 and 0.2 (a smaller
+    factor, a wider path), and "all the pixel intensities above 0.7 as 1", on weights
+    ``W = 1 + alpha R`` with alpha = 100, over its own stroke. Panels, labelled: T = 5.0, T = 1.6,
+    Ts = 0.6, Ts = 0.2.
+    """
     shape = _shape(shape, 2)
-    den, _ = _one_path(shape, 10.0, seed)
-    thesis_den, thesis_lat = _one_path(shape, 100.0, seed)
-    values = [_r.brightness(den, 5.0), _r.brightness(den, 1.6)]
+    den, lat = _one_path(shape, _w.Power(alpha=3.0, max=_STROKE_MAX, seed=seed))
+    thesis_den, thesis_lat = _one_path(shape, _w.Uniform(r=100.0, seed=seed))
+    values = [_r.brightness(den, t, metric="path", lattice=lat) for t in (5.0, 1.6)]
     values += [_r.brightness(thesis_den, _r.thesis_width(k), metric="path", lattice=thesis_lat, clamp=0.7)
                for k in (0.6, 0.2)]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
-    labels = ["T = 5.0", "T = 1.6", "thesis c = 0.6", "thesis c = 0.2"]
+    labels = ["T = 5.0", "T = 1.6", "Ts = 0.6", "Ts = 0.2"]
     return Result(_tile(panels, 4, labels), den, parts={"values": values, "thesis_dendrite": thesis_den,
-                                                        "labels": labels})
+                                                        "lattices": (lat, thesis_lat), "labels": labels})
 
 
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
                seed: int = 0) -> Result:
     """Constant width next to tapering by eq. 2 along each path and along each branch (constructive path planning Fig. 4).
 
+    Eq. 2: ``T_i = Ts (1 - (d_i/d_max)^beta) + Tf (d_i/d_max)^beta`` with ``d_i`` the path cost at
+    point i ("for the lightning, we used β = 1"). As :func:`width_demo`, brightness falls off with
+    the path cost from the strokes over their own weights ``R^3``, R in (1, 2), so widths are in
+    path cost units. Panels, labelled: constant T = ``start``; eq. 2 from the generator to each
+    path's tip; eq. 2 along each branch (every side branch starts again at ``start``, as wide as
+    where it leaves allows).
+
     Args:
         shape: lattice shape (H, W).
-        start: width Ts where a path (or branch) starts; also the constant panel's width (pixels).
-        end: width Tf at its farthest tip (pixels).
+        start: width Ts where a path (or branch) starts; also the constant panel's width (path cost).
+        end: width Tf at its farthest tip (path cost).
         beta: shape of the taper ``u^beta`` (> 0; 1: linear in path cost).
         endpoints: number of endpoints, drawn in the lower half.
         seed: seed of the weights and the endpoints.
     """
     shape, endpoints = _shape(shape, 2), _checks.integer("endpoints", endpoints, low=1)
     widths = [start, _r.Taper(start, end, beta, along="path"), _r.Taper(start, end, beta, along="branch")]
-    lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, seed=seed))
+    lat = Lattice(shape, 8, weights=_w.Power(alpha=3.0, max=_STROKE_MAX, seed=seed))
     cf = shortest_paths(lat, [[3, shape[1] // 2]])
     ep = _endpoints_in("endpoints", endpoints, "in the lower half of", shape, lambda: _ep.biased(
         lat, endpoints, seed=seed, power=2.0, within=_ep.Box((shape[0] // 2, 2), (shape[0] - 3, shape[1] - 3))))
     den = trace(cf, ep)
-    values = [_r.brightness(den, wd_) for wd_ in widths]
+    values = [_r.brightness(den, wd_, metric="path", lattice=lat) for wd_ in widths]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
-    labels = [f"T = {start:g}", f"T {start:g} to {end:g}, along paths", f"T {start:g} to {end:g}, along branches"]
-    return Result(_tile(panels, 3, labels), den, parts={"values": values, "labels": labels})
+    labels = [f"T = {start:g}", "eq. 2 along each path", "eq. 2 along each branch"]
+    return Result(_tile(panels, 3, labels), den, parts={"values": values, "lattice": lat, "labels": labels})
 
 
 # --------------------------------------------------------------------------- 3D models
 
 
 _GEOMETRIES = ("spheres", "tubes", "isosurface")
-
-
-def _endpoints_in(name: str, count: int, where: str, shape, draw) -> np.ndarray:
-    """``draw()``'s endpoints; a request that cannot be met is reported against the preset's parameter ``name``."""
-    try:
-        return draw()
-    except _ep.TooManyEndpoints as exc:
-        size = " x ".join(map(str, shape))
-        raise ValueError(f"'{name}' = {count} is more than fit {where} the {size} lattice: {exc}") from None
 
 
 # spheres this far apart (a body diagonal) touch when their radius is at least half of it

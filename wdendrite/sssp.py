@@ -571,6 +571,18 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
     return found if device.is_cpu and arrays.usable is None else np.sort(found)
 
 
+def _cost_per_node(lat: Lattice, centre, radius: float, dist=None) -> float:
+    """Least path cost per node of straight-line distance from ``centre``: the median over the
+    nodes between 0.8 and 1 times ``radius`` away (it is well below the mean weight, since least
+    paths pick cheap edges). ``dist``: the costs from ``centre`` when already searched."""
+    if dist is None:
+        dist = shortest_paths(lat, [centre]).dist
+    grid = np.indices(lat.shape, dtype=np.float64)
+    r = np.sqrt(sum((g - c) ** 2 for g, c in zip(grid, centre)))
+    ring = (r >= 0.8 * radius) & (r <= radius) & np.isfinite(dist)
+    return float(np.median(dist[ring] / r[ring])) if ring.any() else float(lat.weights[0].mean())
+
+
 def _scratch(arrays, lattice: Lattice, device) -> tuple[_Frontiers, "_Launches"]:
     """The frontier lists and recorded launches of searches on ``arrays`` (the caller holds
     their lock): made by the first search, emptied and reused by the next ones (kept only
