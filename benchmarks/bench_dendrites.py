@@ -9,8 +9,10 @@ field with the same seed and schedule):
 - lightning structure: the lightning preset's default path planning on 600^2 power weights (alpha 3):
   the main channel, then the branch candidates of its two graphs (18 and 54), each stage over
   its graph's lattice with the structure's edges made cheap per row descended (three searches);
-- 3D tree: 80^3, 26-connected, upward tropism, 17 endpoints in the crown;
-- coral: 50^3, 26-connected, 24 endpoints, then refinement with 3^3 sublattices.
+- 3D tree: 80^3, 26-connected, upward tropism, 17 endpoints in the crown, then meshed as the elm
+  preset meshes its trees (smooth centre lines, one closed body, voxel 0.5);
+- coral: 50^3, 26-connected, 24 endpoints, then refinement with 7^3 sublattices (the coral
+  preset's default, the thesis' smallest) and meshing as the coral preset (voxel 0.4).
 
 Both sides start from the same float32 edge weights (an array made before the
 clock starts) and build what they search inside the timing: wdendrite its
@@ -23,7 +25,12 @@ walk the predecessors with vectorized NumPy. The graph holds both directions
 of every edge, so it is searched as a directed graph: the same costs as with
 ``directed=False``, which also makes and scans the transpose on every call
 (20-25 % slower here). Its refinement step reuses our NumPy sublattice
-builder, so only the path planning differs.
+builder, so only the path planning differs. Its meshes start from the same
+smooth centre lines (our NumPy :func:`wdendrite.skeleton.skeleton`, on the
+dendrite its predecessors give) and take what a user would write for the
+distance field: the samples, spaced at most half a voxel apart, marked on
+the grid, ``scipy.ndimage.distance_transform_edt`` with indices for the
+nearest sample's radius, then scikit-image's marching cubes.
 
 Each side runs ``--repeat`` times (default 3, alternating with the other side);
 the medians are printed, so one disturbed run on a shared machine does not
@@ -42,7 +49,9 @@ import numpy as np
 import warp as wp
 
 import wdendrite as wd
+from wdendrite.geometry import meshable, skeleton_mesh
 from wdendrite.refine import refined_lattice
+from wdendrite.skeleton import skeleton
 
 PAPER = {"simple": "0.94 s", "fractal": "7.55 s", "lightning": "4.16 s", "tree": "3.65 s", "coral": "3.06 s"}
 
@@ -76,7 +85,51 @@ def scipy_trace(lat, gens, ends):
     dist, pred = scipy_paths(lat, gens)
     visited = np.zeros(lat.num_nodes, bool)
     flat = np.ravel_multi_index(tuple(np.asarray(ends).T), lat.shape)
-    return scipy_backtrack(pred, flat, visited)
+    return scipy_backtrack(pred, flat, visited), dist, pred
+
+
+def scipy_dendrite(lat, gens, ends, origin=None, spacing=1.0):
+    """The dendrite SciPy's predecessors give (the same nodes and parents as ours)."""
+    nodes, dist, pred = scipy_trace(lat, gens, ends)
+    nodes = np.sort(nodes)
+    up = pred[nodes]
+    parent = np.where(up >= 0, np.searchsorted(nodes, np.maximum(up, 0)), -1)
+    coords = np.stack(np.unravel_index(nodes, lat.shape), axis=1)
+    return wd.Dendrite.from_arrays(lat.shape, coords, parent, cost=dist[nodes], origin=origin, spacing=spacing)
+
+
+def scipy_body(lines, voxel):
+    """The closed surface around ``lines`` by SciPy's EDT of the marked samples and scikit-image's marching cubes."""
+    from scipy import ndimage
+    from skimage.measure import marching_cubes
+
+    lines = meshable(lines, voxel)  # (the same radii as ours)
+    seg = lines.segments
+    a, b = lines.points[seg[:, 0]], lines.points[seg[:, 1]]
+    steps = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) / (0.5 * voxel)).astype(int), 1)
+    t = np.concatenate([np.arange(k) / k for k in steps])
+    which = np.repeat(np.arange(len(seg)), steps)
+    pts = a[which] + t[:, None] * (b - a)[which]
+    rad = lines.radius[seg[which, 0]] * (1 - t) + lines.radius[seg[which, 1]] * t
+    reach = rad.max() + 3 * voxel
+    lo = pts.min(axis=0) - reach
+    shape = tuple(np.ceil((pts.max(axis=0) + reach - lo) / voxel).astype(int) + 1)
+    cell = np.rint((pts - lo) / voxel).astype(int)
+    grid_r = np.zeros(shape)
+    np.maximum.at(grid_r, tuple(cell.T), rad)
+    d, idx = ndimage.distance_transform_edt(grid_r == 0, return_indices=True)
+    field = (d * voxel - grid_r[tuple(idx)]).astype(np.float32)
+    v, f, _, _ = marching_cubes(field, 0.0, spacing=(voxel,) * 3)
+    return v + lo, f
+
+
+# the 3D workloads' bodies: the elm and coral presets' radii, voxels and smoothing
+BODIES = {
+    "tree": dict(radius=wd.render.Taper(2.4, 0.6, beta=0.3, along="path"),
+                 side=wd.render.Taper(1.5, 0.35, beta=0.2, along="branch"), voxel=0.5),
+    "coral": dict(radius=wd.render.Taper(1.6, 0.7, along="path"), side=None, voxel=0.4),
+}
+REFINE_N = 7
 
 
 def scipy_fractal(lat, gens, params: wd.FractalParams, seed):
@@ -204,23 +257,45 @@ def _sides(name, quick):
     lat, gens, ends = {"simple": simple, "tree": tree, "coral": coral}[name](quick)
 
     rebuilt = _rebuilder(lat)
+    if name == "simple":
+        def ours():
+            own = rebuilt()
+            return wd.trace(wd.shortest_paths(own, gens), ends)
+
+        return ours, lambda: len(scipy_trace(lat, gens, ends)[0]), lambda den, size: f"{len(den)} / {size} nodes"
+
+    body = BODIES[name]
+
+    def lines_of(den):
+        return skeleton(den, body["radius"], side=body["side"], sigma=2.0, min_radius=body["voxel"])
 
     def ours():
         own = rebuilt()
         den = wd.trace(wd.shortest_paths(own, gens), ends)
-        return wd.refine(den, own, n=3, e=0.75, seed=0)[0] if name == "coral" else den
+        if name == "coral":
+            den = wd.refine(den, own, n=REFINE_N, e=0.75, seed=0)[0]
+        return den, skeleton_mesh(lines_of(den), voxel=body["voxel"])
 
     coarse = wd.trace(wd.shortest_paths(lat, gens), ends)  # SciPy's refinement starts from it (outside the timing)
 
     def theirs():
-        size = len(scipy_trace(lat, gens, ends))
         if name == "coral":
             # the same refinement, planned with SciPy on the same sublattice builder
-            fine_lat, roots, fends, _ = refined_lattice(coarse, lat, n=3, e=0.75, seed=0)
-            size = len(scipy_trace(fine_lat, roots, fends))
-        return size
+            len(scipy_trace(lat, gens, ends)[0])
+            fine_lat, roots, fends, origin = refined_lattice(coarse, lat, n=REFINE_N, e=0.75, seed=0)
+            den = scipy_dendrite(fine_lat, roots, fends, origin=tuple(origin), spacing=1.0 / REFINE_N)
+        else:
+            den = scipy_dendrite(lat, gens, ends)
+        return den, scipy_body(lines_of(den), body["voxel"])
 
-    return ours, theirs, lambda den, size: f"{len(den)} / {size} nodes"
+    def describe(ours_out, theirs_out):
+        (den, mesh), (sden, (v, f)) = ours_out, theirs_out
+        tri = v[f]
+        volume = abs(np.einsum("ij,ij->", tri[:, 0], np.cross(tri[:, 1], tri[:, 2]))) / 6.0
+        return (f"{len(den)} / {len(sden)} nodes; mesh {len(mesh.faces)} / {len(f)} faces, volume {mesh.volume:.0f} / "
+                f"{volume:.0f}, closed {mesh.is_watertight}")
+
+    return ours, theirs, describe
 
 
 def run(name, quick, repeat):
@@ -246,8 +321,9 @@ def main():
     wp.init()
     for warm in (simple, tree):  # load the kernels and SciPy outside the measurements
         lat, gens, ends = warm(True)
-        wd.trace(wd.shortest_paths(lat, gens), ends)
+        den = wd.trace(wd.shortest_paths(lat, gens), ends)
         scipy_trace(lat, gens, ends)
+    skeleton_mesh(skeleton(den, 1.0), voxel=0.5)
     print(f"# bench_dendrites  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}  device={wp.get_device()}  "
           f"median of {args.repeat} runs per side")
     print(f"{'workload':>10} | {'wdendrite s':>11} | {'scipy+numpy s':>13} | {'speed-up':>8} | {'paper (2007 CPU)':>16} | sizes (ours / scipy)")

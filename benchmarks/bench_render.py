@@ -16,6 +16,12 @@ Workloads (the papers' Table 2 sizes):
   spheres blended by the nearest-node distance field).
 - ``lichen tubes``: capped tubes along every edge, against a loop of
   ``trimesh.creation.cylinder`` + ``trimesh.util.concatenate``.
+- ``elm body 80^3``: the elm preset's mesh (smooth centre lines, the tube field
+  by a Warp kernel, marching cubes, one closed body) against SciPy's EDT of the
+  marked samples and scikit-image's marching cubes (``bench_dendrites.scipy_body``);
+  beside it, the parts of our time and the time of scikit-image's
+  ``marching_cubes`` alone on our field (every cube, as a user calls it) and of
+  trimesh's ``matrix_to_marching_cubes`` on its inside voxels.
 
 Setup (growing the dendrites, segmenting the rock) is not timed. Each case
 runs once to compile, then the best of ``--repeat`` runs is kept. Outputs are
@@ -184,6 +190,41 @@ def trimesh_tubes(lichen, r):
     return trimesh.util.concatenate(parts)
 
 
+def elm_setup(size: int, seed: int):
+    from wdendrite import presets, render, skeleton
+
+    res = presets.elm_tree((size,) * 3, seed=seed)
+    scale = size / 80.0
+    voxel = 0.5 * scale
+    lines = skeleton.skeleton(res.dendrite, render.Taper(2.4 * scale, 0.6 * scale, beta=0.3, along="path"),
+                              side=render.Taper(1.5 * scale, 0.35 * scale, beta=0.2, along="branch"),
+                              min_radius=voxel)
+    return lines, voxel
+
+
+def ours_body(lines, voxel):
+    from wdendrite import geometry
+
+    return geometry.skeleton_mesh(lines, voxel=voxel)
+
+
+def body_parts(lines, voxel, repeat):
+    """Seconds of our tube field alone, of scikit-image's marching cubes on it (every cube) and of
+    trimesh's marching cubes of its inside voxels."""
+    import trimesh
+    from skimage.measure import marching_cubes
+
+    from wdendrite import geometry
+
+    grown = geometry.meshable(lines, voxel)
+    reach = float(grown.radius.max()) + 3.0 * voxel
+    lo, hi = lines.points.min(axis=0) - reach, lines.points.max(axis=0) + reach
+    t_field, (field, _, _) = best_of(lambda: geometry._tube_field(grown, voxel, lo, hi, "cpu"), repeat)
+    t_mc, _ = best_of(lambda: marching_cubes(field, 0.0), repeat)
+    t_tri, _ = best_of(lambda: trimesh.voxel.ops.matrix_to_marching_cubes(field < 0, pitch=voxel), repeat)
+    return t_field, t_mc, t_tri, field.shape
+
+
 def mesh_volume(v, f) -> float:
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     return float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
@@ -257,11 +298,25 @@ def main():
     rows.append((f"lichen tubes ({len(lichen) - len(lichen.roots)} edges)", "trimesh cylinder per edge",
                  t_ours, t_base, f"faces {len(mt.faces)} vs {len(bt.faces)}"))
 
+    from bench_dendrites import scipy_body
+
+    size_elm = 80 if args.size3d >= 80 else 40
+    lines, voxel = elm_setup(size_elm, args.seed)
+    t_ours, mb = best_of(lambda: ours_body(lines, voxel), args.repeat)
+    t_base, (vb, fb) = best_of(lambda: scipy_body(lines, voxel), args.repeat)
+    rows.append((f"elm body {size_elm}^3 ({len(lines)} samples, voxel {voxel:g})", "scipy EDT + skimage MC", t_ours,
+                 t_base, f"faces {len(mb.faces)} vs {len(fb)}, volume {mb.volume:.0f} vs {mesh_volume(vb, fb):.0f}, "
+                         f"closed {mb.is_watertight}, bodies {len(mb.split(only_watertight=False))}"))
+    t_field, t_mc, t_tri, grid = body_parts(lines, voxel, args.repeat)
+
     print(f"setup, untimed above (first run, kernel compiles included): presets.lightning({n2}) {setup_2d:.2f} s; "
           f"presets.lichen_on_rock({n3}) {setup_3d:.2f} s (rock segmentation, lichen growth, meshes, preview)")
     print(f"{'workload':48s} {'baseline':36s} {'ours s':>8s} {'base s':>8s} {'ratio':>6s}  check")
     for name, base, to, tb, check in rows:
         print(f"{name:48s} {base:36s} {to:8.3f} {tb:8.3f} {tb / to:6.1f}x  {check}")
+    print(f"elm body {size_elm}^3, grid {grid}: ours {t_ours:.3f} s in all, of which the tube field {t_field:.3f} s; "
+          f"on the same field scikit-image's marching_cubes alone (every cube) {t_mc:.3f} s, trimesh's "
+          f"matrix_to_marching_cubes of its inside voxels {t_tri:.3f} s")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Kernels for meshes: signed fields for isosurfaces and a ray-cast preview of a triangle mesh.
+"""Kernels for meshes: signed fields for isosurfaces (segmented regions, tapered tubes around centre lines).
 
 Fields use flat C-order indices over ``(D, H, W)`` like :mod:`wdendrite.kernels.lattice`.
 """
@@ -7,6 +7,7 @@ import warp as wp
 
 from . import OPTIONS
 from .lattice import in_bounds, node_index
+from .sssp import pack_cost
 
 wp.set_module_options(OPTIONS)
 
@@ -112,37 +113,55 @@ def signed_region_kernel(
 
 
 @wp.kernel
-def preview_kernel(
-    mesh: wp.uint64,
-    center: wp.vec3,
-    forward: wp.vec3,
-    right: wp.vec3,
-    up: wp.vec3,
-    half_extent: wp.vec2,
-    depth: float,
-    light: wp.vec3,
-    face_colors_in: wp.array(dtype=wp.vec3),
-    background: wp.vec3,
-    rgb_out: wp.array2d(dtype=wp.vec3),
+def tube_field_kernel(
+    # Skeleton:
+    points_in: wp.array(dtype=wp.vec3),
+    radius_in: wp.array(dtype=float),
+    segments_in: wp.array(dtype=wp.vec2i),
+    # Grid: world position of node (0, 0, 0), node spacing, node counts (z, y, x), clip value, key offset
+    origin: wp.vec3,
+    voxel: float,
+    shape: wp.vec3i,
+    band: float,
+    offset: float,
+    # Field out: pack(value + offset, segment) per node, flat over (z, y, x)
+    packed_out: wp.array(dtype=wp.uint64),
 ):
-    """Orthographic ray cast of ``mesh``: Lambert shading with a head light and a key light, both faces lit."""
-    y, x = wp.tid()
-    h = rgb_out.shape[0]
-    w = rgb_out.shape[1]
-    sx = (2.0 * (float(x) + 0.5) / float(w) - 1.0) * half_extent[0]
-    sy = (1.0 - 2.0 * (float(y) + 0.5) / float(h)) * half_extent[1]
-    start = center + right * sx + up * sy - forward * depth
-    q = wp.mesh_query_ray(mesh, start, forward, 2.0 * depth)
-    if q.result:
-        n = wp.normalize(q.normal)
-        if wp.dot(n, forward) > 0.0:
-            n = -n
-        key = wp.max(wp.dot(n, -light), 0.0)
-        head = wp.max(wp.dot(n, -forward), 0.0)
-        shade = 0.15 + 0.6 * key + 0.3 * head
-        color = face_colors_in[q.face]
-        rgb_out[y, x] = wp.vec3(
-            wp.min(color[0] * shade, 1.0), wp.min(color[1] * shade, 1.0), wp.min(color[2] * shade, 1.0)
-        )
-    else:
-        rgb_out[y, x] = background
+    """Each segment (a tapered capsule: distance to the segment minus the radius interpolated at the
+    nearest point) writes ``pack(value + offset, segment)`` into every node of its box where the value
+    is below ``band`` (atomic minimum: the least value and, among equal values, the lowest segment;
+    :func:`wdendrite.kernels.render.unpack_nearest_kernel` splits the words)."""
+    s = wp.tid()
+    seg = segments_in[s]
+    a = points_in[seg[0]]
+    b = points_in[seg[1]]
+    ra = radius_in[seg[0]]
+    rb = radius_in[seg[1]]
+    ab = b - a
+    len2 = wp.dot(ab, ab)
+    reach = wp.max(ra, rb) + band
+    lo = wp.min(a, b) - wp.vec3(reach, reach, reach) - origin
+    hi = wp.max(a, b) + wp.vec3(reach, reach, reach) - origin
+    x0 = wp.max(int(wp.ceil(lo[0] / voxel)), 0)
+    x1 = wp.min(int(wp.floor(hi[0] / voxel)), shape[2] - 1)
+    y0 = wp.max(int(wp.ceil(lo[1] / voxel)), 0)
+    y1 = wp.min(int(wp.floor(hi[1] / voxel)), shape[1] - 1)
+    z0 = wp.max(int(wp.ceil(lo[2] / voxel)), 0)
+    z1 = wp.min(int(wp.floor(hi[2] / voxel)), shape[0] - 1)
+    z = int(z0)
+    while z <= z1:
+        y = int(y0)
+        while y <= y1:
+            x = int(x0)
+            while x <= x1:
+                p = origin + wp.vec3(float(x), float(y), float(z)) * voxel
+                t = float(0.0)
+                if len2 > 0.0:
+                    t = wp.clamp(wp.dot(p - a, ab) / len2, 0.0, 1.0)
+                value = wp.length(p - (a + ab * t)) - (ra + (rb - ra) * t)
+                if value < band:
+                    i = (z * shape[1] + y) * shape[2] + x
+                    wp.atomic_min(packed_out, i, pack_cost(value + offset, s))
+                x += 1
+            y += 1
+        z += 1

@@ -60,23 +60,25 @@ FIGURES = [
            "right (the 2007 paper puts them right to left), beta = 2, 3, 4 top to bottom. A larger alpha "
            "shrinks d faster, so later endpoints lie closer to the dendrite and it stays compact and sparse; "
            "a larger beta places more of them, denser."),
-    Figure("rock", (("2007", "Fig. 10"),), "rock --size 96 --seed 1",
-           "A \"rock\": the region of a 3D lattice nearest in path cost to a central generator, meshed."),
+    Figure("rock", (("2007", "Fig. 10, Table 2"),), "rock --size 128 --seed 0",
+           "A \"rock\": the region of a 128^3 lattice nearest in path cost to a central generator, meshed."),
     Figure("dla-imitation", (("2007", "Fig. 11 (bottom)"), ("thesis", "Fig. 5.10")), "dla-imitation",
            "A path-planned fractal (4 iterations, 500 x 500) imitating diffusion-limited aggregation."),
-    Figure("coral", (("2007", "Fig. 12"), ("thesis", "Fig. 4.1")), "coral --seed 1",
-           "Staghorn coral: branches from a base to endpoints over a dome (50^3, 24 endpoints), refined."),
+    Figure("coral", (("2007", "Fig. 12, Table 1"), ("thesis", "Fig. 4.1")), "coral --size 50 --seed 0",
+           "Staghorn coral on a 50^3 lattice: 24 endpoints over a dome, the dendrite refined on 7^3 sublattices "
+           "(thesis section 4.4, e = 0.75), smooth centre lines meshed as one closed body."),
     Figure("letters", (("2007", "Fig. 13"), ("thesis", "Fig. 5.6")), "letters --text Hello --height 300",
            "\"Hello\" written with dendrites: paths fill letter-shaped regions (the thesis: 600 paths in a "
            "300 x 300 lattice per letter)."),
     Figure("competition", (("2007", "Fig. 14 (left)"), ("thesis", "Fig. 5.3")), "competition",
            "Two dendrites grown at once compete for space: each node belongs to the nearer generator in path "
            "cost, so they seem to avoid each other."),
-    Figure("moss", (("2007", "Fig. 15"),), "moss --size 64 --endpoints 160",
-           "Moss: many short paths grown up from a plane of generators."),
-    Figure("lichen", (("2007", "Fig. 16"),), "lichen --size 96 --seed 1",
-           "Lichen grown over the surface of a rock, both made by path planning."),
-    # constructive path planning
+    Figure("moss", (("2007", "Fig. 15"),), "moss --size 96 --seed 0",
+           "Moss: 800 strands grown up from a ground plane of a 40 x 96 x 96 lattice, coloured at their roots "
+           "from a picture (the paper used a photograph; here a procedural mossy one), on a ground showing it."),
+    Figure("lichen", (("2007", "Fig. 16, Table 2"), ("thesis", "Fig. 5.4 (3D)")), "lichen --size 128 --seed 0",
+           "Lichen over a 128^3 rock: a dendrite on the rock's surface, then crusts of two kinds chosen by bands "
+           "of path cost along the surface from it (orange within 1 node, grey-green between 1 and 3.5)."),
     Figure("tropisms-constructive", (("constructive", "Fig. 1"),),
            "tropisms --toward axis,away_from_axis,top,bottom --roots center",
            "Spatially varying weights: edges dearer away from the centre line (paths hug it), dearer near it "
@@ -90,11 +92,14 @@ FIGURES = [
            "thesis' width factors 0.6 and 0.2 (a smaller factor, a wider path; values above 0.7 set to 1)."),
     Figure("taper", (("constructive", "Fig. 4"), ("thesis", "Fig. 4.10")), "taper-demo",
            "Constant width beside tapering by eq. 2 (beta = 1) along each path and along each branch."),
-    Figure("tropism-objects", (("constructive", "Fig. 5"), ("thesis", "Fig. 4.6")), "tropism-objects",
-           "3D objects from weights that vary with the horizontal distance to a vertical axis, or upward."),
-    Figure("elm-tree", (("constructive", "Figs. 6-8"), ("thesis", "Figs. 4.13, 5.1")), "tree",
-           "An elm-like tree on an 80^3 lattice: long, curving branches, no single straight trunk, spreading "
-           "from the base into a wide crown."),
+    Figure("tropism-objects", (("constructive", "Fig. 5"), ("thesis", "Fig. 4.6")), "tropism-objects --size 60 --seed 0",
+           "The same 24 endpoints over 3D weights biased toward a vertical axis, away from it, and upward (60^3)."),
+    Figure("elm-20", (("constructive", "Fig. 6 (left), Figs. 7-8"), ("thesis", "Figs. 4.13, 5.1")),
+           "tree --size 80 --endpoints 20 --seed 0",
+           "An elm on an 80^3 lattice with 20 endpoints in the crown, tapered by eq. 2: long, curving branches, "
+           "no single straight trunk, spreading from the base into a wide crown; one closed body."),
+    Figure("elm-36", (("constructive", "Fig. 6 (right)"),), "tree --size 80 --endpoints 36 --seed 0",
+           "The same lattice with 36 endpoints: a denser crown."),
     Figure("lightning", (("constructive", "Figs. 9, 11, 12"), ("thesis", "Figs. 4.11, 5.8"), ("2007", "Fig. 14 (right)")),
            "lightning --seed 3",
            "Lightning from two graphs of power weights (alpha = 3): \"a single main lightning stroke, with "
@@ -106,6 +111,9 @@ FIGURES = [
            "Later paths (red) and the former ones (black) whose edges cost D times as much, D = 1, 0.8, 0.6, "
            "0.3: \"when D decreases from 1 to 0.3, the added paths attach to the former structure more eagerly "
            "and the paths look more outspread\"."),
+    Figure("lichen-cluster", (("thesis", "Fig. 5.4 (2D)"),), "lichen-cluster --size 256 --seed 0",
+           "A lichen cluster by bands of path cost in 2D: orange within 2.5 nodes of path cost of a fractal "
+           "dendrite, grey-green embracing it out to 8."),
     Figure("weight-distributions", (("thesis", "Fig. 4.4"),), "weight-distributions",
            "The same endpoints under W = 1 + v^n, n = 0, 1, 4, 8: Manhattan paths at n = 0, ever more erratic "
            "ones as n grows."),

@@ -28,8 +28,9 @@ GALLERY = {
     "tree": "tree --size 56 --endpoints 24 --seed 2",
     "coral": "coral --size 40 --seed 1",
     "rock": "rock --size 64 --seed 1",
-    "lichen": "lichen --size 72 --count 6 --seed 1",
-    "moss": "moss --size 64 --endpoints 160",
+    "lichen": "lichen --size 72 --count 3 --seed 1",
+    "lichen-cluster": "lichen-cluster --size 256 --seed 1",
+    "moss": "moss --size 64",
     "terrain": "terrain --size 384 --levels 3 --seed 1",
     "dendry": "dendry --size 384 --levels 3 --delta 0.2 --seed 1",
 }

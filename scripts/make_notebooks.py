@@ -174,33 +174,72 @@ show(presets.width_demo((100, 60) if SMALL else (200, 120)).image)'''),
 show(presets.taper_demo((80, 80) if SMALL else (200, 200)).image)'''),
     ],
     "04_3d": [
-        ("md", "# 3D: trees, coral, lichen, rock and moss\n\nThe same path planning on 26-connected 3D lattices; tubes "
-               "or isosurfaces give meshes (`trimesh`), previews are ray cast with Warp."),
+        ("md", "# 3D: trees, coral, lichen, rock and moss\n\nThe same path planning on 26-connected 3D lattices. "
+               "A lattice path turns by 45 or 90 degrees at almost every node; the 3D presets use it only as a guide: "
+               "each branch is smoothed (a Gaussian along it, ends held) and interpolated (centripetal Catmull-Rom), "
+               "radii taper along branches and on across forks, and the tapered tubes around these centre lines are "
+               "meshed as one closed body (the isosurface of their distance field, the papers' section 3.3 route). "
+               "Previews are ray cast with Warp: several rays per pixel, smooth normals, soft shadows."),
         ("code", SETUP),
+        ("md", "An elm (constructive path planning Figs. 6-8, 80^3 lattice; 17 endpoints as in thesis Table 5.1), "
+               "and how sharply its centre lines turn between samples one node apart, before and after smoothing:"),
         ("code", '''\
+from wdendrite.skeleton import skeleton, turning_angles
 tree = presets.elm_tree((24, 24, 24) if SMALL else (80, 80, 80), endpoints=8 if SMALL else 17)
-print(tree.mesh)
+raw = skeleton(tree.dendrite, 1.0, sigma=0.0, samples=1)      # the lattice path itself
+for name, lines in (("lattice path", raw), ("smooth centre lines", tree.parts["skeleton"])):
+    print(f"{name}: 95th percentile turn {np.percentile(turning_angles(lines, 1.0), 95):.0f} degrees")
+m = tree.mesh
+print(f"{len(m.faces)} faces, watertight {m.is_watertight}, bodies {len(m.split(only_watertight=False))}, "
+      f"volume {m.volume:.0f}")
 show(tree.image)'''),
+        ("md", "The papers draw a sphere at every node (`geometry=\"spheres\"`, left); the default `\"smooth\"` "
+               "(right) is the same dendrite:"),
+        ("code", '''\
+beads = presets.elm_tree((24, 24, 24) if SMALL else (80, 80, 80), endpoints=8 if SMALL else 17, geometry="spheres")
+show([beads.image, tree.image], labels=["spheres on the nodes", "smooth body"])'''),
         ("md", "The same endpoints (24; 8 at `SMALL` sizes) with weights biased toward a vertical axis, away from it, "
                "or upward (constructive path planning Fig. 5). Panels, left to right: toward the axis, away from the "
                "axis, toward the top (strength 3):"),
         ("code", '''\
 show(presets.tropism_objects((20, 20, 20) if SMALL else (60, 60, 60), endpoints=8 if SMALL else 24).image)'''),
+        ("md", "Staghorn coral (2007 paper Fig. 12 and Table 1: 50^3, 24 endpoints, with refinement). The dendrite is "
+               "refined on 7 x 7 x 7 sublattices (thesis section 4.4: n = 7, 9 or 15, e = 0.75) before its centre lines "
+               "are smoothed; `parts[\"coarse\"]` keeps the dendrite before refinement:"),
         ("code", '''\
-coral = presets.staghorn_coral((20, 20, 20) if SMALL else (50, 50, 50), endpoints=8 if SMALL else 24,
-                               refine_n=3)
+coral = presets.staghorn_coral((20, 20, 20) if SMALL else (50, 50, 50), endpoints=8 if SMALL else 24)
+print(f"{len(coral.parts['coarse'])} coarse nodes, {len(coral.dendrite)} refined (spacing {coral.dendrite.spacing:.3f})")
 show(coral.image)'''),
-        ("md", "First a rock (the region nearest in path cost to a central generator, meshed; 2007 paper Fig. 10), "
-               "then lichen grown over the surface of a rock of the same kind (Fig. 16):"),
+        ("md", "A rock: the region nearest in path cost to a central generator, meshed (2007 paper Fig. 10):"),
         ("code", '''\
 rock = presets.rock((24, 24, 24) if SMALL else (128, 128, 128), smooth=2 if SMALL else 6)
-display(show(rock.image))
-lichen = presets.lichen_on_rock((32, 32, 32) if SMALL else (128, 128, 128), count=3 if SMALL else 8)
-show(lichen.image)'''),
+show(rock.image)'''),
+        ("md", "Lichen as the thesis draws it (section 5.4, Fig. 5.4): a dendrite, then its nodes as generators, and "
+               "the nodes between two isocontours of the path cost from it become one kind of lichen each, kept with "
+               "the band's density: orange close to the dendrite, grey-green embracing it. In 2D, as crusty patches "
+               "on a stone:"),
         ("code", '''\
-moss = presets.moss((12, 32, 32) if SMALL else (40, 96, 96), endpoints=30 if SMALL else 400)
-io.save_mesh("moss.glb", moss.mesh, overwrite=True)    # OBJ, PLY, STL or GLB from the suffix
-show(moss.image)'''),
+cluster = presets.lichen_cluster((96, 96) if SMALL else (256, 256), count=4 if SMALL else 8)
+print("nodes per kind (bare, orange, grey-green):", np.bincount(cluster.parts["kind"].ravel()))
+show(cluster.image, scale=3 if SMALL else 2)'''),
+        ("md", "In 3D, over a rock (2007 paper Fig. 16, 128^3): the dendrite grows over the rock's surface nodes, the "
+               "bands are path costs along the surface, and the crust is a layer over the rock where the kinds' "
+               "particles lie. Rock, crust and the dendrite's ropes are one closed body with vertex colours:"),
+        ("code", '''\
+lichen = presets.lichen_on_rock((32, 32, 32) if SMALL else (128, 128, 128), count=3 if SMALL else 4)
+print(f"watertight {lichen.mesh.is_watertight}, bodies {len(lichen.mesh.split(only_watertight=False))}")
+show(lichen.image)'''),
+        ("md", "Moss (2007 paper Fig. 15, \"a mossy version of the peppers image\"): many strands up from a ground "
+               "plane, each coloured from a picture at its root, on a ground showing the same picture. Without a "
+               "picture the preset draws mossy greens; any RGB image works (here a colour ramp):"),
+        ("code", '''\
+shape = (12, 32, 32) if SMALL else (40, 96, 96)
+moss = presets.moss(shape, endpoints=60 if SMALL else None)
+yy, xx = np.mgrid[:64, :64] / 63.0
+ramp = np.stack([0.25 + 0.6 * xx, 0.45 + 0.3 * yy, 0.15 + 0.2 * (1 - xx)], axis=-1)
+ramped = presets.moss(shape, endpoints=60 if SMALL else None, image=ramp)
+io.save_mesh("moss.glb", moss.mesh, overwrite=True)    # OBJ, PLY, STL or GLB from the suffix (colours in GLB and PLY)
+show([moss.image, ramped.image], labels=["default picture", "a colour ramp"])'''),
     ],
     "05_dendry_terrain": [
         ("md", "# Dendry terrain and hydrology\n\nGaillard et al. (2019): a per-pixel function giving the distance to "

@@ -546,7 +546,8 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["fractal", "--size", "32", "--alpha", "0.9"], None, ["'alpha' must be > 1", "(--alpha)"]),
     (["dendry", "--size", "32", "--output", "d.png"], None, ["--output expects one of distance, elevation, level",
                                                             "output files are named with -o/--out"]),
-    (["tree", "--size", "16", "--geometry", "cones"], None, ["--geometry expects one of tubes, spheres, isosurface"]),
+    (["tree", "--size", "16", "--geometry", "cones"], None,
+     ["--geometry expects one of smooth, tubes, spheres, isosurface"]),
     # a distance image with no branch in view had made an all-black heightmap said to span [0, 0]
     (["dendry", "--size", "24", "--control", "lichtenberg", "--extent", "0.05", "--levels", "1", "-o", "h.png",
       "--heightmap"], None, ["--heightmap: the field has no finite value", "nothing was written"]),

@@ -194,7 +194,9 @@ def test_preview_of_several_meshes_uses_their_colours():
     a = spheres(DEN, 1.0)
     b = tubes(DEN, 0.3)
     b.apply_translation([30.0, 0.0, 0.0])
-    img = preview([a, b], color=[(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], size=(60, 120), elevation=0, azimuth=-90)
+    # one ray per pixel and no shadow on the ground: every pixel is one mesh's colour or the background
+    img = preview([a, b], color=[(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], size=(60, 120), elevation=0, azimuth=-90,
+                  samples=1, ground=False)
     hit = np.any(img < 0.999, axis=2)
     red = hit & (img[..., 0] > 0) & (img[..., 2] == 0)
     blue = hit & (img[..., 2] > 0) & (img[..., 0] == 0)
@@ -467,3 +469,155 @@ def test_preview_refuses_faces_off_the_vertices_and_colours_outside_0_1(call, ex
     assert launches == []
     img = preview(_triangle([[0, 1, 2]]), size=(16, 16), color=(0, 1, 0), background=(0, 0, 0))
     assert img.min() >= 0 and img.max() <= 1 and img[..., 1].max() > 0 and launches
+
+
+# --------------------------------------------------------------------------- bodies around centre lines
+
+
+def _lines(points, radius, offsets):
+    from wdendrite.skeleton import Skeleton
+
+    points = np.asarray(points, np.float64)
+    return Skeleton(points=points, radius=np.broadcast_to(np.asarray(radius, np.float64), (len(points),)).copy(),
+                    offsets=np.asarray(offsets, np.int64), row=np.zeros(len(points), np.int64),
+                    parent_branch=np.full(len(offsets) - 1, -1, np.int64))
+
+
+def _capsules(lines, at):
+    """Brute force: least over the segments of (distance to the segment - radius interpolated there)."""
+    best = np.full(len(at), np.inf)
+    for a_, b_ in lines.segments:
+        a, b = lines.points[a_], lines.points[b_]
+        ab = b - a
+        t = np.zeros(len(at)) if ab @ ab == 0 else np.clip((at - a) @ ab / (ab @ ab), 0, 1)
+        r = lines.radius[a_] + t * (lines.radius[b_] - lines.radius[a_])
+        d = np.linalg.norm(at - (a + t[:, None] * ab), axis=1) - r
+        best = np.minimum(best, d)
+    return best
+
+
+Y = ([[0, 0, 0], [0, 0, 3], [0, 0, 6], [2, 0, 9], [0, 0, 6], [-2, 1, 8.5]], [0, 4, 6])  # a fork
+
+
+def test_the_tube_field_is_the_least_capsule_distance_within_its_band():
+    from wdendrite.geometry import _tube_field
+
+    lines = _lines(Y[0], [1.2, 1.0, 0.9, 0.5, 0.9, 0.6], Y[1])
+    voxel = 0.4
+    field, label, origin = _tube_field(lines, voxel, np.array([-4.0, -3, -2]), np.array([4.0, 3, 11]), "cpu")
+    zz, yy, xx = np.indices(field.shape)
+    at = origin + voxel * np.stack([xx.ravel(), yy.ravel(), zz.ravel()], axis=1)
+    ref = np.minimum(_capsules(lines, at), 2 * voxel).reshape(field.shape)
+    np.testing.assert_allclose(field, ref, atol=2e-5)
+    assert np.all((label >= 0) == (ref < 2 * voxel - 1e-5) | (label >= 0) & (ref >= 2 * voxel - 1e-5))
+
+
+def test_a_capsule_body_is_closed_with_the_capsule_volume():
+    from wdendrite.geometry import skeleton_mesh
+
+    r, length = 1.3, 6.0
+    lines = _lines([[0, 0, 0], [0, 0, 3], [0, 0, 6]], r, [0, 3])
+    mesh = skeleton_mesh(lines, voxel=0.2)
+    assert mesh.is_watertight and len(mesh.split(only_watertight=False)) == 1
+    assert mesh.volume == pytest.approx(np.pi * r**2 * length + 4 / 3 * np.pi * r**3, rel=0.01)
+    # smooth normals: unit length, pointing away from the axis
+    n = mesh.vertex_normals
+    radial = mesh.vertices.copy()
+    radial[:, 2] -= np.clip(radial[:, 2], 0, length)
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0) and np.einsum("ij,ij->i", n, radial).min() > 0.95
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_dendrite_body_is_one_closed_piece_whose_volume_matches_the_voxels(seed):
+    from wdendrite.geometry import skeleton_mesh
+    from wdendrite.skeleton import skeleton
+
+    lat = wd.Lattice((20, 20, 20), 26, weights=wd.weights.Uniform(r=10, seed=seed))
+    den = wd.trace(wd.shortest_paths(lat, [[1, 10, 10]]), wd.endpoints.random(lat, 10, seed=seed))
+    lines = skeleton(den, Taper(1.4, 0.5, along="path"), min_radius=0.5)
+    mesh = skeleton_mesh(lines, voxel=0.5)
+    assert mesh.is_watertight and len(mesh.split(only_watertight=False)) == 1 and mesh.volume > 0
+    # the volume against a count of the grid points (a finer grid) inside some capsule, each capsule
+    # tested on the points of its own box
+    h = 0.2
+    lo = lines.points.min(axis=0) - lines.radius.max() - h
+    inside = np.zeros(tuple(np.ceil((lines.points.max(axis=0) + lines.radius.max() + h - lo) / h).astype(int)), bool)
+    for a_, b_ in lines.segments:
+        one = _lines(lines.points[[a_, b_]], lines.radius[[a_, b_]], [0, 2])
+        r = lines.radius[[a_, b_]].max()
+        i0 = np.floor((np.minimum(one.points[0], one.points[1]) - r - lo) / h).astype(int)
+        i1 = np.ceil((np.maximum(one.points[0], one.points[1]) + r - lo) / h).astype(int) + 1
+        idx = np.stack(np.meshgrid(*[np.arange(i0[k], i1[k]) for k in range(3)], indexing="ij"), -1).reshape(-1, 3)
+        hit = _capsules(one, lo + idx * h) < 0
+        inside[tuple(idx[hit].T)] = True
+    assert mesh.volume == pytest.approx(inside.sum() * h**3, rel=0.03)
+
+
+def test_thin_tubes_are_thickened_to_the_voxel_and_stay_one_piece():
+    from wdendrite.geometry import skeleton_mesh
+
+    t = np.linspace(0, 4 * np.pi, 60)
+    helix = np.stack([3 * np.cos(t), 3 * np.sin(t), t], axis=1)
+    mesh = skeleton_mesh(_lines(helix, 0.05, [0, 60]), voxel=0.3)
+    assert mesh.is_watertight and len(mesh.split(only_watertight=False)) == 1
+    # as thick as a tube of radius 0.3 along the helix (length 4 pi sqrt(10))
+    assert mesh.volume == pytest.approx(np.pi * 0.09 * 4 * np.pi * 10**0.5 + 4 / 3 * np.pi * 0.027, rel=0.05)
+
+
+def test_enclosed_hollows_are_dropped():
+    import trimesh
+
+    from wdendrite.geometry import _without_voids
+
+    outer = trimesh.creation.icosphere(subdivisions=2, radius=3.0)
+    inner = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+    inner.invert()  # a hollow: its faces point into it, its volume is negative
+    both = trimesh.util.concatenate([outer, inner])
+    kept = _without_voids(both)
+    assert len(kept.faces) == len(outer.faces) and kept.volume == pytest.approx(outer.volume)
+    assert _without_voids(outer) is outer
+
+
+def test_only_the_crossed_cubes_give_the_whole_surface_of_a_steep_field():
+    from skimage.measure import marching_cubes
+
+    from wdendrite.geometry import _crossed_cubes
+
+    z, y, x = np.mgrid[:24, :25, :26].astype(np.float32)
+    steep = 5.0 * (np.sqrt((x - 12.3) ** 2 + (y - 11.6) ** 2 + (z - 12.2) ** 2) - 7.0)  # 5 per node
+    v, f, _, _ = marching_cubes(steep, 0.0)
+    mesh = field_mesh(steep, 0.0, _cubes=_crossed_cubes(steep > 0))
+    assert len(mesh.faces) == len(f) and mesh.is_watertight
+    np.testing.assert_allclose(np.sort(mesh.vertices, axis=0), np.sort(v[:, ::-1], axis=0), atol=1e-5)
+
+
+def test_body_colours_follow_the_nearest_segment():
+    from wdendrite.geometry import skeleton_mesh
+
+    lines = _lines([[0, 0, 0], [0, 0, 4], [0, 0, 4], [4, 0, 4]], 0.8, [0, 2, 4])
+    colors = np.array([[1.0, 0, 0], [1.0, 0, 0], [0, 0, 1.0], [0, 0, 1.0]])
+    mesh = skeleton_mesh(lines, voxel=0.2, colors=colors)
+    rgb = mesh.visual.vertex_colors[:, :3]
+    low = mesh.vertices[:, 2] < 2.0  # only the red upright reaches down there
+    far = mesh.vertices[:, 0] > 2.5  # only the blue arm reaches out there
+    assert np.all(rgb[low] == [255, 0, 0]) and np.all(rgb[far] == [0, 0, 255])
+
+
+@pytest.mark.parametrize(
+    "call, exc, match",
+    [
+        (lambda m: m(np.zeros(3)), TypeError, "Skeleton"),
+        (lambda m: m(_lines(*Y[:1], 1.0, Y[1]), voxel=0.0), ValueError, "'voxel'"),
+        (lambda m: m(_lines(*Y[:1], 1.0, Y[1]), voxel=-1.0), ValueError, "'voxel'"),
+        (lambda m: m(_lines(*Y[:1], 1.0, Y[1]), colors=np.zeros((5, 3))), ValueError, "'colors'"),
+        (lambda m: m(_lines(*Y[:1], 1.0, Y[1]), colors=np.full((6, 3), 2.0)), ValueError, "'colors'"),
+        (lambda m: m(_lines(*Y[:1], 1.0, Y[1]), voxel=1e-4), ValueError, "larger 'voxel'"),
+    ],
+)
+def test_bodies_refuse_bad_input_before_any_kernel(call, exc, match, launches):
+    from wdendrite.geometry import skeleton_mesh
+
+    with pytest.raises(exc, match=match):
+        call(skeleton_mesh)
+    assert launches == []

@@ -107,9 +107,11 @@ def test_lichen_never_enters_the_rock_and_rock_mesh_is_closed():
     surf = np.zeros_like(inside)
     surf[tuple(surface_nodes(inside).T)] = True
     interior = inside & ~surf
-    assert not interior[tuple(res.dendrite.nodes.T)].any()
-    assert surf[tuple(res.dendrite.nodes[res.dendrite.endpoints].T)].all()
-    assert res.parts["rock"].is_watertight
+    assert surf[tuple(res.dendrite.nodes.T)].all()  # (on_rock: the paths keep to the surface)
+    free = presets.lichen_on_rock((32, 32, 32), count=3, on_rock=False, seed=1).dendrite
+    assert not interior[tuple(free.nodes.T)].any()
+    assert surf[tuple(free.nodes[free.endpoints].T)].all()
+    assert res.mesh.is_watertight and len(res.mesh.split(only_watertight=False)) == 1
     rock = run("rock")
     assert rock.mesh.is_watertight and rock.mesh.volume > 0
 
@@ -394,8 +396,8 @@ def test_moss_scales_its_default_endpoints_with_the_volume():
     import inspect
 
     assert inspect.signature(presets.moss).parameters["endpoints"].default is None
-    den = presets.moss((12, 16, 16)).dendrite  # 400 at 40 x 96 x 96 would not fit here
-    assert len(den.endpoints) == round(400 * 12 * 16 * 16 / (40 * 96 * 96))
+    den = presets.moss((12, 16, 16)).dendrite  # 800 at 40 x 96 x 96 would not fit here
+    assert len(den.endpoints) == round(800 * 12 * 16 * 16 / (40 * 96 * 96))
 
 
 @pytest.mark.parametrize("seed", range(4))

@@ -10,8 +10,11 @@
   lichen is grown.
 - :func:`field_mesh`: marching cubes on any scalar field (scikit-image on the
   CPU, Warp's own marching cubes when the field is on a CUDA device).
+- :func:`skeleton_mesh`: one closed body around smooth centre lines
+  (:mod:`wdendrite.skeleton`): the isosurface of the distance to their
+  tapered segments.
 - :func:`preview`: a shaded PNG-ready picture of any mesh, ray cast with
-  Warp without a display.
+  Warp without a display (see :mod:`wdendrite.preview`).
 
 Meshes are :class:`trimesh.Trimesh` with vertices in world ``(x, y, z)``
 order: the lattice axes ``(z, y, x)`` reversed, placed by the dendrite's
@@ -20,6 +23,7 @@ order: the lattice axes ``(z, y, x)`` reversed, placed by the dendrite's
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Sequence
 
@@ -31,9 +35,10 @@ from .dendrite import Dendrite
 from .kernels import geometry as _kg
 from .kernels import render as _kr
 from .lattice import Lattice
-from .render import Metric, Width, _check_metric, _nearest, _rgb_triple, node_widths
+from .preview import _unit_rgb, preview, vertex_normals
+from .render import Metric, Width, _check_metric, _nearest, node_widths
 
-__all__ = ["field_mesh", "isosurface", "preview", "region_mesh", "spheres", "surface_nodes", "tubes"]
+__all__ = ["field_mesh", "isosurface", "preview", "region_mesh", "skeleton_mesh", "spheres", "surface_nodes", "tubes"]
 
 
 def _check_3d(dendrite, what: str) -> Dendrite:
@@ -284,6 +289,7 @@ def field_mesh(
     device=None,
     _backend: str = "auto",
     _method: str = "lewiner",
+    _cubes: np.ndarray | None = None,
 ):
     """The isosurface ``field == level`` by marching cubes.
 
@@ -328,7 +334,8 @@ def field_mesh(
         raise ValueError(f"'device' {device!r} is not the device of the Warp field ({field.device}); a Warp field "
                          "is meshed where it lies (leave 'device' out, or pass a NumPy field)")
     # _backend is a testing hook: "warp" runs Warp's marching cubes on any device; _method is
-    # scikit-image's (region_mesh takes "lorensen")
+    # scikit-image's (region_mesh takes "lorensen"); _cubes marks the cubes to visit (by their last
+    # node) in place of the band, on the CPU
     if (dev.is_cuda and _backend == "auto") or _backend == "warp":
         from warp.geometry import IsoSurfaceMarchingCubes
 
@@ -347,7 +354,7 @@ def field_mesh(
         if at.any():  # (only those nodes change: a float64 field keeps its other values)
             lifted = _lift_level(wp.array(host, dtype=float, device="cpu"), level).numpy()
             host = np.where(at, lifted.astype(host.dtype), host)
-        mask = None if band is None else np.abs(host - level) < band
+        mask = _cubes if _cubes is not None else None if band is None else np.abs(host - level) < band
         v, f, _, _ = marching_cubes(host, level, mask=mask, method=_method)
         v = v[:, ::-1]  # (z, y, x) -> (x, y, z)
     # both marching cubes, once their axes are reversed to (x, y, z), wind faces toward the low
@@ -446,6 +453,188 @@ def isosurface(
     # (what a CUDA device would pick) split ambiguous cubes the plain Lorensen way, breaking branches
     # one body diagonal apart into beads; scikit-image's Lewiner cubes keep them whole
     return field_mesh(field, 0.0, spacing=den.spacing, origin=org, smooth=smooth, band=band, device="cpu")
+
+
+MAX_FIELD_NODES = 2**28
+"""Most grid nodes of a :func:`skeleton_mesh` field (eight bytes each while it is built, and as
+much again for the value and segment read from it)."""
+
+
+def _rgb_rows(name: str, colors, n: int, what: str) -> np.ndarray:
+    """``colors`` as ``(n, 3)`` float32 RGB in [0, 1]."""
+    cols = _checks.finite_array(name, colors, f"({n}, 3), one RGB per {what}", lambda s: s == (n, 3))
+    _unit_rgb(name, cols, f"values in [{cols.min()}, {cols.max()}]")
+    return cols.astype(np.float32)
+
+
+def _tube_field(lines, voxel: float, lo: np.ndarray, hi: np.ndarray, device):
+    """The tapered capsules of ``lines``' segments as a field on a grid of spacing ``voxel`` covering the
+    world box ``[lo, hi]`` (``(x, y, z)``): ``(D, H, W)`` float32 values (negative inside, clipped at
+    ``2 voxel`` outside), ``(D, H, W)`` int32 segment rows (-1 beyond every capsule's reach) and the
+    world ``(x, y, z)`` of node (0, 0, 0)."""
+    band = 2.0 * voxel
+    origin = lo.astype(np.float64)
+    shape = tuple(int(v) for v in (np.ceil((hi - lo) / voxel).astype(np.int64) + 1)[::-1])  # (z, y, x)
+    nodes = int(np.prod(shape, dtype=np.int64))
+    if nodes > MAX_FIELD_NODES:
+        raise ValueError(f"A voxel of {voxel:g} makes a field of {shape} nodes (more than {MAX_FIELD_NODES}); "
+                         "choose a larger 'voxel'")
+    _checks.fits_in_memory(16 * nodes, device, f"a tube field of {shape} nodes")
+    segs = lines.segments
+    offset = float(lines.radius.max()) + band
+    with wp.ScopedDevice(device):
+        packed = wp.full(nodes, value=wp.uint64(0xFFFFFFFFFFFFFFFF), dtype=wp.uint64)
+        if len(segs):
+            wp.launch(_kg.tube_field_kernel, dim=len(segs),
+                      inputs=[wp.array(lines.points.astype(np.float32), dtype=wp.vec3),
+                              wp.array(lines.radius.astype(np.float32), dtype=float),
+                              wp.array(segs.astype(np.int32), dtype=wp.vec2i),
+                              wp.vec3(*origin.tolist()), float(voxel), wp.vec3i(*shape), band, offset],
+                      outputs=[packed])
+        keyed = wp.empty(nodes, dtype=float)
+        label = wp.empty(nodes, dtype=wp.int32)
+        wp.launch(_kr.unpack_nearest_kernel, dim=nodes, inputs=[packed], outputs=[keyed, label])
+        # (unreached nodes hold inf: the band, outside)
+        field = np.minimum(keyed.numpy() - np.float32(offset), np.float32(band))
+        return field.reshape(shape), label.numpy().reshape(shape), origin
+
+
+def _closed_body(field: np.ndarray, origin_xyz: np.ndarray, voxel: float, vertex_rgb=None):
+    """The closed surface ``field == 0`` (the field ends above 0 on its border) with smooth vertex
+    normals; ``vertex_rgb(vertices)`` gives ``(V, 3)`` colours in [0, 1] when set."""
+    # a node within a thousandth of a voxel of the level moves just outside it: marching cubes puts a
+    # vertex that close to a node on the node itself (in float32), once per cube edge there, and the
+    # surface splits at those coincident vertices
+    eps = np.float32(1e-3 * voxel)
+    field = np.where(np.abs(field) < eps, eps, field)
+    mesh = _without_voids(field_mesh(field, 0.0, spacing=voxel, origin=tuple(origin_xyz[::-1]), device="cpu",
+                                     _cubes=_crossed_cubes(field > 0)))
+    if vertex_rgb is not None and len(mesh.vertices):
+        rgb = np.clip(np.asarray(vertex_rgb(mesh.vertices), np.float64), 0.0, 1.0)
+        alpha = np.full((len(rgb), 1), 255, np.uint8)
+        mesh.visual.vertex_colors = np.concatenate([np.round(rgb * 255).astype(np.uint8), alpha], axis=1)
+    mesh.vertex_normals = vertex_normals(mesh.vertices, mesh.faces)
+    return mesh
+
+
+def _crossed_cubes(outside: np.ndarray) -> np.ndarray:
+    """Bool array of ``outside``'s shape: True at the last node (largest indices) of every cube whose eight
+    nodes are not all on one side: the only cubes marching cubes needs to visit, whatever the field's
+    slope (scikit-image's ``mask`` names a cube by that node)."""
+    d, h, w = outside.shape
+    corners = [outside[a: d - 1 + a, b: h - 1 + b, c: w - 1 + c] for a in (0, 1) for b in (0, 1) for c in (0, 1)]
+    some, every = corners[0].copy(), corners[0].copy()
+    for k in corners[1:]:
+        some |= k
+        every &= k
+    out = np.zeros(outside.shape, bool)
+    out[1:, 1:, 1:] = some & ~every
+    return out
+
+
+def _without_voids(mesh):
+    """``mesh`` without its closed pieces of negative volume: hollows enclosed by the body (where
+    tubes nearly touch around a pocket of outside nodes), whose faces point into the pocket."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    if not len(f):
+        return mesh
+    n = len(mesh.vertices)
+    a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    count, comp = connected_components(coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(n, n)), directed=False)
+    if count == 1:
+        return mesh
+    v = mesh.vertices[f]
+    # six times each piece's signed volume: the triple products of its faces' corners
+    vol = np.bincount(comp[f[:, 0]], weights=np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])),
+                      minlength=count)
+    keep = vol[comp[f[:, 0]]] >= 0
+    if keep.all():
+        return mesh
+    used = np.zeros(n, bool)
+    used[f[keep]] = True
+    new_index = np.cumsum(used) - 1
+    return _trimesh(mesh.vertices[used], new_index[f[keep]])
+
+
+def _node_of(vertices: np.ndarray, origin_xyz: np.ndarray, voxel: float, shape) -> tuple:
+    """Index ``(z, y, x)`` of the grid node nearest each vertex."""
+    ijk = np.rint((vertices - origin_xyz) / voxel).astype(np.int64)
+    ijk = np.clip(ijk, 0, np.asarray(shape[::-1]) - 1)
+    return ijk[:, 2], ijk[:, 1], ijk[:, 0]
+
+
+SAGITTA = 0.1
+"""Marching cubes cuts a tube of radius ``r`` on a grid of spacing ``h`` with flat faces between
+vertices on its surface, losing volume: a helix of radius ``h`` kept 78 % of it, of ``2 h`` 95 %. The
+radii of a body grow by ``SAGITTA * h**2 / r`` first (measured on helices of radius ``h`` to ``5 h``:
+their meshes then hold 96-100 % of the tubes' volume)."""
+
+
+def meshable(lines, voxel: float):
+    """``lines`` with radii raised to ``voxel`` at least, then grown by :data:`SAGITTA` ``* voxel**2 / r``."""
+    r = np.maximum(lines.radius, voxel)
+    return dataclasses.replace(lines, radius=r + SAGITTA * voxel**2 / r)
+
+
+def skeleton_mesh(lines, *, voxel: float | None = None, colors=None, device=None):
+    """One closed body around smooth centre lines: the surface of their tapered capsules' union.
+
+    The field is the least, over the skeleton's segments, of the distance to
+    the segment minus the radius interpolated along it (the papers' section
+    3.3 route: an isosurface of a distance field around the skeleton, here
+    the smooth one of :func:`wdendrite.skeleton.skeleton`), computed by a Warp
+    kernel on a grid of spacing ``voxel`` and meshed by marching cubes
+    (scikit-image's, whose surfaces of a closed field are closed 2-manifolds).
+    A connected skeleton gives one body: radii below ``voxel`` are raised to
+    it, since a thinner tube could fall between the grid's nodes; all radii
+    then grow a little (see :data:`SAGITTA`) so that the mesh holds the tubes'
+    volume. Pockets the tubes enclose (where they nearly touch) are filled.
+
+    Args:
+        lines: a :class:`~wdendrite.skeleton.Skeleton`.
+        voxel: grid spacing, world units, > 0 (default: the least radius, but no finer than
+            1/400 of the skeleton's largest extent).
+        colors: optional ``(P, 3)`` RGB in [0, 1] per sample: each vertex takes the colour of
+            the segment nearest it (the mesh's ``visual.vertex_colors``).
+        device: Warp device of the field (default: Warp's default device).
+
+    Returns:
+        A :class:`trimesh.Trimesh` (watertight, outward faces, vertex normals from the faces around
+        each vertex).
+
+    Raises:
+        TypeError: ``lines`` is not a Skeleton.
+        ValueError: a bad ``voxel`` or ``colors``, or a grid of more than :data:`MAX_FIELD_NODES`
+            nodes (before any kernel runs).
+        MemoryError: the field would not fit in free memory.
+    """
+    from .skeleton import Skeleton
+
+    if not isinstance(lines, Skeleton):
+        raise TypeError(f"Expected a wdendrite.skeleton.Skeleton for 'lines', but got {type(lines).__name__}")
+    pts = lines.points
+    extent = float((pts.max(axis=0) - pts.min(axis=0)).max()) + 2.0 * float(lines.radius.max())
+    if voxel is None:
+        voxel = max(float(lines.radius.min()), extent / 400.0)
+    voxel = _checks.positive("voxel", voxel)
+    cols = None if colors is None else _rgb_rows("colors", colors, len(lines), "sample")
+    grown = meshable(lines, voxel)
+    reach = float(grown.radius.max()) + 3.0 * voxel  # the border lies beyond every capsule's band
+    lo, hi = pts.min(axis=0) - reach, pts.max(axis=0) + reach
+    device = _checks.device(device)
+    field, label, origin = _tube_field(grown, voxel, lo, hi, device)
+    paint = None
+    if cols is not None:
+        seg_colors = cols[lines.segments[:, 0]] if len(lines.segments) else cols[:1]
+
+        def paint(v):
+            return seg_colors[np.maximum(label[_node_of(v, origin, voxel, field.shape)], 0)]
+
+    return _closed_body(field, origin, voxel, paint)
 
 
 def _region_mask(name: str, labels, region) -> np.ndarray:
@@ -549,106 +738,3 @@ def signed_region_field(inside: np.ndarray, *, band: float = 3.0, device=None) -
         out = wp.empty(n, dtype=float)
         wp.launch(_kg.signed_region_kernel, dim=n, inputs=[dist, flags, float(band)], outputs=[out])
         return out.numpy().reshape(shape)
-
-
-def _scene(mesh, color) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices, faces and per-face colours of one mesh or a list of meshes (one colour each)."""
-    meshes = list(mesh) if isinstance(mesh, (list, tuple)) else [mesh]
-    cols = np.asarray(color, np.float32)
-    if cols.ndim == 1:
-        cols = np.broadcast_to(cols, (len(meshes), cols.shape[0]))
-    if cols.shape != (len(meshes), 3) or not np.isfinite(cols).all():
-        raise ValueError(f"Expected 'color' as one RGB triple or one per mesh ({len(meshes)}), but got {color!r}")
-    _unit_rgb("color", cols, color)
-    vs, fs, cs, base = [], [], [], 0
-    for i, (m, c) in enumerate(zip(meshes, cols)):
-        v = np.asarray(getattr(m, "vertices", None), np.float64)
-        f = np.asarray(getattr(m, "faces", None))
-        if v.ndim != 2 or v.shape[1:] != (3,) or f.ndim != 2 or f.shape[1:] != (3,):
-            raise ValueError("Expected triangle meshes with (V, 3) 'vertices' and (F, 3) 'faces' for 'mesh'")
-        # wp.Mesh reads whatever the faces index: one beyond the vertices would read out of bounds;
-        # its rays and bounds need finite float32 vertices
-        which = "mesh" if m is mesh else f"mesh[{i}]"
-        f = _checks.face_indices(f"{which}.faces", f, len(v))
-        if len(v):
-            _checks.finite_array(f"{which}.vertices", v, "(V, 3)", lambda s: len(s) == 2 and s[1] == 3)
-        vs.append(v)
-        fs.append(f + base)
-        cs.append(np.broadcast_to(c, (len(f), 3)))
-        base += len(v)
-    faces = np.concatenate(fs)
-    if not len(faces):
-        raise ValueError("'mesh' has no faces: there is nothing to show")
-    return np.concatenate(vs), faces, np.concatenate(cs).astype(np.float32)
-
-
-def _unit_rgb(name: str, values: np.ndarray, given) -> None:
-    """Refuse colours (finite RGB values) outside [0, 1]."""
-    if values.size and (values.min() < 0 or values.max() > 1):
-        raise ValueError(f"Expected '{name}' RGB values in [0, 1], but got {given!r}")
-
-
-def preview(
-    mesh,
-    *,
-    size: tuple[int, int] = (480, 480),
-    elevation: float = 25.0,
-    azimuth: float = -60.0,
-    color: Sequence = (0.82, 0.76, 0.66),
-    background: Sequence[float] = (1.0, 1.0, 1.0),
-    device=None,
-) -> np.ndarray:
-    """A shaded picture of a mesh without a display (orthographic Warp ray casting).
-
-    Args:
-        mesh: a :class:`trimesh.Trimesh` (anything with ``vertices`` and ``faces``), or a list of them.
-        size: ``(H, W)`` pixels.
-        elevation, azimuth: view direction in degrees (``z`` is up; azimuth from ``+x`` toward ``+y``).
-        color: surface RGB in [0, 1], or one RGB per mesh of a list.
-        background: RGB in [0, 1].
-        device: Warp device (default: Warp's default device).
-
-    Returns:
-        ``(H, W, 3)`` float32 in [0, 1], ready for :func:`wdendrite.io.save_png`.
-
-    Raises:
-        ValueError: an empty list, a bad ``size``, colours that are not RGB in [0, 1], meshes
-            whose faces are not ``(F, 3)`` or index no vertex (before any kernel runs).
-        TypeError: faces that are not integers.
-    """
-    if isinstance(mesh, (list, tuple)) and not len(mesh):
-        raise ValueError("'mesh' is an empty list: there is nothing to show")
-    if not isinstance(size, (list, tuple)) or len(size) != 2 or any(
-            isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s <= 0 for s in size):
-        raise ValueError(f"Expected 'size' as (H, W) positive ints, but got {size!r}")
-    verts, faces, face_colors = _scene(mesh, color)
-    bg = _rgb_triple("background", background)
-    _unit_rgb("background", bg, background)
-    el = math.radians(_checks.finite("elevation", elevation))
-    az = math.radians(_checks.finite("azimuth", azimuth))
-    forward = -np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right = right / np.linalg.norm(right) if np.linalg.norm(right) > 1e-9 else np.array([1.0, 0.0, 0.0])
-    up = np.cross(right, forward)
-    lo, hi = verts.min(axis=0), verts.max(axis=0)
-    center = 0.5 * (lo + hi)
-    rel = verts - center
-    ext_x = np.abs(rel @ right).max() * 1.05 + 1e-6
-    ext_y = np.abs(rel @ up).max() * 1.05 + 1e-6
-    h, w = int(size[0]), int(size[1])
-    # keep square pixels: widen whichever extent is short for the image's aspect
-    ext_x, ext_y = max(ext_x, ext_y * w / h), max(ext_y, ext_x * h / w)
-    depth = float(np.linalg.norm(hi - lo)) + 1.0
-    light = forward + 0.6 * right - 0.8 * up
-    light /= np.linalg.norm(light)
-    device = _checks.device(device)
-    with wp.ScopedDevice(device):
-        wmesh = wp.Mesh(points=wp.array(verts.astype(np.float32), dtype=wp.vec3),
-                        indices=wp.array(faces.astype(np.int32).ravel(), dtype=wp.int32))
-        out = wp.empty((h, w), dtype=wp.vec3)
-        wp.launch(_kg.preview_kernel, dim=(h, w),
-                  inputs=[wmesh.id, wp.vec3(*center), wp.vec3(*forward), wp.vec3(*right), wp.vec3(*up),
-                          wp.vec2(ext_x, ext_y), depth, wp.vec3(*light), wp.array(face_colors, dtype=wp.vec3),
-                          wp.vec3(*bg.tolist())],
-                  outputs=[out])
-        return out.numpy()

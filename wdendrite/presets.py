@@ -21,7 +21,7 @@ from typing import Literal
 
 import numpy as np
 
-from . import _checks
+from . import _checks, _scenes
 from . import endpoints as _ep
 from . import figure as _fig
 from . import lightning as _lightning
@@ -34,6 +34,7 @@ from .growth import FractalParams, grow
 from .lattice import Lattice
 from .lightning import LightningParams
 from .refine import _check_n_e, refine
+from .skeleton import skeleton as _centre_lines
 from .sssp import _cost_per_node, shortest_paths
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "elm_tree",
     "fractal_grid",
     "letters",
+    "lichen_cluster",
     "lichen_on_rock",
     "lightning",
     "moss",
@@ -641,31 +643,41 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
 # --------------------------------------------------------------------------- 3D models
 
 
-_GEOMETRIES = ("spheres", "tubes", "isosurface")
+_GEOMETRIES = ("smooth", "spheres", "tubes", "isosurface")
+
+_SIGMA = 2.0
+"""Width (lattice nodes) of the Gaussian that smooths the 3D presets' centre lines: their turning
+angle between samples one node apart stays below 25 degrees at the 95th percentile."""
 
 
 # spheres this far apart (a body diagonal) touch when their radius is at least half of it
 _MIN_SPHERE_RADIUS = 0.5 * 3**0.5
 
 
-def _tree_mesh(den: Dendrite, radius, side, geometry: str):
+def _tree_mesh(den: Dendrite, radius, side, geometry: str, voxel: float):
+    """The branches' mesh and, for ``"smooth"``, their centre lines (else None)."""
+    if geometry == "smooth":
+        return _scenes.smooth_body(den, radius, side=side, voxel=voxel, sigma=_SIGMA * den.spacing)
     if geometry == "spheres":
-        return _geo.spheres(den, np.maximum(_r.node_widths(den, radius, side=side), _MIN_SPHERE_RADIUS))
+        return _geo.spheres(den, np.maximum(_r.node_widths(den, radius, side=side), _MIN_SPHERE_RADIUS)), None
     if geometry == "tubes":
-        return _geo.tubes(den, radius, side=side)
+        return _geo.tubes(den, radius, side=side), None
     if geometry == "isosurface":
-        return _geo.isosurface(den, radius, side=side, smooth=5)
+        return _geo.isosurface(den, radius, side=side, smooth=5), None
     raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
 
 
-def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: Literal["tubes", "spheres", "isosurface"] = "tubes",
-             seed: int = 0) -> Result:
-    """An elm-like tree: winding branches spreading from a root into a wide crown, tapered spheres or tubes
+def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17,
+             geometry: Literal["smooth", "tubes", "spheres", "isosurface"] = "smooth", seed: int = 0) -> Result:
+    """An elm-like tree: winding branches spreading from a root into a wide crown, tapered
     (constructive path planning Figs. 6-8: 80^3 lattice, 20 and 36 endpoints, taper beta 0.3 main / 0.2 small;
-    17 endpoints as in thesis Table 5.1). The paper draws a sphere at each node; tubes, the default, give
-    the same branches with far fewer faces.
-    Spheres are at least 0.87 nodes wide (neighbours along a diagonal touch) and isosurfaces 0.6
-    (:data:`wdendrite.geometry.MIN_ISO_RADIUS`), so thin twigs stay joined."""
+    17 endpoints as in thesis Table 5.1). The default, ``"smooth"``, meshes the branches' smooth
+    centre lines (:mod:`wdendrite.skeleton`, the lattice only a guide) as one closed body
+    (:func:`wdendrite.geometry.skeleton_mesh`), its twigs at least half a node (1/160 of the tree's
+    height) thick; ``parts["skeleton"]`` holds the centre lines. The paper draws a sphere at each node
+    (``"spheres"``, at least 0.87 nodes wide so that diagonal neighbours touch); ``"tubes"`` and
+    ``"isosurface"`` (at least 0.6, :data:`wdendrite.geometry.MIN_ISO_RADIUS`) follow the lattice
+    path too."""
     shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if geometry not in _GEOMETRIES:
         raise ValueError(f"Expected 'geometry' in {_GEOMETRIES}, but got {geometry!r}")
@@ -679,14 +691,16 @@ def elm_tree(shape=(80, 80, 80), *, endpoints: int = 17, geometry: Literal["tube
     scale = d / 80.0
     radius = _r.Taper(2.4 * scale, 0.6 * scale, beta=0.3, along="path")
     side = _r.Taper(1.5 * scale, 0.35 * scale, beta=0.2, along="branch")
-    mesh = _tree_mesh(den, radius, side, geometry)
-    return Result(_geo.preview(mesh, color=_WOOD, elevation=10), den, mesh, parts={"lattice": lat})
+    mesh, lines = _tree_mesh(den, radius, side, geometry, voxel=0.5 * scale)
+    return Result(_geo.preview(mesh, color=_WOOD, elevation=10), den, mesh,
+                  parts={"lattice": lat, "skeleton": lines})
 
 
 def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "top"), strength: float = 3.0,
                     endpoints: int = 24, seed: int = 0) -> Result:
     """3D objects from spatially varying weights (constructive path planning Fig. 5): the same endpoints, biased
-    toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``."""
+    toward a vertical axis, away from it, or upward; weights depend on the horizontal distance ``sqrt(x^2 + y^2)``.
+    Each object is one closed body around its smooth centre lines (as :func:`elm_tree`)."""
     shape = _shape(shape, 3)
     toward = _entries("toward", toward, f"tropism names from {_w._TOWARD}")
     for t in toward:
@@ -699,7 +713,8 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
     for t in toward:
         lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength))
         den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ep)
-        mesh = _geo.tubes(den, _r.Taper(1.6 * d / 60, 0.4 * d / 60, along="path"), sides=6)
+        mesh, _ = _scenes.smooth_body(den, _r.Taper(1.6 * d / 60, 0.4 * d / 60, along="path"), voxel=0.4 * d / 60,
+                                      sigma=_SIGMA)
         dens[t], meshes[t] = den, mesh
         pics.append(_geo.preview(mesh, size=(320, 320), color=_WOOD, elevation=10))
     labels = [_toward_words(t) for t in toward]
@@ -708,11 +723,13 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
                                                                                      "labels": labels})
 
 
-def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 3, seed: int = 0) -> Result:
+def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 7, seed: int = 0) -> Result:
     """Staghorn coral: branches from a base to endpoints placed over a dome, refined for detail
-    (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement). ``refine_n`` = 3
-    keeps the default quick; the thesis refines with 7, 9 or 15 for more winding detail. The
-    branches are tubes where the paper puts a sphere at each node."""
+    (2007 paper, Fig. 12 and Table 1: 50^3, 11 endpoints, or 24 with refinement), then meshed as one
+    closed body around the refined dendrite's smooth centre lines (``parts["skeleton"]``; the paper
+    puts a sphere at each node). ``refine_n`` = 7 is the thesis' smallest sublattice (section 4.4:
+    7, 9 or 15, with ``e`` = 0.75 in its 0.5 < e < 1); 0 or None skips refinement.
+    ``parts["coarse"]`` is the dendrite before refinement."""
     shape, endpoints = _shape(shape, 3), _checks.integer("endpoints", endpoints, low=1)
     if refine_n:  # 0 or None: no refinement; checked before the coarse dendrite is grown
         _check_n_e(refine_n, 0.75, n_name="refine_n")
@@ -725,10 +742,13 @@ def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | N
     den = trace(shortest_paths(lat, [[1, h // 2, w // 2]]), ends)
     coarse = den
     if refine_n:
-        den, _ = refine(den, lat, n=refine_n, seed=seed)
+        den, _ = refine(den, lat, n=refine_n, e=0.75, seed=seed)
     scale = d / 50.0
-    mesh = _geo.tubes(den, _r.Taper(1.6 * scale, 0.7 * scale, along="path"), sides=8)
-    return Result(_geo.preview(mesh, color=_CORAL, elevation=15), den, mesh, parts={"coarse": coarse, "lattice": lat})
+    # (the smoothing width in the coarse lattice's nodes: refinement adds detail below it)
+    mesh, lines = _scenes.smooth_body(den, _r.Taper(1.6 * scale, 0.7 * scale, along="path"), voxel=0.4 * scale,
+                                      sigma=_SIGMA)
+    return Result(_geo.preview(mesh, color=_CORAL, elevation=15), den, mesh,
+                  parts={"coarse": coarse, "lattice": lat, "skeleton": lines})
 
 
 def _rock_field(shape, neighbours: int, seed: int):
@@ -762,53 +782,128 @@ def rock(shape=(128, 128, 128), *, neighbours: int = 14, smooth: int = 6, seed: 
 rock.makes_dendrite = False  # (the command refuses dendrite formats before running it)
 
 
-def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 8, seed: int = 0) -> Result:
-    """Lichen grown over a rock: generator and endpoints on the rock's surface, its interior forbidden
-    (2007 paper, Fig. 16 and Table 2: 128^3). The mesh holds the rock and the lichen."""
-    import trimesh
+def lichen_cluster(shape=(256, 256), *, count: int = 8, bands=(2.5, 8.0), density=(0.9, 0.55),
+                   seed: int = 0) -> Result:
+    """A lichen cluster by cost bands (thesis section 5.4, Fig. 5.4 bottom, in 2D): a fractal dendrite
+    grown from the centre; its nodes become generators, and the nodes whose path cost from it lies
+    between two isocontours are one kind of lichen's particles, each kept with the band's density:
+    orange close to the dendrite, grey-green embracing it. Particles are drawn as crusty, shaded
+    patches on a stone. ``parts["kind"]`` holds the kind of every node (0: bare), ``parts["cost"]``
+    the path costs from the dendrite.
+
+    Args:
+        shape: lattice shape (H, W).
+        count: endpoints of the dendrite's first growth iteration (three iterations, alpha 1.5, beta 3).
+        bands: outer edges of the bands, in lattice nodes of path cost (the lattice's median cost per
+            node), increasing; the first band starts at the dendrite.
+        density: share of each band's nodes that carry lichen, in (0, 1].
+        seed: seed of the weights, the endpoints and the particles.
+    """
+    shape, count = _shape(shape, 2), _checks.integer("count", count, low=1)
+    edges, dens = _scenes.check_bands(bands, density)
+    _checks.seed32(seed)
+    h, w = shape
+    lat = Lattice(shape, 8, weights=_w.Uniform(r=10, seed=seed))
+    centre = (h // 2, w // 2)
+    per_node = _cost_per_node(lat, centre, min(shape) // 2)
+    # the dendrite's tips stay clear of the border by the outer band
+    half = max(int(min(shape) // 2 - edges[-1] - 2), 4)
+    den = grow(lat, [centre], _fractal_params(half, per_node, 1.5, 3.0, 3, count), seed=seed)
+    kind, cost = _scenes.cost_bands(lat, den.nodes, edges, per_node, dens, seed)
+    img = _scenes.crust_picture(kind, _scenes.LICHEN_KINDS[: len(edges)], _ROCK, seed)
+    return Result(img, den, parts={"kind": kind, "cost": cost, "lattice": lat})
+
+
+lichen_cluster.units = {"bands": "nodes", "density": "fraction"}
+
+
+def lichen_on_rock(shape=(128, 128, 128), *, neighbours: int = 14, count: int = 4, bands=(1.0, 3.5),
+                   density=(0.9, 0.6), on_rock: bool = True, seed: int = 0) -> Result:
+    """Lichen grown over a rock, as a cluster of crusty patches (2007 paper, Fig. 16 and Table 2:
+    128^3; thesis section 5.4, Fig. 5.4 bottom, in 3D). A fractal dendrite grows over the rock's
+    surface nodes (generator and endpoints on them); then the surface nodes whose path cost along
+    the surface from the dendrite lies in a band become one kind of lichen's particles, each kept
+    with the band's density (orange near the dendrite, grey-green around it). The rock (its region,
+    smoothed), the dendrite's smooth ropes and a crust over the rock where the particles are (a
+    layer 0.45 or 0.3 nodes thick at a patch's rim, thicker inside) are meshed as one closed body
+    with vertex colours. ``parts``: ``"kind"`` per node (0: bare),
+    ``"crust"`` the particles' nodes, ``"skeleton"`` the ropes' centre lines, ``"rock_field"`` the
+    signed field whose zero level is the rock.
+
+    Args:
+        shape: lattice shape (D, H, W).
+        neighbours: generators around the rock's that shape it.
+        count: endpoints of the dendrite's first growth iteration (three iterations, alpha 1.5, beta 3).
+        bands: outer edges of the bands, in lattice nodes of path cost along the surface, increasing.
+        density: share of each band's surface nodes that carry lichen, in (0, 1].
+        on_rock: keep the dendrite's paths on the surface nodes; False lets them leave the surface
+            (never entering the rock) and come back, as in the 2007 paper's Fig. 16.
+        seed: seed of the rock, the weights, the endpoints and the particles.
+    """
+    from scipy.ndimage import gaussian_filter
 
     shape, neighbours = _shape(shape, 3), _checks.integer("neighbours", neighbours, low=4)
     count = _checks.integer("count", count, low=1)
+    edges, dens = _scenes.check_bands(bands, density)
+    on_rock = _checks.flag("on_rock", on_rock)
     lat, cf = _rock_field(shape, neighbours, seed)
     inside = cf.label == 0
     surf = _geo.surface_nodes(inside)
     on_surface = np.zeros(shape, bool)
     on_surface[tuple(surf.T)] = True
     allowed = ~inside | on_surface
-    lichen_lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=(seed + 1) % 2**32), mask=allowed)
+    weights = _w.Uniform(r=10, seed=(seed + 1) % 2**32)
+    lichen_lat = Lattice(shape, 26, weights=weights, mask=on_surface if on_rock else allowed)
     top = surf[np.argmax(surf[:, 0] - 0.3 * np.abs(surf[:, 1:] - np.asarray(shape[1:]) / 2).sum(axis=1))]
-    p = _fractal_params(int(0.3 * min(shape)), 6.0, 1.5, 3.0, 3, count)  # (paths over the rock's surface)
+    p = _fractal_params(int(0.22 * min(shape)), 6.0, 1.5, 3.0, 3, count)  # (paths over the rock's surface)
     den = grow(lichen_lat, [top], p, seed=seed, within=on_surface)
-    rock_mesh = _geo.region_mesh(cf.label, 0, smooth=6)
+    # the bands: path costs along the surface only, from the dendrite's nodes on it
+    skin = Lattice(shape, 26, weights=weights, mask=on_surface)
+    on = den.nodes[on_surface[tuple(den.nodes.T)]]
+    per_node = _cost_per_node(Lattice((17, 17, 17), 26, weights=weights), (8, 8, 8), 8)
+    kind, _ = _scenes.cost_bands(skin, on, edges, per_node, dens, seed)
+    crust = np.argwhere(kind > 0)
     scale = min(shape) / 128.0
-    lichen_mesh = _geo.tubes(den, _r.Taper(1.1 * scale + 0.3, 0.5 * scale + 0.2, along="path"), sides=6)
-    img = _geo.preview([rock_mesh, lichen_mesh], color=[_ROCK, _LICHEN])
-    mesh = trimesh.util.concatenate([rock_mesh, lichen_mesh])
-    return Result(img, den, mesh, parts={"rock": rock_mesh, "lichen": lichen_mesh, "costfield": cf,
-                                         "lattice": lichen_lat})
+    rope = _r.Taper(0.5 * scale + 0.35, 0.2 * scale + 0.3, along="path")
+    lines = _centre_lines(den, rope, sigma=_SIGMA, min_radius=0.5)
+    rock_field = gaussian_filter(_geo.signed_region_field(inside, band=3.0), 0.7)
+    mesh, _ = _scenes.crust_body(rock_field, lines, crust, kind[tuple(crust.T)], _scenes.LICHEN_KINDS, _ROCK,
+                                 grain=1.3, thickness=(0.45, 0.3), voxel=0.5, seed=seed)
+    img = _geo.preview(mesh, elevation=35)
+    return Result(img, den, mesh, parts={"kind": kind, "crust": crust, "skeleton": lines, "rock_field": rock_field,
+                                         "costfield": cf, "lattice": lichen_lat})
 
 
-def moss(shape=(40, 96, 96), *, endpoints: int | None = None, seed: int = 0) -> Result:
-    """Moss: many short paths grown up from a plane of generators (2007 paper, Fig. 15).
+lichen_on_rock.units = {"bands": "nodes", "density": "fraction"}
+
+
+def moss(shape=(40, 96, 96), *, endpoints: int | None = None, image: np.ndarray | None = None,
+         seed: int = 0) -> Result:
+    """Moss: many strands grown up from a ground plane of generators (2007 paper, Fig. 15: "a mossy
+    version of the peppers image"), each strand smooth and coloured from ``image`` at its root, on a
+    ground that shows the same picture; strands and ground are one closed body with vertex colours.
 
     Args:
         shape: lattice shape (D, H, W).
-        endpoints: number of endpoints (default: 400 at the default shape, in proportion to the volume elsewhere).
-        seed: seed of the weights and the endpoints.
+        endpoints: number of endpoints (default: 800 at the default shape, a dense cushion, in
+            proportion to the volume elsewhere).
+        image: ``(h, w, 3)`` RGB picture (floats in [0, 1] or 8-bit), stretched over the ground
+            (rows along the lattice's H axis); default: a procedural mossy picture of greens.
+        seed: seed of the weights, the endpoints and the default picture.
     """
     shape = _shape(shape, 3)
     d, h, w = shape
     if endpoints is None:
-        endpoints = max(1, round(400 * d * h * w / (40 * 96 * 96)))
+        endpoints = max(1, round(800 * d * h * w / (40 * 96 * 96)))
     endpoints = _checks.integer("endpoints", endpoints, low=1)
+    picture = _scenes.moss_image((h, w), _checks.seed32(seed)) if image is None else _scenes.image_rgb("image", image)
     lat = Lattice(shape, 26, weights=_w.Uniform(r=10, seed=seed))
     yy, xx = np.mgrid[:h, :w]
     plane = np.stack([np.zeros(h * w, np.int64), yy.ravel(), xx.ravel()], axis=1)
-    cf = shortest_paths(lat, plane)
     band = _ep.Box((0.35 * d, 1, 1), (0.9 * d, h - 2, w - 2))
     ends = _endpoints_in("endpoints", endpoints, "in the band above the plane of", shape,
                          lambda: _ep.random(lat, endpoints, within=band, seed=seed, min_spacing=2.0))
-    den = trace(cf, ends)
-    mesh = _geo.tubes(den, _r.Taper(0.55, 0.25, along="path"), sides=5)
-    return Result(_geo.preview(mesh, color=_MOSS, elevation=35), den, mesh, parts={"lattice": lat})
-
+    den = trace(shortest_paths(lat, plane), ends)
+    mesh, lines = _scenes.moss_body(den, _r.Taper(0.55, 0.3, along="path"), picture, voxel=0.4, sigma=_SIGMA)
+    return Result(_geo.preview(mesh, elevation=40), den, mesh, parts={"lattice": lat, "skeleton": lines,
+                                                                       "image": picture})
