@@ -243,7 +243,7 @@ def spread_flat(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uin
 @wp.kernel
 def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8), w: int,
                          from_higher: int, next_scratch: wp.array(dtype=int), heads_scratch: wp.array(dtype=int),
-                         dist_inout: wp.array(dtype=wp.int64)):
+                         dist_out: wp.array(dtype=wp.int64)):
     """One thread: a distance over every flat, in steps of 2 (sides) and 3 (diagonals) over
     the lost cells (``lost_in`` 1: interior cells with no receiver, so no lower neighbour)
     of one height, from its sources (distance 0), by :func:`spread_flat`.
@@ -251,13 +251,17 @@ def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dty
     ``from_higher`` 0: towards lower terrain; the sources are the flats' ways out, cells that
     are not lost next to a lost cell of their height. 1: away from higher terrain; the
     sources are the lost cells next to a higher cell. ``z_in``: the N elevations,
-    row-major, ``w`` per row; ``dist_inout``: N int64s (a path over a flat of N cells may be
-    3N long), all a value above any distance on entry (cells no source reaches keep it);
-    ``next_scratch``: N ints; ``heads_scratch``: 4 ints.
+    row-major, ``w`` per row; ``dist_out``: N int64s (a path over a flat of N cells may be
+    3N long; :data:`FAR` where no source reaches); ``next_scratch``: N ints;
+    ``heads_scratch``: 4 ints.
     """
     n = z_in.shape[0]
     for b in range(4):
         heads_scratch[b] = -1
+    cell = int(0)
+    while cell < n:
+        dist_out[nonneg(cell)] = FAR
+        cell += 1
     pending = int(0)
     i = int(0)
     while i < n:
@@ -268,34 +272,41 @@ def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dty
                 if k != 4:
                     there = z_in[nonneg(j)]
                     if from_higher != 0:
-                        if there > here and dist_inout[nonneg(i)] != wp.int64(0):
-                            push_flat(i, wp.int64(0), dist_inout, next_scratch, heads_scratch)
+                        if there > here and dist_out[nonneg(i)] != wp.int64(0):
+                            push_flat(i, wp.int64(0), dist_out, next_scratch, heads_scratch)
                             pending += 1
-                    elif lost_in[nonneg(j)] == wp.uint8(0) and dist_inout[nonneg(j)] != wp.int64(0):
+                    elif lost_in[nonneg(j)] == wp.uint8(0) and dist_out[nonneg(j)] != wp.int64(0):
                         if there == here:
-                            push_flat(j, wp.int64(0), dist_inout, next_scratch, heads_scratch)
+                            push_flat(j, wp.int64(0), dist_out, next_scratch, heads_scratch)
                             pending += 1
         i += 1
-    spread_flat(z_in, lost_in, w, pending, next_scratch, heads_scratch, dist_inout)
+    spread_flat(z_in, lost_in, w, pending, next_scratch, heads_scratch, dist_out)
+
+
+@wp.func
+def flat_mask(lower: wp.int64, higher: wp.int64) -> wp.int64:
+    """``2 * lower - higher``, with ``higher`` 0 where no higher cell reaches (then on the whole flat)."""
+    away = higher
+    if away == FAR:
+        away = wp.int64(0)
+    return wp.int64(2) * lower - away
 
 
 @wp.kernel
 def flat_receiver_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8),
-                         lower_in: wp.array(dtype=wp.int64), higher_in: wp.array(dtype=wp.int64), w: int,
-                         rec_out: wp.array2d(dtype=int), frac_out: wp.array2d(dtype=wp.float64),
-                         donors_out: wp.array(dtype=int)):
-    """Receiver of lost cell ``i`` (one thread per cell; other cells and flats without a way
-    out are left alone): of its neighbours of its height, the nearest way out (not lost; a
-    side before a diagonal) if it has one, else the lost one of lowest
-    ``2 * lower_in - higher_in`` below its own; the first in row-major order among equals.
-    ``higher_in`` holds 0 on a whole flat that touches no higher cell
-    (:func:`wdendrite.hydrology._drain_flats` proves that such a neighbour exists). Writes
-    every row of ``rec_out`` (k, N), and shares 1 and 0 in ``frac_out`` when k = 2; counts
-    the cell as a donor of its receiver."""
-    i = wp.tid()
-    if lost_in[i] != wp.uint8(0) and lower_in[i] > wp.int64(0) and lower_in[i] < FAR:
-        here = z_in[i]
-        best = wp.int64(2) * lower_in[i] - higher_in[i]
+                         cells_in: wp.array(dtype=int), lower_in: wp.array(dtype=wp.int64),
+                         higher_in: wp.array(dtype=wp.int64), w: int, rec_out: wp.array2d(dtype=int),
+                         frac_out: wp.array2d(dtype=wp.float64), donors_out: wp.array(dtype=int)):
+    """Receiver of lost cell ``cells_in[tid]`` (flats without a way out are left alone): of its
+    neighbours of its height, the nearest way out (not lost; a side before a diagonal) if it
+    has one, else the lost one of lowest :func:`flat_mask` below its own; the first in
+    row-major order among equals (:func:`wdendrite.hydrology._drain_flats` proves that such a
+    neighbour exists). Writes every row of ``rec_out`` (k, N), and shares 1 and 0 in
+    ``frac_out`` when k = 2; counts the cell as a donor of its receiver."""
+    i = cells_in[wp.tid()]
+    if lower_in[nonneg(i)] < FAR:
+        here = z_in[nonneg(i)]
+        best = flat_mask(lower_in[nonneg(i)], higher_in[nonneg(i)])
         to = int(-1)
         out = int(-1)  # the nearest way out, if any
         out_step = int(4)
@@ -312,16 +323,16 @@ def flat_receiver_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dty
                         out = j
                         out_step = step
                 else:
-                    mask = wp.int64(2) * lower_in[nonneg(j)] - higher_in[nonneg(j)]
+                    mask = flat_mask(lower_in[nonneg(j)], higher_in[nonneg(j)])
                     if mask < best:
                         best = mask
                         to = j
         if out >= 0:
             to = out
         for row in range(rec_out.shape[0]):
-            rec_out[row, i] = to
+            rec_out[row, nonneg(i)] = to
         if rec_out.shape[0] > 1:
-            frac_out[0, i] = wp.float64(1.0)
-            frac_out[1, i] = wp.float64(0.0)
+            frac_out[0, nonneg(i)] = wp.float64(1.0)
+            frac_out[1, nonneg(i)] = wp.float64(0.0)
         if to >= 0:
             wp.atomic_add(donors_out, nonneg(to), 1)

@@ -208,13 +208,13 @@ def _drain_flats(z: np.ndarray, rec: wp.array, frac: wp.array, donors: wp.array)
     lost = rec.numpy()[0] < 0
     lost.reshape(h, w)[[0, -1], :] = False  # the border is where water leaves
     lost.reshape(h, w)[:, [0, -1]] = False
-    if not lost.any():
+    cells = np.flatnonzero(lost).astype(np.int32)
+    if cells.size == 0:
         return
     lower, higher = _flat_distances(z, lost)
-    away = higher.numpy()  # (a view: the CPU array writes through)
-    away[away == np.iinfo(np.int64).max] = 0
-    wp.launch(_k.flat_receiver_kernel, dim=z.size, device="cpu",
-              inputs=[_cpu(z.ravel(), wp.float64), _cpu(lost.view(np.uint8), wp.uint8), lower, higher, w],
+    wp.launch(_k.flat_receiver_kernel, dim=cells.size, device="cpu",
+              inputs=[_cpu(z.ravel(), wp.float64), _cpu(lost.view(np.uint8), wp.uint8), _cpu(cells, int), lower,
+                      higher, w],
               outputs=[rec, frac, donors])
 
 
@@ -236,7 +236,7 @@ def _flat_distances(z: np.ndarray, lost: np.ndarray) -> tuple[wp.array, wp.array
     nxt, heads = wp.empty(z.size, dtype=int, device="cpu"), wp.empty(4, dtype=int, device="cpu")
     out = []
     for from_higher in (0, 1):
-        dist = wp.full(z.size, np.iinfo(np.int64).max, dtype=wp.int64, device="cpu")
+        dist = wp.empty(z.size, dtype=wp.int64, device="cpu")
         wp.launch(_k.flat_distance_kernel, dim=1, inputs=[zf, lf, z.shape[1], from_higher, nxt, heads],
                   outputs=[dist], device="cpu")
         out.append(dist)
