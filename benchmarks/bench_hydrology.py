@@ -16,10 +16,11 @@ is the same scikit-image reconstruction on every side, timed once on its own):
   2026-12-02).
 
 With ``--filled`` the rows ``d8+fill`` and ``dinf+fill`` add each side's conditioning inside
-its time: ours fills (scikit-image) and drains the flats toward their outlets
-(``filled=True``); pysheds runs ``fill_depressions`` and ``resolve_flats`` (Barnes et al.
-2014: towards lower terrain and away from higher, so flat cells route differently and
-"same" is lower there).
+its time: ours fills (scikit-image) and drains the flats towards lower terrain and away from
+higher (``filled=True``); pysheds runs ``fill_depressions`` and ``resolve_flats``, the same
+idea (Barnes et al. 2014) with other details: distances counted in steps of 1 rather than
+2 and 3, the flats raised by tiny increments and then routed as slopes (so D-infinity
+splits flow there, where ours keeps one receiver), hence "same" is lower on those rows.
 
 Every measurement runs in a fresh process (``_measure.run_isolated``): wall time of the
 call (compilation and JIT warmed up on a small terrain first) and the growth of the peak

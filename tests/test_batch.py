@@ -59,6 +59,14 @@ def _whole_dendry(size, **values):
     return setup, dendry(**setup, output="elevation", device="cpu")
 
 
+def staged_by_a_dead_writer(path) -> Path:
+    """A file staged for ``path`` by a process that then ended without clearing it (as a kill leaves it)."""
+    code = ("import os, sys; from wdendrite._staging import Staging; "
+            "print(Staging().temporary(sys.argv[1], 0o644)); os._exit(0)")
+    made = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True)
+    return Path(made.stdout.strip())
+
+
 def _ramp(window, plus=0.0):
     """The (h, w) window ``(row0, col0, h, w)`` of an image whose every value differs (tiled writers' tests)."""
     r0, c0, h, w = window
@@ -91,10 +99,8 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     # a re-run skips complete tasks; a lost output or a stale manifest is redone
     stamps = {m.name: m.stat().st_mtime_ns for m in manifests}
     (runs / "fractal_size32_seed0_cheap0.0.png").unlink()
-    # a killed write left its temporary behind: the task's re-run sweeps it away
-    from wdendrite.io import temporary_prefix
-
-    stray = runs / (temporary_prefix(runs / "fractal_size32_seed0_cheap0.0.png") + "k1ll3d00.png")
+    # a killed write left its temporary behind: the re-run sweeps it away
+    stray = staged_by_a_dead_writer(runs / "fractal_size32_seed0_cheap0.0.png")
     stray.write_bytes(b"half")
     stale = runs / "fractal_size32_seed1_cheap0.0.manifest.json"
     stale.write_text(json.dumps({**json.loads(stale.read_text()), "params": {"size": 99}}))
@@ -404,10 +410,10 @@ def test_a_killed_batch_resumes_where_it_stopped(tmp_path):
         time.sleep(0.005)
     run.send_signal(signal.SIGKILL)
     run.wait()
-    (out / ".costs_size160_seed39.png.k1ll3d_x.png").write_bytes(b"half")  # as a killed write leaves (mkstemp's 8)
+    staged_by_a_dead_writer(out / "costs_size160_seed39.png").write_bytes(b"half")  # as a killed write leaves
     mine = out / ".costs_size160_seed39.png.orig"  # files of the user's, named alike
     mine.write_bytes(b"mine")
-    also_mine = out / ".costs_size160_seed39.png.BACKUP01.png"  # (mkstemp's characters are a-z, 0-9 and _)
+    also_mine = out / ".wdendrite-costs_size160_seed39.png"
     also_mine.write_bytes(b"mine")
     # a task's manifest vouches for its parameters once its outputs are in (before, it only lists them)
     done = sum(json.loads(m.read_text())["params"] is not None for m in out.glob("*.manifest.json"))

@@ -493,16 +493,16 @@ def test_an_upper_case_suffix_writes_the_file_named(tmp_path):
 def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
     # the command stages every output beside its path and renames them together; the writers must
     # not stage again inside (a second, longer temporary name), and a 255-byte name must work
-    from wdendrite import io
+    from wdendrite._staging import Staging
 
     made = []
-    real = io.tempfile.mkstemp
+    real = Staging.temporary
 
-    def spy(*args, **kwargs):
-        made.append(kwargs.get("prefix"))
-        return real(*args, **kwargs)
+    def spy(self, path, mode):
+        made.append(path)
+        return real(self, path, mode)
 
-    monkeypatch.setattr(io.tempfile, "mkstemp", spy)
+    monkeypatch.setattr(Staging, "temporary", spy)
     long = tmp_path / ("b" * 251 + ".png")
     cli.run_preset("fractal", {"size": 32}, [long, tmp_path / "f.npz"], device="cpu")
     assert long.exists() and (tmp_path / "f.npz").exists()
@@ -512,12 +512,12 @@ def test_outputs_with_long_names_are_staged_once(tmp_path, monkeypatch):
 
 def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch):
     # each staged file is flushed before any of them takes its name; then the folder is
-    from wdendrite import io
+    from wdendrite import _staging, io
 
     events = []
-    real_sync, real_folder, real_replace = io.sync_to_disk, io.sync_folder, os.replace
+    real_sync, real_folder, real_replace = io.sync_to_disk, _staging.sync_folder, os.replace
     monkeypatch.setattr(io, "sync_to_disk", lambda p: (events.append(("file", Path(p).suffix)), real_sync(p)))
-    monkeypatch.setattr(io, "sync_folder", lambda p: (events.append(("folder", Path(p))), real_folder(p)))
+    monkeypatch.setattr(_staging, "sync_folder", lambda p: (events.append(("folder", Path(p))), real_folder(p)))
     monkeypatch.setattr(os, "replace", lambda a, b: (events.append(("rename", Path(b).suffix)), real_replace(a, b)))
     cli.run_preset("fractal", {"size": 32}, [tmp_path / "f.png", tmp_path / "f.npz"], device="cpu")
     assert events == [("file", ".png"), ("file", ".npz"), ("rename", ".png"), ("rename", ".npz"), ("folder", tmp_path)]

@@ -380,18 +380,21 @@ def test_names_up_to_the_file_system_limit_are_written(tmp_path):
         path.unlink()
 
 
-def test_temporary_prefixes_fit_and_stay_apart(tmp_path):
-    from wdendrite.io import temporary_prefix
+def test_staged_names_fit_and_stay_apart(tmp_path):
+    from wdendrite._staging import Staging
 
-    # names that need no shortening keep the plain prefix; long ones are cut and marked with a hash
-    # of the whole name, so two long names with a common start (or a tiled partial) never share it
-    assert temporary_prefix(tmp_path / "f.png") == ".f.png."
-    a, b = ("a" * 241 + ".png", "a" * 241 + "_seed2.npy")
-    pa, pb = temporary_prefix(tmp_path / a), temporary_prefix(tmp_path / b)
-    assert pa != pb and not pb.startswith(pa) and not pa.startswith(pb)
-    assert not ("." + "a" * 241 + ".partial.npy").startswith(temporary_prefix(tmp_path / ("a" * 241 + ".npy")))
-    for p in (pa, pb):
-        assert len(os.fsencode(p)) + 8 + 4 <= 255
+    # a staged file's name is the writer's prefix, then the name of the file it stands for, cut
+    # and marked with a hash of the whole name when it is long: two long names with a common
+    # start never share it, and the suffix (which names the format) stays
+    with Staging() as stage:
+        plain = stage.name(tmp_path / "f.png").name
+        assert plain.startswith(".wdendrite-" + stage.token + "-") and plain.endswith(".f.png")
+        a, b = ("a" * 241 + ".png", "a" * 241 + "_seed2.npy")
+        na, nb = (stage.name(tmp_path / n).name.split(".", 2)[2] for n in (a, b))
+        assert na != nb and not nb.startswith(na[:-4]) and not na.startswith(nb[:-4])
+        assert na.endswith(".png") and nb.endswith(".npy")
+        for n in (a, b, "é" * 126 + ".png"):
+            assert len(os.fsencode(stage.name(tmp_path / n).name)) <= 255
     # a name that is not UTF-8 (bytes the file system allows) is written like any other
     odd = os.fsdecode(b"\xff-odd.png")
     save_png(tmp_path / odd, np.zeros((2, 2)))
@@ -458,7 +461,8 @@ def test_a_written_file_reaches_the_disk_before_its_rename(tmp_path, monkeypatch
         events.clear()
         atomic_write(tmp_path / "out.txt", lambda tmp: open(tmp, "w").write("data"), overwrite=overwrite)
         names = [e for e in events if e[0] == "fsync"]
-        assert len(names) == 2 and names[0][1].startswith(".out.txt.") and names[1][1] == tmp_path.name
+        assert len(names) == 2 and names[0][1].startswith(".wdendrite-") and names[0][1].endswith(".out.txt")
+        assert names[1][1] == tmp_path.name
         assert events.index(names[0]) < events.index(("rename", names[0][1])) < events.index(names[1])
 
 

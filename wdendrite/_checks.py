@@ -260,22 +260,126 @@ def positive(name: str, value) -> float:
 
 
 def available_bytes(device) -> int:
-    """Memory a new allocation on ``device`` can use, in bytes."""
+    """Memory a new allocation on ``device`` can use, in bytes: on the CPU the least of the
+    system's available memory and the room left under the limits set on this process
+    (:func:`host_limit`)."""
     device = wp.get_device(device)
     if device.is_cuda:
         return int(device.free_memory)
+    have = None
     try:
         with open("/proc/meminfo") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
+                    have = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    if have is None:
+        have = int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
+    room = host_limit()[0]
+    return have if room is None else min(have, room)
+
+
+_NO_LIMIT = 2**60  # cgroup v1 writes "no limit" as the largest page multiple below 2**63
+
+
+def host_limit(*, status: str = "/proc/self/status", cgroup: str = "/proc/self/cgroup",
+               root: str = "/sys/fs/cgroup") -> tuple[int | None, str]:
+    """The bytes this process may still allocate under the limits set on it, and which limit
+    that is: its address-space limit (``RLIMIT_AS``, ``ulimit -v``: the limit less the address
+    space it already maps, ``VmSize`` in ``status``) and its cgroup's memory limit (cgroup v2
+    ``memory.max``, v1 ``memory.limit_in_bytes``, of its cgroup and each one above it under
+    ``root``, less the memory charged there, of which inactive file cache counts as free:
+    the system reclaims it first). ``(None, "")`` when no limit applies. The keywords point
+    at other files (for tests)."""
+    found = []
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        soft = None
+    if soft is not None and soft != resource.RLIM_INFINITY:
+        found.append((soft - _status_bytes(status, "VmSize:"), f"the address-space limit of {soft / 2**30:.2f} GiB "
+                                                               "(ulimit -v) less what the process maps"))
+    for room, where in _cgroup_rooms(cgroup, root):
+        found.append((room, f"the memory limit of cgroup {where}"))
+    if not found:
+        return None, ""
+    room, why = min(found)
+    return max(0, room), why
+
+
+def _status_bytes(status: str, key: str) -> int:
+    try:
+        with open(status) as f:
+            for line in f:
+                if line.startswith(key):
                     return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def _cgroup_rooms(cgroup: str, root: str):
+    """``(bytes left, cgroup)`` for each memory-limited cgroup this process belongs to (its own and
+    those above it), v2 and v1."""
+    try:
+        with open(cgroup) as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        if parts[0] == "0" and parts[1] == "":  # v2: one hierarchy
+            base, files = root, ("memory.max", "memory.current", "inactive_file")
+        elif "memory" in parts[1].split(","):  # v1: the memory controller's own hierarchy
+            base, files = os.path.join(root, "memory"), ("memory.limit_in_bytes", "memory.usage_in_bytes",
+                                                          "total_inactive_file")
+        else:
+            continue
+        here = os.path.normpath(os.path.join(base, parts[2].lstrip("/")))
+        if not here.startswith(os.path.normpath(base)) or not os.path.isdir(here):
+            here = base  # a container sees its own cgroup at the root (another one's path is not mounted)
+        while True:
+            room = _cgroup_room(here, *files)
+            if room is not None:
+                yield room, here
+            if os.path.normpath(here) == os.path.normpath(base):
+                break
+            here = os.path.dirname(here)
+
+
+def _cgroup_room(folder: str, limit_file: str, usage_file: str, inactive_key: str) -> int | None:
+    def number(name):
+        try:
+            with open(os.path.join(folder, name)) as f:
+                text = f.read().strip()
+        except OSError:
+            return None
+        return int(text) if text.isdigit() else None
+
+    limit, usage = number(limit_file), number(usage_file)
+    if limit is None or limit >= _NO_LIMIT or usage is None:
+        return None
+    inactive = 0
+    try:
+        with open(os.path.join(folder, "memory.stat")) as f:
+            for line in f:
+                key, _, value = line.partition(" ")
+                if key == inactive_key and value.strip().isdigit():
+                    inactive = int(value)
     except OSError:
         pass
-    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES"))
+    return limit - usage + inactive
 
 
 def fits_in_memory(need: int, device, what: str) -> None:
-    """Raise ``MemoryError`` when ``need`` bytes exceed what ``device`` has free."""
+    """Raise ``MemoryError`` when ``need`` bytes exceed what ``device`` has free (on the CPU, also
+    under the process's address-space and cgroup limits: see :func:`available_bytes`)."""
     device = wp.get_device(device)
     have = available_bytes(device)
     if need > have and device.is_cuda:
@@ -284,10 +388,25 @@ def fits_in_memory(need: int, device, what: str) -> None:
         wp.synchronize_device(device)
         have = available_bytes(device)
     if need > have:
+        room, why = (None, "") if device.is_cuda else host_limit()
         raise MemoryError(
             f"{what} needs about {need / 2**30:.2f} GiB on device '{device}', "
-            f"but only {have / 2**30:.2f} GiB are available"
+            f"but only {have / 2**30:.2f} GiB are available" + (f" under {why}" if room == have else "")
         )
+
+
+def memory_error(exc: BaseException) -> MemoryError | None:
+    """``exc`` as a :class:`MemoryError` when it is an allocation that failed under another name
+    (``OSError`` ENOMEM from a memory map, Warp's ``RuntimeError: Failed to allocate``), else None."""
+    import errno
+
+    if isinstance(exc, MemoryError):
+        return exc
+    if isinstance(exc, OSError) and exc.errno == errno.ENOMEM:
+        return MemoryError(exc.strerror or str(exc))
+    if isinstance(exc, RuntimeError) and str(exc).startswith("Failed to allocate"):
+        return MemoryError(str(exc))
+    return None
 
 
 def device(value, name: str = "device"):

@@ -17,7 +17,7 @@ A job file::
     [[job]]
     preset = "terrain"            # "dendry" or "terrain" with a tile size: the field is
     size = 8192                   # computed tile by tile (a Dask array on a cluster) and
-    tile = 1024                   # written to an NPY memmap or a Zarr store, never whole in memory
+    tile = 1024                   # written to an NPY file or a Zarr store, never whole in memory
     formats = ["npy"]
 
 Every task (one combination) writes its outputs atomically (a temporary name,
@@ -47,13 +47,12 @@ import shutil
 import sys
 import time
 from dataclasses import dataclass, field
-from glob import escape as glob_escape
 from pathlib import Path
 
 import numpy as np
 
 from ._spec import UsageError, all_presets, canonical_name, counted, nearest, progress_bar, read_toml, resolve
-from .io import _NAME_BYTES
+from ._staging import NAME_BYTES as _NAME_BYTES, identity
 
 __all__ = ["TILED_PRESETS", "Task", "dendry_array", "load_jobs", "need_zarr", "probe_windows", "run_file", "run_task",
            "run_tiled", "tile_windows", "tiled_array", "worker_device", "write_tiled"]
@@ -341,22 +340,6 @@ def load_jobs(path) -> tuple[list[Task], dict]:
     return tasks, {"out": folder, "device": raw.get("device")}
 
 
-def _temporaries(path: Path) -> list[Path]:
-    """Temporary files staged for ``path``: ``.NAME.``, mkstemp's 8 characters (``a-z0-9_``) and its
-    suffix, NAME shortened as :func:`wdendrite.io.temporary_prefix` does."""
-    from .io import temporary_prefix
-
-    pattern = glob_escape(temporary_prefix(path)) + "[a-z0-9_]" * 8 + glob_escape(path.suffix)
-    return sorted(path.parent.glob(pattern))
-
-
-def _aside(path: Path) -> Path:
-    """Where :func:`write_tiled` moves an old output before the new one takes its name."""
-    from .io import temporary_prefix
-
-    return path.with_name(temporary_prefix(path) + "replaced" + path.suffix)
-
-
 def _remove(path: Path) -> None:
     """Delete a file, a link (not what it points at) or a folder, if there is one at ``path``."""
     if path.is_dir() and not path.is_symlink():
@@ -365,26 +348,18 @@ def _remove(path: Path) -> None:
         path.unlink()
 
 
-def _sweep_temporaries(task: Task) -> None:
-    """Remove the temporary files a killed run left behind for ``task`` (see :func:`_temporaries`)
-    and an old output a tiled run had moved aside; other files beside its outputs (a
-    ``.NAME.png.orig`` of the user's) stay.
-
-    Tiled partial files and their tile records are named differently and kept: a re-run resumes them.
-    """
-    for path in [*map(Path, task.outputs), task.manifest]:
-        for tmp in _temporaries(path):
-            if not tmp.is_dir() or tmp.is_symlink():  # (mkstemp makes files)
-                tmp.unlink(missing_ok=True)
-        _remove(_aside(path))
-
-
 def _sweep_leftovers(task: Task) -> None:
-    """Remove what a run killed after a complete task's manifest left behind: its tile records, a
-    partial file and an old store moved aside (a complete task is not run again to clear them)."""
+    """Remove what a run killed after a complete task's manifest left behind: the tile records
+    of its outputs (a complete task is not run again to clear them), unless a run writing that
+    output now holds its lock (the records are that run's)."""
+    from ._staging import locked
+
     for path in map(Path, task.outputs):
-        for old in [*_tile_records(path), _aside(path)]:
-            _remove(old)
+        records = [r for r in _tile_records(path) if os.path.lexists(r)]
+        if records:
+            with contextlib.suppress(FileExistsError), locked([path]):
+                for old in records:
+                    _remove(old)
 
 
 def _prepare_folder(folder: Path) -> None:
@@ -558,11 +533,14 @@ def dendry_array(task_or_setup, *, tile: int = 512, output: str = "elevation", d
 
 
 class _Target:
-    """Where finished tiles go: an NPY file (opened as a memmap per write) or a Zarr array, plus one
-    marker file per finished tile so an interrupted run knows what is left."""
+    """Where finished tiles go: an NPY file (written in place with ordinary writes, so that a full
+    disk is an error and never a signal) or a Zarr array, plus one marker file per finished tile
+    so an interrupted run knows what is left."""
 
     def __init__(self, path: Path, marks: Path):
         self.path, self.marks = str(path), str(marks)
+        if not self.path.lower().endswith(".zarr"):
+            self.offset, self.width = _npy_layout(path)
 
     def mark(self, window) -> Path:
         return Path(self.marks) / ("%d_%d" % tuple(window[:2]))
@@ -575,11 +553,43 @@ class _Target:
             arr = zarr.open_array(self.path, mode="r+")
             arr[r0:r0 + h, c0:c0 + w] = values
         else:
-            mm = np.load(self.path, mmap_mode="r+")
-            mm[r0:r0 + h, c0:c0 + w] = values
-            mm.flush()
-            del mm
+            from ._staging import write_at
+
+            rows = np.ascontiguousarray(values, "<f4").reshape(h, w)
+            offset, stride = self.offset + 4 * (r0 * self.width + c0), 4 * self.width
+            if w == self.width:  # whole rows: one piece of the file
+                rows, stride = rows.reshape(1, -1), 0
+            fd = os.open(self.path, os.O_WRONLY)
+            try:
+                for row in rows:
+                    # (a row written in part, as a full disk may leave it, is written again whole)
+                    if not hasattr(os, "pwrite") or os.pwrite(fd, row, offset) != row.nbytes:
+                        write_at(fd, row, offset)
+                    offset += stride
+                getattr(os, "fdatasync", os.fsync)(fd)  # (the tile is on the disk before its marker)
+            finally:
+                os.close(fd)
         self.mark(window).touch()
+
+
+def _npy_header(shape) -> bytes:
+    """The header of an NPY file of a float32 image of ``shape`` (little-endian, rows first)."""
+    import io
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f4", "fortran_order": False, "shape": tuple(shape)})
+    return buf.getvalue()
+
+
+def _npy_layout(path) -> tuple[int, int]:
+    """``(offset of the data, image width)`` of a float32 NPY image that :func:`_open_partial` made."""
+    with open(path, "rb") as f:
+        major, _ = np.lib.format.read_magic(f)
+        read = np.lib.format.read_array_header_1_0 if major == 1 else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = read(f)
+        if dtype != np.dtype("<f4") or fortran or len(shape) != 2:
+            raise ValueError(f"{str(path)!r} is not a partial tiled image (a {dtype} array of shape {shape})")
+        return f.tell(), shape[1]
 
 
 def _tile_into(window, tile_fn, targets) -> tuple:
@@ -589,15 +599,6 @@ def _tile_into(window, tile_fn, targets) -> tuple:
         if not target.mark(window).exists():
             target.write(window, values)
     return window
-
-
-def _identity(path: Path) -> str:
-    """What tells the file at ``path`` from any other: device and inode (a rename keeps them), and
-    for a file also its size and modification time (a file rewritten in place changes them)."""
-    st = os.lstat(path)
-    if os.path.isdir(path) and not os.path.islink(path):
-        return f"{st.st_dev}:{st.st_ino}"
-    return f"{st.st_dev}:{st.st_ino}:{st.st_size}:{st.st_mtime_ns}"
 
 
 def _tile_records(final: Path) -> list[Path]:
@@ -636,7 +637,7 @@ def placed_by_killed_run(final: Path, key: str) -> bool:
         same = whole is not None and json.loads(whole["image"]).get("key") == key
     except (ValueError, AttributeError):
         return False
-    return same and os.path.lexists(final) and whole.get("file") == _identity(final)
+    return same and os.path.lexists(final) and whole.get("file") == identity(final)
 
 
 def _clear_records(marks: Path) -> None:
@@ -648,23 +649,34 @@ def _clear_records(marks: Path) -> None:
     _remove(marks)
 
 
-def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, bool]:
-    """The partial file and the folder of tile markers beside it, started afresh unless they hold
-    tiles of the same image (same ``key``, shape and tile size); and whether that image, whole,
-    was already renamed to ``final`` by a run killed before it could clear its markers."""
-    # ".{stem}.partial{suffix}" keeps the suffix that names the format; the records are not named
-    # ".{name}.*" (those are temporaries)
+def _partial_state(final: Path, ident: str) -> str:
+    """What the records beside ``final`` hold of the image ``ident`` (:func:`_image_ident`):
+    ``"placed"`` (the whole image, renamed to ``final`` by a run killed before it could clear
+    them), ``"resume"`` (a partial file with some of its tiles) or ``"new"`` (nothing of it)."""
     partial, marks = _tile_records(final)
-    ident = _image_ident(key, shape, tile)
     if not os.path.lexists(partial) and os.path.lexists(final):
         # the very file a run renamed there, untouched since (its ``whole`` record outlives the others)
-        if _whole_image(marks) == {"file": _identity(final), "image": ident}:
-            return partial, marks, True
+        if _whole_image(marks) == {"file": identity(final), "image": ident}:
+            return "placed"
     try:
         same = (marks / "image.json").read_text() == ident
     except OSError:
         same = False
-    if not partial.exists() or not same:
+    return "resume" if partial.exists() and same else "new"
+
+
+def _npy_bytes(shape) -> int:
+    """The size of the NPY file of a float32 image of ``shape``, in bytes."""
+    return len(_npy_header(shape)) + 4 * shape[0] * shape[1]
+
+
+def _open_partial(final: Path, shape, tile: int, ident: str, state: str) -> tuple[Path, Path, bool]:
+    """The partial file and the folder of tile markers beside ``final``, made afresh when ``state``
+    (:func:`_partial_state`) is ``"new"`` (an NPY file with its whole size allocated on the disk:
+    a full disk fails here, and the file is deleted); and whether the image is ``"placed"``."""
+    # ".{stem}.partial{suffix}" keeps the suffix that names the format
+    partial, marks = _tile_records(final)
+    if state == "new":
         _remove(marks)
         _remove(partial)
         if final.suffix.lower() == ".zarr":
@@ -675,14 +687,20 @@ def _open_partial(final: Path, shape, tile: int, key: str) -> tuple[Path, Path, 
             zarr.open_array(str(partial), mode="w", shape=tuple(shape), chunks=tuple(min(tile, n) for n in shape),
                             dtype="f4")
         else:
-            from numpy.lib.format import open_memmap
+            from ._staging import reserve, write_at
 
-            mm = open_memmap(partial, mode="w+", dtype=np.float32, shape=tuple(shape))
-            mm.flush()
-            del mm
+            fd = os.open(partial, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
+            try:
+                write_at(fd, _npy_header(shape), 0)
+                reserve(fd, _npy_bytes(shape), final)
+            except BaseException:
+                os.close(fd)
+                partial.unlink(missing_ok=True)
+                raise
+            os.close(fd)
         marks.mkdir()
         (marks / "image.json").write_text(ident)
-    return partial, marks, False
+    return partial, marks, state == "placed"
 
 
 def probe_windows(shape) -> list[tuple[int, int, int, int]]:
@@ -724,6 +742,12 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
         pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
         are made.
+        FileExistsError: another process is writing one of the paths (each is locked while this
+        runs, see :func:`wdendrite._staging.locked`); nothing was touched.
+        OSError: a ``.npy`` file does not fit the free space of its disk (checked before any file
+        is made, then its space is allocated before its first tile: a full disk is never met
+        part way), or exceeds the largest file this process may write; the message names the
+        file and the space needed. The records kept so far stay: a call after space is freed resumes.
     """
     shape, tile = _tiling(shape, tile)
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
@@ -740,7 +764,26 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     if client is None:
         for window in probe_windows(shape):  # a setup the tiles refuse leaves no partial file behind
             tile_fn(window)
-    opened = [_open_partial(final, shape, tile, key) for final in finals]
+    from ._staging import Staging, locked
+
+    # (Dask workers write their tiles under the locks this process holds)
+    with locked(finals), Staging() as stage:
+        _write_locked(tile_fn, shape, tile, finals, stage, client=client, progress=progress, key=key,
+                      placed_all=placed_all)
+    return finals if isinstance(path, (list, tuple)) else finals[0]
+
+
+def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all) -> None:
+    """The work of :func:`write_tiled` once its outputs are locked; ``stage`` names old outputs moved aside."""
+    from ._staging import check_space, sync_folder
+    from .io import sync_to_disk
+
+    ident = _image_ident(key, shape, tile)
+    states = [_partial_state(final, ident) for final in finals]
+    # the space is counted before any file is made (a 2000000-pixel square would be a 16 TB file)
+    check_space({final: _npy_bytes(shape) for final, state in zip(finals, states)
+                 if state == "new" and final.suffix.lower() == ".npy"})
+    opened = [_open_partial(final, shape, tile, ident, state) for final, state in zip(finals, states)]
     # (an image a killed run had renamed into place already needs no tile)
     targets = [_Target(partial, marks) for partial, marks, placed in opened if not placed]
     windows = tile_windows(shape, tile)
@@ -754,30 +797,30 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         # one task per tile (not one graph per tile of a Dask array, whose cost grows with the tiles)
         finished = (f.result() for f in as_completed(client.map(_tile_into, todo, tile_fn=tile_fn,
                                                                 targets=targets, pure=False)))
-    for _ in finished:
-        done += 1
-        if progress:
-            progress(done, len(windows))
-    from .io import sync_folder, sync_to_disk
-
+    try:
+        for _ in finished:
+            done += 1
+            if progress:
+                progress(done, len(windows))
+    except OSError as exc:  # (a Zarr store meeting a full disk, say: its records stay for a re-run)
+        raise _naming_output(exc, finals, opened) from exc
     for partial, marks, placed in opened:
         if not placed:
             if partial.is_file():
                 sync_to_disk(partial)
             # a kill from here on leaves a whole image: a re-run renames it, or keeps it once renamed
-            (marks / "whole").write_text(json.dumps({"file": _identity(partial),
-                                                     "image": _image_ident(key, shape, tile)}))
+            (marks / "whole").write_text(json.dumps({"file": identity(partial), "image": ident}))
     # one rename each, one after another, once every tile is in every file: an old Zarr store (a
     # folder, which a rename cannot replace), a link or a file where a store goes is moved aside
-    # first, and deleted after, so a final name never holds a half-deleted store
+    # first (under a staged name: a kill leaves it to the next sweep), and deleted after, so a
+    # final name never holds a half-deleted store
     moved = []
     for final, (partial, _, placed) in zip(finals, opened):
         if placed:
             continue
         if final.is_symlink() or final.is_dir() or (partial.is_dir() and os.path.lexists(final)):
-            _remove(_aside(final))  # (one a killed run left)
-            os.replace(final, _aside(final))
-            moved.append(_aside(final))
+            moved.append(stage.name(final))
+            os.replace(final, moved[-1])
         os.replace(partial, final)
     for folder in dict.fromkeys(f.parent for f in finals):
         sync_folder(folder)
@@ -787,7 +830,20 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         _remove(old)
     for _, marks, _ in opened:
         _clear_records(marks)
-    return finals if isinstance(path, (list, tuple)) else finals[0]
+
+
+def _naming_output(exc: OSError, finals: list, opened: list) -> OSError:
+    """``exc``, met while tiles were written, as an error of its kind that names the output whose
+    partial file or records it concerns (the only output when it names none of them)."""
+    where = os.path.abspath(exc.filename) if isinstance(exc.filename, (str, os.PathLike)) else ""
+    ours = [final for final, (partial, marks, _) in zip(finals, opened)
+            if where and any(where == os.path.abspath(r) or where.startswith(os.path.abspath(r) + os.sep)
+                             for r in (partial, marks))]
+    if not ours and len(finals) == 1 and exc.errno is not None:
+        ours = finals
+    if not ours:
+        return exc
+    return OSError(exc.errno, f"could not write {str(ours[0])!r}: {exc.strerror or exc}")
 
 
 def _default_device_kind() -> str:
@@ -877,6 +933,7 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
     Raises:
         UsageError: a bad job file, an unwritable folder, files the batch did not make in the
             way of its outputs (without ``force``), an unreachable scheduler (before any task runs).
+        FileExistsError: another batch is running in the same output folder (nothing was changed).
     """
     from .cli import check_device_name, pick_device
 
@@ -926,21 +983,38 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
         more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
         raise UsageError(f"{foreign[0]!r}{more} exist but no manifest of this batch lists them: the batch "
                          "did not make them. Move them away, or pass --force to overwrite them")
+    from ._staging import locked, sweep
+
     created = not settings["out"].exists()
     _prepare_folder(settings["out"])
-    for t in todo:
-        _sweep_temporaries(t)
-    running = {id(t) for t in todo}
-    for t in tasks:
-        if id(t) not in running:
-            _sweep_leftovers(t)
+    busy = f"another batch is running in {str(settings['out'])!r} ({{holder}}); wait until it has finished"
+    with locked([settings["out"] / "batch"], busy=busy):  # (a second batch stops here, before any change)
+        sweep(settings["out"])  # what killed runs left: renames completed, temporary files deleted
+        running = {id(t) for t in todo}
+        for t in tasks:
+            if id(t) not in running:
+                _sweep_leftovers(t)
+        failed = _run_todo(todo, settings["out"], created, device, scheduler=scheduler, workers=workers,
+                           processes=processes, timeout=timeout, quiet=quiet)
+    done = len(tasks) - len(todo)
+    print(f"batch: {counted(len(tasks), 'task')}, {len(todo) - len(failed)} run, {done} already complete, "
+          f"{len(failed)} failed -> {settings['out']}")
+    if not failed:
+        return 0
+    # a preset that rejects its values is bad input (2); anything else is a failure (1)
+    return 2 if all(isinstance(exc, _BAD_INPUT) for _, exc in failed) else 1
+
+
+def _run_todo(todo: list, out: Path, created: bool, device, *, scheduler, workers, processes, timeout,
+              quiet) -> list:
+    """Run the tasks of :func:`run_file` that are not complete; ``[(name, error)]`` of those that failed."""
     client = cluster = None
     if scheduler is not None and todo:
         try:
             client, cluster = _client(scheduler, workers, processes, timeout)
         except UsageError:
             if created:  # leave no trace of a run that never started
-                shutil.rmtree(settings["out"], ignore_errors=True)
+                shutil.rmtree(out, ignore_errors=True)
             raise
     failed = []
     bar = progress_bar("batch", quiet=quiet, total=len(todo))
@@ -972,21 +1046,18 @@ def run_file(path, *, scheduler: str | None = None, device: str | None = None, w
             client.close()
         if cluster is not None:
             cluster.close()
-    done = len(tasks) - len(todo)
-    print(f"batch: {counted(len(tasks), 'task')}, {len(todo) - len(failed)} run, {done} already complete, "
-          f"{len(failed)} failed -> {settings['out']}")
-    if not failed:
-        return 0
-    # a preset that rejects its values is bad input (2); anything else is a failure (1)
-    return 2 if all(isinstance(exc, _BAD_INPUT) for _, exc in failed) else 1
+    return failed
 
 
 _BAD_INPUT = (ValueError, TypeError, FileExistsError, MemoryError)
 
 
 def _attempt(call, task: Task, failed: list) -> None:
+    from ._checks import memory_error
+
     try:
         call()
     except Exception as exc:  # one bad task must not stop the others; it is redone next time
+        exc = memory_error(exc) or exc  # (an allocation that failed under another name: out of memory)
         failed.append((task.name, exc))
         print(f"batch: task {task.name} failed: {type(exc).__name__}: {exc}", file=sys.stderr)

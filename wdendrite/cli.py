@@ -128,7 +128,9 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
 
     All or nothing: every output is first written to a temporary file beside its path, and
     only when all are written are they renamed into place; a failure, in the writing or in
-    the renames, removes them and leaves every path as it was.
+    the renames, removes them and leaves every path as it was. A kill during the renames
+    leaves them recorded: the next command run on the folder completes them
+    (:func:`wdendrite._staging.sweep`), and a kill before them leaves temporary files it deletes.
     """
     from . import io
 
@@ -139,13 +141,15 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             _need(result, "mesh", preset)
         elif suf in DENDRITE + SVG:
             _need(result, "dendrite", preset)
-    staged = []
-    try:
+    from ._staging import Staging
+
+    with Staging() as stage:  # (what a failure or a kill leaves staged is deleted, here or by the next sweep)
+        staged = []
         for p in paths:
             tmp = None
             try:
                 mode = io.final_mode(p)
-                tmp = io.temporary_beside(p, mode)
+                tmp = stage.temporary(p, mode)
                 staged.append((tmp, p))
                 with io.writing_staged():  # the writers write to tmp itself: it is already a temporary file
                     _write_one(io, result, tmp, p.suffix.lower(), heightmap, preset)
@@ -157,61 +161,10 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
             what = io.occupied(p)
             if what and not force:
                 raise UsageError(f"-o/--out {str(p)!r} {what}; pass --force to overwrite it")
-        _rename_all(staged)
-    except BaseException:
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
-        raise
+        # a Ctrl-C between two renames would break all or nothing: it waits for the end
+        with io.interrupts_held():
+            stage.commit(staged)
     return [str(p) for p in paths]
-
-
-def _rename_all(staged) -> None:
-    """Rename every ``(tmp, path)`` onto its path, all or none: a file a rename replaces is kept
-    under a hard link until every rename has succeeded, and put back if one fails (where the
-    file system has no hard links, it is moved aside just before its path is renamed onto)."""
-    from . import io
-
-    done = []  # (path, where the file it replaced is kept, or None: there was none)
-    # a Ctrl-C between a rename and its record would break all-or-nothing, and one while the kept
-    # files are deleted would leave hidden links beside the outputs: it waits for the end
-    with io.interrupts_held():
-        _renamed_all(staged, done, io)
-        for _, keep in done:
-            if keep is not None:
-                keep.unlink(missing_ok=True)
-    for folder in {p.parent for p, _ in done}:
-        io.sync_folder(folder)
-
-
-def _renamed_all(staged, done: list, io) -> None:
-    """The renames of :func:`_rename_all`, each recorded in ``done``; all undone if one fails."""
-    try:
-        for tmp, p in staged:
-            keep, linked = None, False
-            if p.exists():
-                keep = io.temporary_beside(p)
-                keep.unlink()
-                try:
-                    os.link(p, keep)
-                    linked = True
-                except OSError:  # no hard links here: the old file moves aside instead
-                    os.replace(p, keep)
-            try:
-                os.replace(tmp, p)
-            except BaseException:
-                if linked:  # p is still the old file (renaming a link onto it would do nothing)
-                    keep.unlink()
-                elif keep is not None:
-                    os.replace(keep, p)
-                raise
-            done.append((p, keep))
-    except BaseException:
-        for p, keep in reversed(done):
-            if keep is not None:
-                os.replace(keep, p)
-            else:
-                p.unlink(missing_ok=True)
-        raise
 
 
 def _save_npy(path, array: np.ndarray) -> None:
@@ -331,7 +284,9 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     """Run preset ``name`` with parameter ``values`` (already typed) and write ``outputs``.
 
     Everything is validated before the preset runs: parameter names and values, the
-    output suffixes and folders, the device. Returns a record of what was done:
+    output suffixes and folders, the device. The outputs are locked while it runs
+    (:func:`wdendrite._staging.locked`): a second run writing one of them at the same time
+    stops at once with ``FileExistsError``. Returns a record of what was done:
     ``preset``, ``params`` (every parameter, defaults included), ``device``,
     ``outputs``, ``seconds`` (compute) and ``write_seconds``.
     """
@@ -352,7 +307,9 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
                              f"write {_listed(_formats(preset))}")
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
-    with _Ticker(f"{name}: making", quiet) as bar:
+    from ._staging import locked
+
+    with locked(paths), _Ticker(f"{name}: making", quiet) as bar:  # (a second run writing them stops at once)
         t0 = time.perf_counter()
         with wp.ScopedDevice(dev):
             result = preset.func(**kwargs)
@@ -549,6 +506,10 @@ def main(argv=None) -> int:
         if getattr(args, "size", None) is not None and isinstance(values[preset.size_param], tuple):
             size_note = f" (--size {args.size} gives {preset.size_param}={values[preset.size_param]})"
         outs = getattr(args, "out", None) or [f"{preset.name}.png"]
+        from ._staging import sweep
+
+        for folder in dict.fromkeys(Path(o).parent for o in outs):
+            sweep(folder)  # what killed runs left there: renames completed, temporary files deleted
         if "tile" in args:
             return _tiled(preset, values, outs, args)
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
@@ -569,17 +530,20 @@ def main(argv=None) -> int:
         # the reader of our report went away (``| head``): the outputs are written, the report is not needed
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except MemoryError as exc:
-        print(f"wdendrite: error: not enough memory: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:  # the system refused a write (disk full, file too large, permissions): no bug
-        print(f"wdendrite: error: {exc}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("wdendrite: interrupted", file=sys.stderr)
         return 130
-    except Exception:  # a bug, not the user's input: show where
-        import traceback
+    except Exception as exc:
+        from ._checks import memory_error
+
+        memory = memory_error(exc)  # (also an allocation beyond the checks' estimates: ulimit -v, a cgroup)
+        if memory is not None:
+            print(f"wdendrite: error: not enough memory: {memory}", file=sys.stderr)
+            return 2
+        if isinstance(exc, OSError):  # the system refused a write (disk full, file too large, permissions): no bug
+            print(f"wdendrite: error: {exc}", file=sys.stderr)
+            return 1
+        import traceback  # a bug, not the user's input: show where
 
         traceback.print_exc()
         print("wdendrite: unexpected failure (please report it with the traceback above)", file=sys.stderr)
@@ -601,7 +565,7 @@ def _options_named(exc, preset, sources=None) -> str:
 def _tiled(preset, values: dict, outs: list, args) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
     from .batch import Task, _tile_records, need_zarr, placed_by_killed_run, run_tiled, tile_key
-    from .io import _NAME_BYTES
+    from ._staging import NAME_BYTES as _NAME_BYTES
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")

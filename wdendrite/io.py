@@ -7,8 +7,6 @@ import contextvars
 import json
 import os
 import re
-import stat
-import tempfile
 import warnings
 import zipfile
 import zlib
@@ -18,6 +16,7 @@ from typing import NoReturn
 import numpy as np
 
 from . import _checks
+from ._staging import Staging, sync_folder
 
 __all__ = [
     "DENDRITE_FORMATS", "MESH_FORMATS", "atomic_write", "load_dendrite", "save_dendrite", "save_mesh", "save_png",
@@ -61,28 +60,6 @@ def _umask() -> int:
     return current
 
 
-_NAME_BYTES = 255  # the longest file name common file systems take, in bytes
-
-
-def temporary_prefix(path) -> str:
-    """The start of the names of temporary files staged for ``path`` (beside it): a dot and the
-    file's name. A name too long for the random part and the suffix to follow is shortened and
-    marked with a hash of the whole name, so that no other file's temporaries share the prefix."""
-    path = Path(path)
-    name = os.fsencode(path.name)  # bytes as the file system takes them (undecodable names too)
-    room = _NAME_BYTES - 2 - 8 - len(os.fsencode(path.suffix))  # the dots, mkstemp's 8 characters, the suffix
-    if len(name) <= room:
-        return "." + os.fsdecode(name) + "."
-    mark = "~" + format(zlib.crc32(name), "08x")
-    cut = name[: room - len(mark)]
-    try:
-        name.decode()
-        short = cut.decode(errors="ignore")  # a UTF-8 name: cut at a character boundary
-    except UnicodeDecodeError:
-        short = os.fsdecode(cut)  # other bytes, escaped as the file system functions expect
-    return "." + short + mark + "."
-
-
 _STAGED = contextvars.ContextVar("wdendrite_io_staged", default=False)
 
 
@@ -121,34 +98,31 @@ def atomic_write(path, write, *, overwrite: bool = False) -> Path:
         write(str(path))
         return path
     mode = final_mode(path)
-    try:
-        tmp = str(temporary_beside(path, mode))
-    except OSError as exc:
-        raise_write_failed(path, exc)
-    try:
-        write(tmp)
-        sync_to_disk(tmp)
-        os.chmod(tmp, mode)  # (written while the owner could write it)
-        if overwrite:
-            os.replace(tmp, path)
-        else:
-            # a hard link fails if ``path`` appeared meanwhile (the check above is not atomic);
-            # file systems without hard links fall back to the rename
-            try:
-                os.link(tmp, path)
-            except FileExistsError:
-                raise FileExistsError(f"{str(path)!r} appeared while it was written; nothing was replaced "
-                                      "(pass overwrite=True to replace it)") from None
-            except OSError:
+    with Staging() as stage:  # (a kill leaves a temporary the next command's sweep recognises)
+        try:
+            tmp = str(stage.temporary(path, mode))
+        except OSError as exc:
+            raise_write_failed(path, exc)
+        try:
+            write(tmp)
+            sync_to_disk(tmp)
+            os.chmod(tmp, mode)  # (written while the owner could write it)
+            if overwrite:
                 os.replace(tmp, path)
             else:
-                os.unlink(tmp)
-    except BaseException as exc:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        if isinstance(exc, OSError) and not isinstance(exc, FileExistsError):
-            raise_write_failed(path, exc, tmp)
-        raise
+                # a hard link fails if ``path`` appeared meanwhile (the check above is not atomic);
+                # file systems without hard links fall back to the rename
+                try:
+                    os.link(tmp, path)
+                except FileExistsError:
+                    raise FileExistsError(f"{str(path)!r} appeared while it was written; nothing was replaced "
+                                          "(pass overwrite=True to replace it)") from None
+                except OSError:
+                    os.replace(tmp, path)
+        except BaseException as exc:  # (the staging deletes the temporary file)
+            if isinstance(exc, OSError) and not isinstance(exc, FileExistsError):
+                raise_write_failed(path, exc, tmp)
+            raise
     sync_folder(path.parent)
     return path
 
@@ -201,22 +175,6 @@ def sync_to_disk(path) -> None:
         os.close(fd)
 
 
-def sync_folder(folder) -> None:
-    """Flush ``folder``'s entries (the renames just made in it) to the disk, where the system allows."""
-    if os.name == "nt":
-        return  # folders cannot be opened for a flush there; NTFS logs renames itself
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:  # some file systems refuse to flush a folder: the renames stand, only less durably
-        pass
-    finally:
-        os.close(fd)
-
-
 def final_mode(path) -> int:
     """Permissions a file written to ``path`` ends with: those of the file it replaces (without
     set-id or sticky bits), else what a plain ``open()`` gives a new file."""
@@ -224,22 +182,6 @@ def final_mode(path) -> int:
         return os.stat(path).st_mode & 0o777
     except OSError:  # nothing there yet (or nothing readable)
         return 0o666 & ~_umask()
-
-
-def temporary_beside(path, mode: int | None = None) -> Path:
-    """A new empty file beside ``path`` (named by :func:`temporary_prefix`, same suffix) to
-    stage ``path`` in: ``mode`` (default :func:`final_mode`'s), readable and writable by its owner
-    while it is written (mkstemp's are private); give it its final mode before the rename."""
-    path = Path(path)
-    mode = (final_mode(path) if mode is None else mode) | stat.S_IRUSR | stat.S_IWUSR  # (writers may read back)
-    fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, mode)
-    except BaseException:
-        os.unlink(tmp)
-        raise
-    return Path(tmp)
 
 
 def _png16_rgb(path, rgb: np.ndarray) -> None:
