@@ -505,3 +505,57 @@ def test_coverage_of_a_distance_field_sums_to_the_width_and_refuses_bad_distance
         wd.render.coverage(np.array([-1.0]), 1.0)
     with pytest.raises(ValueError, match="'width'"):
         wd.render.coverage(np.array([1.0]), 0.0)
+
+
+# Dendry trees drawn as lines
+
+_BOWL = dict(domain=((0.0, 0.0), (2.0, 2.0)), control=wd.control.lichtenberg())
+_TREE = wd.DendryParams(levels=3, eps=0.25, delta=(0.05, 0.01, 0.0), rule="lichtenberg", seed=2)
+
+
+def test_the_tree_of_the_first_levels_is_the_whole_trees_first_levels(device):
+    # what dendry_lines rests on: cutting the parameters to k levels keeps levels 1..k as they are
+    n = 96
+    whole = wd.dendry((n, n), params=_TREE, output="distance", device=device, **_BOWL)
+    level = wd.dendry((n, n), params=_TREE, output="level", device=device, **_BOWL)
+    for k in (1, 2):
+        cut = wd.DendryParams(levels=k, eps=0.25, delta=_TREE.delta[:k], rule="lichtenberg", seed=2)
+        first = wd.dendry((n, n), params=cut, output="distance", device=device, **_BOWL)
+        assert np.all(first >= whole)  # fewer branches, never nearer
+        np.testing.assert_array_equal(first[level <= k], whole[level <= k])
+
+
+def test_dendry_lines_draw_each_level_at_its_own_width(device):
+    n = 128
+    cover = wd.render.dendry_lines((n, n), params=_TREE, device=device, **_BOWL)
+    assert cover.shape == (n, n) and cover.dtype == np.float32 and 0 <= cover.min() and cover.max() <= 1
+    # the documented widths: the finest level an eighth of its 16-pixel cell, within [1, 1.5]; x 1.4 a level
+    widths = [1.5 * 1.4**2, 1.5 * 1.4, 1.5]
+    px = 2.0 / n
+    d = wd.dendry((n, n), params=_TREE, output="distance", device=device, **_BOWL) / px
+    level = wd.dendry((n, n), params=_TREE, output="level", device=device, **_BOWL)
+
+    def line(w):  # a stroke of width w, seen by a pixel d from its middle (coverage's own tests hold it)
+        return wd.render.coverage(d, w)
+
+    # nearest to the trunk: the trunk's own width; elsewhere between the finest and the trunk's
+    np.testing.assert_allclose(cover[level == 1], line(widths[0])[level == 1], atol=1e-6)
+    assert np.all(cover >= line(widths[-1]) - 1e-6) and np.all(cover <= line(widths[0]) + 1e-6)
+    assert (cover > line(widths[-1]) + 0.1).any()  # some finer branches lie within a coarser one's width
+    assert len(np.unique(np.round(cover, 3))) > 50  # antialiased: many partial covers
+    again = wd.render.dendry_lines((n, n), params=_TREE, distance=d * px, device=device, **_BOWL)
+    np.testing.assert_array_equal(again, cover)
+    thin = wd.render.dendry_lines((n, n), params=_TREE, widths=[1.0, 1.0, 1.0], device=device, **_BOWL)
+    np.testing.assert_allclose(thin, line(1.0), atol=1e-6)  # one width for all: the whole tree at that width
+
+
+@pytest.mark.parametrize("kw, exc, match", [
+    (dict(widths=[1.0, 2.0]), ValueError, r"one width per level \(3\), but got \[1.0, 2.0\]"),
+    (dict(widths=[1.0, 0.0, 1.0]), ValueError, r"'widths\[1\]'"),
+    (dict(distance=np.zeros((5, 5))), ValueError, r"'distance' has shape \(5, 5\), but 'shape' is \(16, 16\)"),
+    (dict(params=None), TypeError, "DendryParams for 'params'"),
+])
+def test_dendry_lines_refuse_bad_input_before_any_kernel(kw, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        wd.render.dendry_lines((16, 16), **{"params": _TREE, **_BOWL, **kw})
+    assert launches == []

@@ -16,12 +16,12 @@ Start here::
 Every model of the papers is one call in :mod:`wdendrite.presets` (lightning, trees, coral,
 lichen, moss, letters, terrains), also on the command line: ``wdendrite --help``.
 Modules: lattice, weights, sssp (searches), endpoints, dendrite (trace), growth (fractal growth),
-refine, render, skeleton (smooth centre lines), geometry (meshes), preview (ray-cast pictures),
-dendry, control, hydrology, io, presets, batch (``import wdendrite.batch``: job files, tiled
-writing, Dask). Kernels run on the CPU or CUDA: ``device=``.
+refine, render, figure (labelled panels), skeleton (smooth centre lines), geometry (meshes), preview
+(ray-cast pictures), dendry, control, hydrology, io, presets, batch (``import wdendrite.batch``: job
+files, tiled writing, Dask). Kernels run on the CPU or CUDA: ``device=``.
 """
 
-from . import control, endpoints, geometry, hydrology, io, presets, preview, render, skeleton, weights
+from . import control, endpoints, figure, geometry, hydrology, io, presets, preview, render, skeleton, weights
 from .dendrite import Dendrite, trace
 from .dendry import DendryParams, default_control, dendry, dendry_points
 from .growth import FractalParams, grow
@@ -55,6 +55,7 @@ __all__ = [
     "dendry",
     "dendry_points",
     "endpoints",
+    "figure",
     "geometry",
     "grow",
     "hydrology",

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Iterator
 
 import numpy as np
 import warp as wp
@@ -248,11 +247,10 @@ class Dendrite:
             out.append(int(self.parent[out[-1]]))
         return np.asarray(out, dtype=np.int64)
 
-    def paths(self) -> Iterator[np.ndarray]:
-        """Yield the path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the
-        endpoint to its root."""
-        for e in self.endpoints:
-            yield self.path(e)
+    def paths(self) -> list[np.ndarray]:
+        """The path of every endpoint, in ``endpoints`` order: a list of ``(L,)`` int64 rows from the
+        endpoint to its root (a new list each call; ``len(den.paths()) == len(den.endpoints)``)."""
+        return [self.path(e) for e in self.endpoints]
 
 
 def _read_only(arr: np.ndarray) -> np.ndarray:

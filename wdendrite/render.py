@@ -1,4 +1,5 @@
-"""Brightness images of dendrites (Xu & Mould lightning), tapering, compositing and colour maps.
+"""Brightness images of dendrites (Xu & Mould lightning), tapering, compositing and colour maps;
+Dendry trees drawn as lines.
 
 A pixel at distance ``d`` from the dendrite gets the brightness
 ``V = exp(-(d / T)^2)``, where ``T`` (pixels, or cost units on a weighted
@@ -43,12 +44,14 @@ from .sssp import shortest_paths
 
 __all__ = [
     "COLORMAPS",
+    "DENDRY_WIDENING",
     "Taper",
     "branch_order",
     "brightness",
     "colorize",
     "composite",
     "coverage",
+    "dendry_lines",
     "distance_field",
     "glow",
     "node_widths",
@@ -763,3 +766,66 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
                           0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
                   outputs=[out])
         return out.numpy()
+
+
+DENDRY_WIDENING = 1.4
+"""How much wider :func:`dendry_lines` draws each level of a Dendry tree than the next finer level."""
+
+
+def _dendry_widths(params, pixel: float) -> list[float]:
+    """Line widths (pixels) of levels 1..n at ``pixel`` domain units a pixel: the finest level an
+    eighth of its cell wide, within [1, 1.5] pixels, each coarser one :data:`DENDRY_WIDENING` wider."""
+    finest_cell = 1.0 / (params.resolution * 2.0 ** (params.levels - 1) * pixel)
+    fine = float(np.clip(finest_cell / 8.0, 1.0, 1.5))
+    return [fine * DENDRY_WIDENING ** (params.levels - k) for k in range(1, params.levels + 1)]
+
+
+def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=None, device=None) -> np.ndarray:
+    """A Dendry tree drawn as antialiased lines, each level at its own width (a Lichtenberg figure, rivers).
+
+    The tree grows level by level, each level adding branches to the coarser ones, so the distance
+    to its levels 1..k is :func:`wdendrite.dendry`'s distance with ``params`` cut to k levels. A pixel
+    takes the most that one level's lines cover of it: the :func:`coverage` of a stroke of that
+    level's width at the pixel's distance to the level's tree (the pixel filter of :func:`strokes`).
+
+    Args:
+        shape, domain, params, control, device: as :func:`wdendrite.dendry` takes them (its
+            ``output`` is the distance). The pixel's side is the domain's width over ``W``.
+        widths: line width of each level, 1 to n, in pixels (default: the finest level an eighth of
+            its cell wide, within [1, 1.5] pixels, each coarser level :data:`DENDRY_WIDENING` wider).
+        distance: the ``(H, W)`` distance to the whole tree when it is already computed (saves one
+            evaluation of the finest level).
+
+    Returns:
+        ``(H, W)`` float32 coverage: 1 on a branch, 0 away from every branch (draw ink on paper
+        as ``1 - value``, or light with :func:`colorize`).
+
+    Raises:
+        ValueError: what :func:`wdendrite.dendry` refuses; ``widths`` not one positive width per
+            level; a ``distance`` of another shape (before any evaluation).
+    """
+    import dataclasses
+
+    from .dendry import DendryParams, dendry
+
+    if not isinstance(params, DendryParams):
+        raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
+    (x0, _), (x1, _) = domain
+    pixel = (float(x1) - float(x0)) / int(shape[1])
+    if widths is None:
+        widths = _dendry_widths(params, pixel)
+    if np.ndim(widths) != 1 or len(widths) != params.levels:
+        raise ValueError(f"Expected 'widths' as one width per level ({params.levels}), but got {widths!r}")
+    widths = [_width_number(f"widths[{i}]", w) for i, w in enumerate(widths)]
+    if distance is not None and np.shape(distance) != tuple(shape):
+        raise ValueError(f"'distance' has shape {np.shape(distance)}, but 'shape' is {tuple(shape)}")
+    cover = np.zeros(tuple(shape), np.float32)
+    for k, width in enumerate(widths, 1):
+        if k == params.levels and distance is not None:
+            d = np.asarray(distance)
+        else:  # the tree of levels 1..k (per-level tuples cut alike)
+            cut = {n: getattr(params, n)[:k] for n in ("eps", "delta") if isinstance(getattr(params, n), tuple)}
+            d = dendry(shape, domain=domain, params=dataclasses.replace(params, levels=k, **cut), control=control,
+                       output="distance", device=device)
+        np.maximum(cover, coverage(d / pixel, width), out=cover)  # (+inf: no branch in reach, no cover)
+    return cover
