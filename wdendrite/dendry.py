@@ -185,7 +185,9 @@ class DendryParams:
     one key point per level-1 cell a valley narrower than a cell makes sinks even where the
     control itself drains. With ``outlets``, before any pixel is evaluated the level-1 key points
     of the cells that overlap ``domain`` take values filled by a priority flood over their
-    8-connected grid from the key points outside ``domain``, which keep the control's values:
+    8-connected grid from the key points outside ``domain`` and, for a bounded control, from those
+    next to its edge, all of which keep the control's values (the flood never enters key points
+    outside a bounded control's domain):
     each ends at least ``OUTLET_RISE`` times the control's range (and at least one float32 step)
     above the neighbour the flood reached it from, so every one has a lower neighbour and every
     level-1 river runs down to the border. Values only rise: key points that descend to the
@@ -433,9 +435,17 @@ def _give_outlets(s: _kd.Setup, ctl: _kd.Control, params: DendryParams, control:
     res = params.resolution
     (x0, y0), (x1, y1) = domain
     x, y = p[..., 0].astype(np.float64), p[..., 1].astype(np.float64)
-    inside = (p[..., 3] > 0.0) & (x >= x0 * res) & (x <= x1 * res) & (y >= y0 * res) & (y <= y1 * res)
+    usable = p[..., 3] > 0.0  # (a bounded control's key points outside its domain have no segments)
+    inside = usable & (x >= x0 * res) & (x <= x1 * res) & (y >= y0 * res) & (y <= y1 * res)
+    # the flood starts from the usable key points outside the domain and from those next to an
+    # unusable one (a bounded control's rim), and never enters the unusable ones
+    pad = np.pad(~usable, 1)
+    rim = np.zeros_like(usable)
+    for dy in range(3):
+        for dx in range(3):
+            rim |= pad[dy : dy + h, dx : dx + w]
     rise = np.float32(OUTLET_RISE * max(control.maximum - control.minimum, 1e-12))
-    z = flood(p[..., 2], rise, seeds=~inside)
+    z = flood(p[..., 2], rise, seeds=usable & (~inside | rim), blocked=~usable)
     s.outlet_lo = wp.vec2i(i0, j0)
     s.outlet_n = wp.vec2i(w, h)
     s.outlet_z = wp.array(z.ravel(), dtype=float, device=device)
