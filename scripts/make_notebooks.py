@@ -292,12 +292,18 @@ show([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], labels=["D8
                "slope is `smootherstep` of `h^beta` between the control's minimum and maximum. With beta near 0 every "
                "slope is steep; larger values widen the valleys of the low ground, and beyond 1 the high ground rises "
                "in cliffs over wide plains. Its effect shows where the tree's elevations span the control's range: "
-               "here a plane rising from 0 (top) to 1 (bottom), beta = 0, 0.5, 1 and 2:"),
+               "here a plane rising from 0 (top) to 1 (bottom), beta = 0, 0.5, 1 and 2. Below it the paper's Fig. 13 "
+               "setup (a Perlin control, 2 levels, delta 0.08, seed 1, beta 0 to 1.5): our Perlin control spans only "
+               "about 0.3 to 0.8 over Table 1's rectangle, and the finer branches lie above it, so there beta changes "
+               "only the lowest valleys."),
         ("code", '''\
 ramp = control.plane((0.0, 1.0))                                  # 0 at the top, 1 at the bottom
 slopes = [wd.dendry((n, n), domain=((0.0, 0.0), (4.0, 4.0)), control=ramp, output="elevation",
                     params=dataclasses.replace(p, beta=b)) for b in (0.0, 0.5, 1.0, 2.0)]
-show([wd.render.relief(a, 4.0 / n) for a in slopes], labels=["beta 0", "beta 0.5", "beta 1", "beta 2"])'''),
+display(show([wd.render.relief(a, 4.0 / n) for a in slopes], labels=["beta 0", "beta 0.5", "beta 1", "beta 2"]))
+fig13 = [wd.dendry((n, n), domain=((0.0, 0.0), (4.0, 4.0)), control=ctl, output="elevation",
+                   params=wd.DendryParams.terrain(seed=1, delta=0.08, beta=b)) for b in (0.0, 0.5, 1.0, 1.5)]
+show([wd.render.relief(a, 4.0 / n) for a in fig13], labels=["beta 0", "beta 0.5", "beta 1", "beta 1.5"])'''),
         ("md", "**A sketch as the control** (the paper's Fig. 11: a U-shaped user sketch and the terrain made from "
                "it). Any drawing works: dark strokes are low ground, and the main valleys follow them. Here a U drawn "
                "with a few brush strokes, blurred, scaled to [0, 1] and drained so that it leads to the border:"),
