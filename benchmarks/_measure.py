@@ -14,7 +14,7 @@ resident set of the whole process (``VmHWM``, never reset).
 ``interleaved(sides, repeat)`` times several callables in turns (one run of each,
 then again), so a disturbance on a shared machine hits every side alike;
 ``spread(values)`` and ``shown(values)`` give and print the median and the range
-of repeated measurements; ``cpu_model()`` and ``now()`` name the machine and the time.
+of repeated measurements; ``cpu_model()`` and ``now()`` name the machine (with its load) and the time.
 """
 
 from __future__ import annotations
@@ -117,7 +117,8 @@ def shown(values, fmt: str = ".3g", unit: str = "") -> str:
 
 
 def cpu_model() -> str:
-    """The CPU's model name from /proc/cpuinfo and the number of logical CPUs."""
+    """The CPU's model name from /proc/cpuinfo, the number of logical CPUs and the load average
+    (other work on a shared machine slows every side: the spread of the repeats shows how much)."""
     name = "unknown CPU"
     try:
         with open("/proc/cpuinfo") as f:
@@ -127,7 +128,8 @@ def cpu_model() -> str:
                     break
     except OSError:
         pass
-    return f"{name}, {os.cpu_count()} logical CPUs"
+    load = " / ".join(f"{x:.1f}" for x in os.getloadavg())
+    return f"{name}, {os.cpu_count()} logical CPUs, load average {load} (1 / 5 / 15 min)"
 
 
 def now() -> str:

@@ -13,8 +13,11 @@ the peer, then ours pixel by pixel (``mode="pixel"``, the paper's evaluation) an
 with cached cells (``mode="cached"``) for each ``--search``: ``exact``, our
 default, searches as wide as measured to miss no link; ``paper`` searches the
 paper's 3 x 3 cells for links, as the peer does. The peer and our per-pixel mode
-evaluate the same pixels: the whole image, or with ``--pixel-window N`` a
-centred N x N window; the cached mode computes the whole image. Pixels per
+evaluate the same pixels: every ``--row-step``-th row of the image (by default
+the least step that keeps them within 2^18 pixels: every row of the 512^2 image,
+every 4th of the 1024^2 figure; our per-pixel mode then takes one call per row,
+whose set-up it pays), or with ``--pixel-window N`` a centred N x N window; the
+cached mode computes the whole image. Pixels per
 second are printed as median (range) per side, and the ratios as the median
 (range) over the repeats, each ours against the peer's run of the same turn.
 Only the evaluation is timed: the peer's pixel loop, our ``dendry`` call from
@@ -34,8 +37,8 @@ in 1000 small clusters over it), against the peer's per-pixel rate of the same
 setup measured above (it has no point API).
 
 Usage: python benchmarks/bench_dendry.py [--quick] [--size 512] [--levels 2] [--outputs elevation distance]
-       [--lichtenberg-size 1024] [--pixel-window N] [--search exact paper] [--points 20000] [--repeat 5]
-       [--device cpu]
+       [--lichtenberg-size 1024] [--row-step N | --pixel-window N] [--search exact paper] [--points 20000]
+       [--repeat 5] [--device cpu]
 """
 
 from __future__ import annotations
@@ -67,16 +70,27 @@ def _case(kind: str, levels: int, search: str = "exact"):
     return dict(domain=((0.0, 0.0), (4.0, 4.0)), params=p, control=ctl)
 
 
-def _ours(size: int, window, device, **kw) -> tuple[float, np.ndarray]:
+def _ours(size: int, pixels, device, **kw) -> tuple[float, np.ndarray]:
+    """Seconds and values of ours on ``pixels`` (see ``_pixels``; None: the whole image)."""
+    if pixels is None:
+        windows = [None]
+    else:
+        r0, c0, rows, cols, step = pixels
+        windows = [(r0, c0, rows, cols)] if step == 1 else [(r0 + k * step, c0, 1, cols) for k in range(rows)]
     t = time.perf_counter()
-    out = dendry((size, size), window=window, device=device, **kw)
+    out = [dendry((size, size), window=win, device=device, **kw) for win in windows]
     wp.synchronize_device(device)
-    return time.perf_counter() - t, out
+    return time.perf_counter() - t, np.concatenate(out)
 
 
-def _window(size: int, side: int | None) -> tuple[int, int, int, int]:
-    side = size if side is None else min(side, size)
-    return ((size - side) // 2, (size - side) // 2, side, side)
+def _pixels(size: int, side: int | None, step: int | None) -> tuple[int, int, int, int, int]:
+    """(row0, col0, rows, cols, step): a centred ``side`` square, else every ``step``-th row (default:
+    the least step keeping them within 2^18 pixels)."""
+    if side is not None:
+        side = min(side, size)
+        return ((size - side) // 2, (size - side) // 2, side, side, 1)
+    step = step or -(-size * size // 2**18)
+    return (0, 0, -(-size // step), size, step)
 
 
 def _sanity(values: np.ndarray) -> str:
@@ -87,13 +101,13 @@ def _sanity(values: np.ndarray) -> str:
 def _measure_case(kind, size, levels, out, args, device, peer):
     """Prints the table's rows for one workload; returns the peer's median px/s (or the recorded
     one, None without either) and a line comparing both sides' values."""
-    win = _window(size, args.pixel_window)
+    win = _pixels(size, args.pixel_window, args.row_step)
     pixels = win[2] * win[3]
     peer_rates, ours = [], {}
     sanity = {}
     for _ in range(args.repeat):
         if peer is not None:
-            run = dendry_peer.run(peer, f"{kind}-{out}", levels=levels, shape=(size, size), window=win)
+            run = dendry_peer.run(peer, f"{kind}-{out}", levels=levels, shape=(size, size), pixels=win)
             peer_rates.append(run.pixels / run.seconds)
             sanity["peer"] = f"[{run.min:.4g}, {run.max:.4g}] mean {run.mean:.4g}"
         for search in args.search:
@@ -118,7 +132,11 @@ def _measure_case(kind, size, levels, out, args, device, peer):
         else:
             ratio = "- (no peer figure)"
         print(f"| {label} | {search} | {mode} | {shown(rates, ',.0f')} | {peer_txt} | {ratio} |", flush=True)
-    what = "whole image" if win[2] == size else f"window {win}"
+    r0, c0, rows, cols, step = win
+    if rows * step >= size and cols == size:
+        what = "the whole image" if step == 1 else f"one row in {step}"
+    else:
+        what = f"window {(r0, c0, rows, cols)}"
     line = f"# {label} ({what}): " + "; ".join(f"{k} {v}" for k, v in sanity.items())
     return (spread(peer_rates)[0] if peer_rates else None), line
 
@@ -134,7 +152,10 @@ def main() -> None:
     ap.add_argument("--lichtenberg-size", type=int, default=1024, help="side of the Lichtenberg figure (0: skip it)")
     ap.add_argument("--pixel-window", type=int, default=None,
                     help="time the per-pixel modes (the peer's and ours) on a centred square of this side "
-                         "(default: the whole image)")
+                         "(default: rows spread over the whole image, see --row-step)")
+    ap.add_argument("--row-step", type=int, default=None,
+                    help="time the per-pixel modes on every N-th row of the image (default: the least N that "
+                         "keeps them within 2^18 pixels; 1: the whole image)")
     ap.add_argument("--search", nargs="+", default=["exact", "paper"], choices=["exact", "paper"])
     ap.add_argument("--points", type=int, default=None,
                     help="random points per dendry_points case, in each mode (0: skip them; else at least 1000; "
@@ -147,8 +168,9 @@ def main() -> None:
         args.points = 2000 if args.quick else 20000
     if args.repeat < 1:
         ap.error(f"--repeat must be at least 1, got {args.repeat}")
-    if args.size < 1 or (args.pixel_window is not None and args.pixel_window < 1):
-        ap.error(f"--size and --pixel-window must be at least 1, got {args.size} and {args.pixel_window}")
+    if min(args.size, args.pixel_window or 1, args.row_step or 1) < 1:
+        ap.error(f"--size, --pixel-window and --row-step must be at least 1, got {args.size}, {args.pixel_window} "
+                 f"and {args.row_step}")
     if not all(1 <= lv <= 5 for lv in args.levels):
         ap.error(f"--levels must lie in 1-5 (the peer's terrain levels), got {args.levels}")
     if args.lichtenberg_size < 0:

@@ -95,15 +95,15 @@ class PeerRun:
     mean: float
 
 
-def run(exe: Path, case: str, *, levels: int, shape: tuple[int, int], window: tuple[int, int, int, int],
+def run(exe: Path, case: str, *, levels: int, shape: tuple[int, int], pixels: tuple[int, int, int, int, int],
         seed: int = 0) -> PeerRun:
-    """Evaluate ``window`` = (row0, col0, rows, cols) of an ``shape`` = (H, W) image with the peer.
+    """Evaluate pixels of an ``shape`` = (H, W) image with the peer: ``pixels`` = (row0, col0, rows,
+    cols, step), ``rows`` rows ``row0``, ``row0 + step``, ... of ``cols`` pixels from column ``col0``.
 
     ``case``: ``"table1-elevation"``, ``"table1-distance"`` or ``"lichtenberg-distance"``."""
     h, w = shape
-    r0, c0, rows, cols = window
-    proc = subprocess.run([str(exe), case, str(seed), str(levels), str(w), str(h), str(r0), str(c0), str(rows),
-                           str(cols)], capture_output=True, text=True)
+    proc = subprocess.run([str(exe), case, str(seed), str(levels), str(w), str(h), *map(str, pixels)],
+                          capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"the Dendry peer failed on {case}: {proc.stderr.strip()}")
     fields = dict(item.split("=", 1) for item in proc.stdout.split())
