@@ -252,7 +252,8 @@ def _point_rates(count: int, device, peer_rates: dict, *, recorded: bool) -> Non
                 rate = len(pts) / (time.perf_counter() - t)
                 ratio = f"{rate / peer:.1f}x" if peer else "-"
                 peer_txt = f"{peer:,.0f}" if peer else "- (not measured)"
-                print(f"| {kind} | {levels} | {out} | {name} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |", flush=True)
+                print(f"| {kind} | {levels} | {out} | {name} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |",
+                      flush=True)
 
 
 if __name__ == "__main__":

@@ -244,7 +244,8 @@ def main() -> None:
                 ours_t = [r["seconds"] for r in runs["wdendrite"]]
                 ours_s = statistics.median(ours_t)
                 ours = np.load(runs["wdendrite"][0]["result"]["file"]).astype(np.float64)
-                cells = [name, method, shown(ours_t), f"{statistics.median(r['peak_mib'] for r in runs['wdendrite']):.0f}"]
+                ours_mib = statistics.median(r["peak_mib"] for r in runs["wdendrite"])
+                cells = [name, method, shown(ours_t), f"{ours_mib:.0f}"]
                 for side in ("pysheds", "numpy"):
                     if side not in runs:
                         cells += ["-"] * 4

@@ -1,11 +1,11 @@
-// Times the authors' Dendry (a peer, built by benchmarks/dendry_peer.py) on a window of an image.
+// Times the authors' Dendry (a peer, built by benchmarks/dendry_peer.py) on rows of an image.
 //
 // Usage: dendry_peer CASE SEED LEVELS WIDTH HEIGHT ROW0 COL0 ROWS COLS STEP [OUT]
 //   CASE: table1-elevation, table1-distance (LEVELS 1-5) or lichtenberg-distance (LEVELS 1-6)
 // Evaluates ROWS rows of COLS pixels: rows ROW0, ROW0 + STEP, ... from column COL0. Pixel (i, j) of
 // a WIDTH x HEIGHT image lies at x = S j / WIDTH, y = S i / HEIGHT over the noise domain
-// (0, 0)-(S, S), S = 4, as the peer's own application puts it. Only the evaluation loop is timed. Prints one line of key=value pairs (seconds, pixels, finite, min, max, mean of the
-// finite values); OUT, when given, receives the values as raw float32, row by row.
+// (0, 0)-(S, S), S = 4, as the peer's own application puts it. Only the evaluation loop is timed.
+// Prints one line of key=value pairs (seconds, pixels, finite, min, max, mean of the finite values); OUT, when given, receives the values as raw float32, row by row.
 // This file is ours; it calls the peer's public Noise constructor and evaluate functions only.
 
 #include <algorithm>  // (before the peer's headers, which use std::clamp without it)
@@ -70,8 +70,8 @@ int main(int argc, char** argv) {
         // the Dendry paper's Table 1 setup (there at 2 levels), in the peer's own parameters
         const bool elevation = which == "table1-elevation";
         const Noise<PerlinControlFunction> noise(std::make_unique<PerlinControlFunction>(), noise_lo, noise_hi,
-                                                 Point2D(-0.2, -0.4), Point2D(1.4, 0.7), seed, 0.25, levels, 0.1, 3, 0.5,
-                                                 0.05, elevation, false, false, false, !elevation);
+                                                 Point2D(-0.2, -0.4), Point2D(1.4, 0.7), seed, 0.25, levels, 0.1, 3,
+                                                 0.5, 0.05, elevation, false, false, false, !elevation);
         values = run([&](double x, double y) { return noise.evaluateTerrain(x, y); }, width, height, row0, col0,
                      rows, cols, step, seconds);
     } else if (which == "lichtenberg-distance") {

@@ -235,7 +235,8 @@ def _unfiltered(raw: np.ndarray, bpp: int) -> np.ndarray:
             b = int(out[r - 1, i]) if r else 0
             c = int(out[r - 1, i - bpp]) if r and i >= bpp else 0
             p = a + b - c
-            paeth = a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else (b if abs(p - b) <= abs(p - c) else c)
+            pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+            paeth = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
             out[r, i] = (int(raw[r, 1 + i]) + (0, a, b, (a + b) // 2, paeth)[kind]) % 256
     return out.astype(np.uint8)
 

@@ -26,9 +26,9 @@ def _find_source_kernels() -> None:
 
     An installation maps the checkout's top-level ``kernels/`` folder into the package (a
     wheel copies it, an editable install adds a finder). Python started in the checkout's
-    root puts that folder first on ``sys.path``, so its ``wdendrite/`` shadows any installed
-    copy and lacks ``kernels/``: when nothing else finds the kernels, load them from the
-    checkout itself, so the host code and its kernels come from the same tree.
+    root (``python -c``, ``python -m``) puts the root first on ``sys.path``, so the checkout's
+    ``wdendrite/`` shadows any installed copy, and it holds no ``kernels/``: when nothing else
+    finds the kernels, load them from the checkout, so host code and kernels come from one tree.
     """
     import importlib.util
     import sys
@@ -40,7 +40,8 @@ def _find_source_kernels() -> None:
     folder = Path(__file__).resolve().parent.parent / "kernels"
     if not (folder / "__init__.py").is_file():
         return  # (the import below then names what is missing)
-    spec = importlib.util.spec_from_file_location(name, folder / "__init__.py", submodule_search_locations=[str(folder)])
+    spec = importlib.util.spec_from_file_location(name, folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
@@ -55,6 +56,7 @@ from .growth import FractalParams, grow
 from .lattice import Lattice
 from .refine import refine
 from .sssp import CostField, shortest_paths
+
 
 def _installed_version() -> str:
     """The version of the installed distribution (pyproject.toml is its only source)."""
