@@ -33,8 +33,9 @@ every line that uses them.
 
 Then ``dendry_points`` in its three modes (``--points`` random points: uniform
 over the image's domain, in 40 tight clusters over a domain 500 times wider, and
-in 1000 small clusters over it), against the peer's per-pixel rate of the same
-setup measured above (it has no point API).
+in 1000 small clusters over it), ``--repeat`` runs with the modes in turns,
+against the peer's per-pixel rate of the same setup measured above (it has no
+point API).
 
 Usage: python benchmarks/bench_dendry.py [--quick] [--size 512] [--levels 2] [--outputs elevation distance]
        [--lichtenberg-size 1024] [--row-step N | --pixel-window N] [--search exact paper] [--points 20000]
@@ -51,7 +52,7 @@ import numpy as np
 import warp as wp
 
 import dendry_peer
-from _measure import cpu_model, now, shown, spread
+from _measure import cpu_model, interleaved, now, shown, spread
 from wdendrite import control
 from wdendrite.dendry import DendryParams, dendry, dendry_points
 
@@ -215,16 +216,17 @@ def main() -> None:
           "control units, distances in domain units)")
     print("\n".join(lines))
     if args.points > 0:
-        _point_rates(args.points, device, measured, recorded=peer is None)
+        _point_rates(args.points, device, measured, args.repeat, recorded=peer is None)
 
 
-def _point_rates(count: int, device, peer_rates: dict, *, recorded: bool) -> None:
+def _point_rates(count: int, device, peer_rates: dict, repeat: int, *, recorded: bool) -> None:
     """dendry_points in each mode: points uniform over the image's domain, and the same number
     in 40 tight clusters spread over a domain 500 times wider (one tile each), and in 1000 small
     clusters over it (mostly one tile each)."""
     rng = np.random.default_rng(0)
     note = f" ({RECORDED_NOTE})" if recorded else ", measured above"
-    print(f"\n# dendry_points, {count} points per case, one run each; peer: its per-pixel rate of the setup{note}")
+    print(f"\n# dendry_points, {count} points per case; points/s: median (range) of {repeat} runs, the modes in "
+          f"turns; peer: its per-pixel rate of the setup{note} (median)")
     print("| workload | levels | output | points | mode | points/s | peer px/s | ratio |")
     print("| --- | ---: | --- | --- | --- | ---: | ---: | ---: |")
     for kind, levels, out in (("table1", 2, "distance"), ("table1", 2, "elevation"), ("lichtenberg", 6, "distance")):
@@ -244,15 +246,20 @@ def _point_rates(count: int, device, peer_rates: dict, *, recorded: bool) -> Non
                 (f"1000 clusters of {small}", many, wide))
         for name, pts, domain in sets:
             case = dict(kw, domain=domain)
+            sides = {}
             for mode in ("pixel", "cached", "auto"):
                 dendry_points(pts[:50], output=out, mode=mode, device=device, **case)  # compile, warm
-                t = time.perf_counter()
-                dendry_points(pts, output=out, mode=mode, device=device, **case)
-                wp.synchronize_device(device)
-                rate = len(pts) / (time.perf_counter() - t)
-                ratio = f"{rate / peer:.1f}x" if peer else "-"
+
+                def run(mode=mode):
+                    dendry_points(pts, output=out, mode=mode, device=device, **case)
+                    wp.synchronize_device(device)
+
+                sides[mode] = run
+            for mode, (seconds, _) in interleaved(sides, repeat).items():
+                rates = [len(pts) / t for t in seconds]
+                ratio = shown([r / peer for r in rates], ".1f", "x") if peer else "-"
                 peer_txt = f"{peer:,.0f}" if peer else "- (not measured)"
-                print(f"| {kind} | {levels} | {out} | {name} | {mode} | {rate:,.0f} | {peer_txt} | {ratio} |",
+                print(f"| {kind} | {levels} | {out} | {name} | {mode} | {shown(rates, ',.0f')} | {peer_txt} | {ratio} |",
                       flush=True)
 
 
