@@ -211,7 +211,7 @@ def _pysheds_python(arg: str | None) -> str | None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
-    ap.add_argument("--repeat", type=int, default=3, help="fresh-process runs per side; medians are printed")
+    ap.add_argument("--repeat", type=int, default=5, help="fresh-process runs per side, in turns (default 5)")
     ap.add_argument("--pysheds-python", default=None, help="interpreter of an environment with pysheds")
     ap.add_argument("--quick", action="store_true", help="256^2 only, one run (a smoke test)")
     ap.add_argument("--filled", action="store_true",
