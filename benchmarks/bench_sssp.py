@@ -172,6 +172,10 @@ def mcp_case(shape, connectivity, gens, out):
     return prepare, run
 
 
+def _side(shape) -> str:
+    return f"{shape[0]}^{len(shape)}" if len(set(shape)) == 1 else "x".join(map(str, shape))
+
+
 def _rel_err(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b) / np.maximum(b, 1e-30)))
 
@@ -215,8 +219,7 @@ def main():
                 mcp = (f"{shown(secs['mcp'])} | {shown(mib['mcp'], '.0f')}" if "mcp" in tools else "- | -")
                 t_mcp = f"{med['wd'][0] / med['mcp'][0]:.2f}" if "mcp" in tools else "-"
                 last = runs["wd"][-1]["result"]
-                lattice = "x".join(map(str, shape))
-                print(f"| {lattice} | {conn} | {gens} | {shown(secs['wd'])} | {shown(mib['wd'], '.0f')} "
+                print(f"| {_side(shape)} | {conn} | {gens} | {shown(secs['wd'])} | {shown(mib['wd'], '.0f')} "
                       f"| {shown(secs['sp'])} | {shown(mib['sp'], '.0f')} | {mcp} | {med['wd'][0] / med['sp'][0]:.2f} "
                       f"| {med['wd'][1] / med['sp'][1]:.2f} | {t_mcp} | {err:.1e} | {last['rounds']} "
                       f"| {last['relaxed_per_node']:.2f} |", flush=True)
@@ -230,7 +233,7 @@ def main():
         st = {t: [r["startup_seconds"] for r in runs[t]] for t in ("wd", "sp")}
         pk = {t: [r["process_peak_mib"] for r in runs[t]] for t in ("wd", "sp")}
         ratio = spread(pk["wd"])[0] / spread(pk["sp"])[0]
-        print(f"| {'x'.join(map(str, shape))} | {conn} | {gens} | {shown(st['wd'], '.2f')} | {shown(st['sp'], '.2f')} "
+        print(f"| {_side(shape)} | {conn} | {gens} | {shown(st['wd'], '.2f')} | {shown(st['sp'], '.2f')} "
               f"| {shown(pk['wd'], '.0f')} | {shown(pk['sp'], '.0f')} | {ratio:.2f} |")
 
 
