@@ -56,10 +56,12 @@ from _measure import cpu_model, interleaved, now, shown, spread
 from wdendrite import control
 from wdendrite.dendry import DendryParams, dendry, dendry_points
 
-# The peer's pixels per second, recorded by this script on 2026-12-07 (Intel Xeon VM, 2 cores,
-# g++ 12.2 -O3 -march=native, one thread): used only when the peer cannot be built here.
+# The peer's pixels per second, used only when it cannot be built here: its driver run by hand on
+# 2026-12-07 22:43 UTC (Intel Xeon VM, 2 cores, g++ 12.2 -O3 -march=native, one thread) on centred
+# windows of these setups (128^2 of the Table 1 image, 64^2 of the Lichtenberg figure), faster than
+# BENCHMARKS.md's runs on the then busier machine, so ratios against them err low.
 RECORDED = {("table1", 2, "elevation"): 14_700.0, ("lichtenberg", 6, "distance"): 9_400.0}
-RECORDED_NOTE = "recorded 2026-12-07 on an Intel Xeon VM, NOT measured in this run"
+RECORDED_NOTE = "recorded 2026-12-07 on an Intel Xeon VM by hand, NOT measured in this run"
 
 
 def _case(kind: str, levels: int, search: str = "exact"):
