@@ -917,7 +917,8 @@ def dendry(
     mode: Mode = "auto",
     control_domain=None,
     device=None,
-) -> np.ndarray:
+    as_warp: bool = False,
+) -> np.ndarray | wp.array:
     """Evaluate Dendry on the pixels of an image (or of a window of it).
 
     Args:
@@ -939,9 +940,12 @@ def dendry(
         control_domain: rectangle of the control's coordinates the domain maps onto
             (default ``control.domain``).
         device: Warp device (default: Warp's default device).
+        as_warp: return the image as the ``wp.array`` on ``device`` that the kernels wrote (no
+            copy to the host: for pipelines that continue on a GPU).
 
     Returns:
-        (h, w) float32 array (the window's size).
+        (h, w) float32 array (the window's size): a NumPy array, or with ``as_warp`` a
+        ``wp.array2d(dtype=float)`` on ``device``.
 
     Raises:
         ValueError, TypeError: for a bad shape, domain, window, output, mode or params,
@@ -956,6 +960,7 @@ def dendry(
     shape = lattice_shape(shape, ranks=(2,), whole=False)  # (a window of a larger image may be asked for)
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
+    as_warp = flag("as_warp", as_warp)
     _check_elevation_control(control, output, control_domain)
     r0, c0, h, w = _window(window, shape)
     (x0, y0), (x1, y1) = domain
@@ -973,7 +978,7 @@ def dendry(
     control = default_control() if control is None else control  # (its range is sampled with kernels)
     # the image on the device, and its copy on the host when the device is a GPU
     fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
-    if not device.is_cpu:
+    if not device.is_cpu and not as_warp:
         fits_in_memory(4 * h * w, "cpu", f"The host copy of a Dendry image of shape {(h, w)}")
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
@@ -1015,7 +1020,7 @@ def dendry(
     else:
         _run_pixels(params, output, h * w, device,
                     lambda slots, nslots, first, size: launch(slots, 0, nslots, first, size))
-    return out.numpy()
+    return out if as_warp else out.numpy()
 
 
 def dendry_points(
