@@ -382,10 +382,8 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     # Per pixel, 2 levels: where links are narrower than queries (the paper's 3 x 3), the level-1
     # segments of the block's outer ring whose boxes come within a level-1 cell of the pixel are
     # drawn with the others, not left pending: link searches reached most of them, and drawing them
-    # on demand cost more. At the Table 1 setup, against drawing every level-1 segment: 1.05-1.08x
-    # at 0.85-1.2 cells, 0.96-1.0x at 0.4 and 0.94-0.97x at 1.5-2; every ring cell pending, 0.96x
-    # (BENCHMARKS.md, session 29). Where links reach as far as queries, the ring lies beyond the
-    # queries and all of it waits.
+    # on demand cost more at the Table 1 setup (a reach of one level-1 cell measured best). Where
+    # links reach as far as queries, the ring lies beyond the queries and all of it waits.
     s.near1 = 1.0 if s.rl < s.r1 else 0.0
     (dx0, dy0), (dx1, dy1) = domain
     (cx0, cy0), (cx1, cy1) = control_domain
