@@ -274,13 +274,11 @@ class _Frontiers:
 
 
 def _default_delta(lattice: Lattice) -> float:
-    # Least-cost paths run along cheap edges, so the bucket width follows the
-    # cheap end of the weights: 16 times their 10th percentile was the best
-    # width, within 10 %, on the CPU for both uniform (1 + 10 R) and heavily
-    # skewed power weights (R^3); the mean misleads for the latter by 20x. With all buckets in
-    # one launch (no launch per bucket), half that width relaxed 10-20 % fewer nodes yet took
-    # 0.94-1.02x the time on stored weights (cold searches at 600^2-1024^2 and 80^3, fractal
-    # growth at 512^2) and 0.90x on hashed ones: not enough to make the width depend on the device.
+    """The bucket width of a search on ``lattice``: 16 times the 10th percentile of its weights.
+
+    Least-cost paths run along cheap edges, so the width follows the cheap end of the weights
+    (the mean misleads for skewed weights such as R^3); BENCHMARKS.md ("Shortest paths") has the
+    widths tried."""
     if lattice._weights is not None:
         # whole rows (along x) spread over the weights held in the host records, read in place: cheap, and they
         # still see weights that vary across the lattice (tropisms, maps)
