@@ -105,3 +105,23 @@ def test_readme_lichtenberg_command_draws_fine_antialiased_branches(tmp_path, mo
     # several pixels wide
     depth = ndimage.distance_transform_edt(ink > 0.5)
     assert np.mean(depth[ink > 0.5] <= 1.0) > 0.6 and depth.max() >= 2.5
+
+
+def test_readme_layout_names_every_module_and_folder():
+    """The README's picture of the package names every module of ``wdendrite/`` (as ``name.py``)
+    and of ``kernels/`` (by its concept, the module's name) and every top-level folder, and names
+    no file that is not there."""
+    root = README.parent
+    layout = _block("## Layout", "")
+    words = {w.strip("`()") for w in layout.replace(";", " ").replace(",", " ").replace(":", " ").split()}
+    host = {p.name for p in (root / "wdendrite").glob("*.py")} - {"__init__.py", "__main__.py"}
+    missing = sorted(m for m in host if m not in words)
+    kernels_text = layout.split("\nkernels/", 1)[1].split("\ntests/", 1)[0]
+    kernel_words = {w.strip("`()") for w in kernels_text.replace(";", " ").replace(",", " ").replace(":", " ").split()}
+    missing += sorted(f"kernels/{p.name}" for p in (root / "kernels").glob("*.py")
+                      if p.name != "__init__.py" and p.stem not in kernel_words)
+    assert not missing, f"README's layout does not mention {missing}"
+    assert {"wdendrite/", "kernels/", "tests/", "benchmarks/", "notebooks/", "scripts/", "docs/"} <= words
+    stale = sorted(w for w in words if w.endswith(".py") and w != ".py" and w not in host
+                   and not any((root / d / w).exists() for d in ("tests", "benchmarks", "scripts")))
+    assert not stale, f"README's layout names files that do not exist: {stale}"
