@@ -32,9 +32,14 @@ distance field: the samples, spaced at most half a voxel apart, marked on
 the grid, ``scipy.ndimage.distance_transform_edt`` with indices for the
 nearest sample's radius, then scikit-image's marching cubes.
 
-Each side runs ``--repeat`` times (default 3, alternating with the other side);
-the medians are printed, so one disturbed run on a shared machine does not
-decide the ratio.
+The fractal workload gives SciPy the warm start ours has (see ``scipy_fractal``):
+each iteration searches from the nodes just added, bounded by the band's top, and
+keeps the lower cost, which gives the same draws, paths and node counts as a search
+from scratch each iteration (BENCHMARKS.md gives both times).
+
+Each side runs ``--repeat`` times (default 5, alternating with the other side);
+the median and the range of each side are printed, and the ratio of the medians,
+so one disturbed run on a shared machine does not decide the ratio.
 
 Usage: python benchmarks/bench_dendrites.py [--quick] [--repeat N]
 """
@@ -43,10 +48,11 @@ from __future__ import annotations
 
 import argparse
 import logging
-import time
 
 import numpy as np
 import warp as wp
+
+from _measure import cpu_model, interleaved, now, shown, spread
 
 import wdendrite as wd
 from wdendrite.geometry import meshable, skeleton_mesh
@@ -133,24 +139,35 @@ REFINE_N = 7
 
 
 def scipy_fractal(lat, gens, params: wd.FractalParams, seed):
+    """SciPy's fractal growth with the warm start ours has: after the first search, each iteration
+    searches only from the nodes the last one added, up to this iteration's band top (``limit=``),
+    and keeps the lower of the old and the new cost (and its predecessor) at every node. The
+    generators only grow and the band's top only falls, so every cost below it, the only costs
+    a draw reads, equals that of a search from all the generators."""
+    from scipy.sparse.csgraph import dijkstra
+
     rng = np.random.default_rng(seed)
     r = params.band
     visited = np.zeros(lat.num_nodes, bool)
-    sources = np.ravel_multi_index(tuple(np.asarray(gens).T), lat.shape)
+    fresh = np.ravel_multi_index(tuple(np.asarray(gens).T), lat.shape)
     graph = lat.to_csgraph()
-    from scipy.sparse.csgraph import dijkstra
-
+    dist = pred = None
     count = 0
     for m, d in params.schedule():
-        # SciPy gets the same help as wdendrite: no costs beyond the band are searched
-        dist, pred, _ = dijkstra(graph, directed=True, indices=sources, min_only=True,
-                                 return_predecessors=True, limit=d + r)
+        if len(fresh):
+            new_dist, new_pred, _ = dijkstra(graph, directed=True, indices=fresh, min_only=True,
+                                             return_predecessors=True, limit=d + r)
+            if dist is None:
+                dist, pred = new_dist, new_pred
+            else:
+                lower = new_dist < dist
+                dist[lower] = new_dist[lower]
+                pred[lower] = new_pred[lower]
         # as wdendrite's growth: the band never reaches below cost 0 (the dendrite itself)
         band = np.flatnonzero((dist > max(d - r, 0.0)) & (dist < d + r))
         pick = band[rng.choice(len(band), size=min(m, len(band)), replace=False)]
         count += len(pick)
-        new = scipy_backtrack(pred, pick, visited)
-        sources = np.concatenate([sources, new])
+        fresh = scipy_backtrack(pred, pick, visited)
     return int(visited.sum()), count
 
 
@@ -217,12 +234,6 @@ def _rebuilder(lat: wd.Lattice):
     side as SciPy's graph building is on its side."""
     weights = np.ascontiguousarray(lat.weights)
     return lambda: wd.Lattice(lat.shape, lat.connectivity, weights=weights, mask=lat.mask)
-
-
-def _timed(fn):
-    t = time.perf_counter()
-    out = fn()
-    return time.perf_counter() - t, out
 
 
 def _sides(name, quick):
@@ -299,21 +310,17 @@ def _sides(name, quick):
 
 
 def run(name, quick, repeat):
-    """Median seconds of ``repeat`` runs of each side (alternating), and the sizes both made."""
+    """Seconds of ``repeat`` runs of each side (alternating), and the sizes both made."""
     ours, theirs, describe = _sides(name, quick)
-    times = {"ours": [], "theirs": []}
-    for _ in range(repeat):
-        t, den = _timed(ours)
-        times["ours"].append(t)
-        t, res = _timed(theirs)
-        times["theirs"].append(t)
-    return float(np.median(times["ours"])), float(np.median(times["theirs"])), describe(den, res)
+    runs = interleaved({"ours": ours, "theirs": theirs}, repeat)
+    (t_ours, den), (t_theirs, res) = runs["ours"], runs["theirs"]
+    return t_ours, t_theirs, describe(den, res)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small sizes (a smoke test)")
-    ap.add_argument("--repeat", type=int, default=3, help="runs of each side per workload; medians are printed")
+    ap.add_argument("--repeat", type=int, default=5, help="runs of each side per workload (default 5)")
     args = ap.parse_args()
     if args.repeat < 1:
         ap.error(f"--repeat must be >= 1, got {args.repeat}")
@@ -324,12 +331,14 @@ def main():
         den = wd.trace(wd.shortest_paths(lat, gens), ends)
         scipy_trace(lat, gens, ends)
     skeleton_mesh(skeleton(den, 1.0), voxel=0.5)
-    print(f"# bench_dendrites  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}  device={wp.get_device()}  "
-          f"median of {args.repeat} runs per side")
-    print(f"{'workload':>10} | {'wdendrite s':>11} | {'scipy+numpy s':>13} | {'speed-up':>8} | {'paper (2007 CPU)':>16} | sizes (ours / scipy)")
+    print(f"# bench_dendrites  {now()}  {cpu_model()}  device={wp.get_device()}")
+    print(f"# seconds: median (range) of {args.repeat} runs per side, alternating; speed-up: ratio of the medians")
+    print("| workload | wdendrite s | SciPy + NumPy s | speed-up | paper (2007 CPU) | sizes (ours / SciPy) |")
+    print("| --- | ---: | ---: | ---: | ---: | --- |")
     for name in ("simple", "fractal", "lightning", "tree", "coral"):
         ours, theirs, note = run(name, args.quick, args.repeat)
-        print(f"{name:>10} | {ours:11.3f} | {theirs:13.3f} | {theirs / ours:7.1f}x | {PAPER[name]:>16} | {note}", flush=True)
+        ratio = spread(theirs)[0] / spread(ours)[0]
+        print(f"| {name} | {shown(ours)} | {shown(theirs)} | {ratio:.1f}x | {PAPER[name]} | {note} |", flush=True)
 
 
 if __name__ == "__main__":

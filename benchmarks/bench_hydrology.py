@@ -16,14 +16,16 @@ is the same scikit-image reconstruction on every side, timed once on its own):
   2026-12-02).
 
 With ``--filled`` the rows ``d8+fill`` and ``dinf+fill`` add each side's conditioning inside
-its time: ours fills (scikit-image) and drains the flats toward their outlets
-(``filled=True``); pysheds runs ``fill_depressions`` and ``resolve_flats`` (Barnes et al.
-2014: towards lower terrain and away from higher, so flat cells route differently and
-"same" is lower there).
+its time: ours fills (scikit-image) and drains the flats towards lower terrain and away from
+higher (``filled=True``); pysheds runs ``fill_depressions`` and ``resolve_flats``, the same
+idea (Barnes et al. 2014) with other details: distances counted in steps of 1 rather than
+2 and 3, the flats raised by tiny increments and then routed as slopes (so D-infinity
+splits flow there, where ours keeps one receiver), hence "same" is lower on those rows.
 
 Every measurement runs in a fresh process (``_measure.run_isolated``): wall time of the
 call (compilation and JIT warmed up on a small terrain first) and the growth of the peak
-resident set. The medians of ``--repeat`` runs are printed, with each peer's time as a
+resident set. Each side runs ``--repeat`` times, in turns; the median (range) of the
+seconds and the median of the memory are printed, with each peer's time as a
 multiple of ours and the share of cells where its areas equal ours (to 1e-6 relative: the
 areas are compared as the float32 files the children save).
 
@@ -41,7 +43,7 @@ import tempfile
 
 import numpy as np
 
-from _measure import now, run_isolated
+from _measure import cpu_model, now, run_isolated, shown
 
 # ---------------------------------------------------------------------------- the three sides (child processes)
 
@@ -210,7 +212,7 @@ def _pysheds_python(arg: str | None) -> str | None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[1024, 2048])
-    ap.add_argument("--repeat", type=int, default=3, help="fresh-process runs per side; medians are printed")
+    ap.add_argument("--repeat", type=int, default=5, help="fresh-process runs per side, in turns (default 5)")
     ap.add_argument("--pysheds-python", default=None, help="interpreter of an environment with pysheds")
     ap.add_argument("--quick", action="store_true", help="256^2 only, one run (a smoke test)")
     ap.add_argument("--filled", action="store_true",
@@ -223,7 +225,8 @@ def main() -> None:
     if args.quick:
         args.sizes, args.repeat = [256], 1
     peer = _pysheds_python(args.pysheds_python)
-    print(f"# Drainage area, {now()}; medians of {args.repeat} fresh-process runs; pysheds: "
+    print(f"# Drainage area, {now()}, {cpu_model()}; seconds: median (range) of {args.repeat} fresh-process runs "
+          "per side, in turns; MiB: medians; pysheds: "
           f"{'yes (' + peer + ')' if peer else 'not found (pass --pysheds-python)'}")
     print("| terrain | method | wdendrite s | MiB | pysheds s | MiB | pysheds / ours | same | NumPy s | MiB | NumPy / ours | same |")
     print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
@@ -239,16 +242,19 @@ def main() -> None:
                 for _ in range(args.repeat):
                     for side, fn, python in sides:
                         runs[side].append(run_isolated("bench_hydrology", fn, python=python, path=path, method=method))
-                ours_s = statistics.median(r["seconds"] for r in runs["wdendrite"])
+                ours_t = [r["seconds"] for r in runs["wdendrite"]]
+                ours_s = statistics.median(ours_t)
                 ours = np.load(runs["wdendrite"][0]["result"]["file"]).astype(np.float64)
-                cells = [name, method, f"{ours_s:.3f}", f"{statistics.median(r['peak_mib'] for r in runs['wdendrite']):.0f}"]
+                ours_mib = statistics.median(r["peak_mib"] for r in runs["wdendrite"])
+                cells = [name, method, shown(ours_t), f"{ours_mib:.0f}"]
                 for side in ("pysheds", "numpy"):
                     if side not in runs:
                         cells += ["-"] * 4
                         continue
-                    s = statistics.median(r["seconds"] for r in runs[side])
+                    t = [r["seconds"] for r in runs[side]]
+                    s = statistics.median(t)
                     theirs = np.load(runs[side][0]["result"]["file"]).astype(np.float64)
-                    cells += [f"{s:.3f}", f"{statistics.median(r['peak_mib'] for r in runs[side]):.0f}",
+                    cells += [shown(t), f"{statistics.median(r['peak_mib'] for r in runs[side]):.0f}",
                               f"{s / ours_s:.1f}x", f"{_agree(ours, theirs):.4f}"]
                 print("| " + " | ".join(cells) + " |", flush=True)
         # the fill every side would run first (scikit-image), for scale

@@ -24,9 +24,10 @@ Workloads (the papers' Table 2 sizes):
   trimesh's ``matrix_to_marching_cubes`` on its inside voxels.
 
 Setup (growing the dendrites, segmenting the rock) is not timed. Each case
-runs once to compile, then the best of ``--repeat`` runs is kept. Outputs are
-compared: images by their largest difference, meshes by vertex count and
-volume.
+runs once to compile, then ``--repeat`` times (default 5), ours and the
+baseline in turns; the median and the range of each are printed, and the ratio
+of the medians. Outputs are compared: images by their largest difference,
+meshes by vertex count and volume.
 
 Run: ``python benchmarks/bench_render.py`` (``--quick`` for a smoke test, as the other benchmarks).
 """
@@ -34,25 +35,22 @@ Run: ``python benchmarks/bench_render.py`` (``--quick`` for a smoke test, as the
 from __future__ import annotations
 
 import argparse
-import time
-
 import logging
+import time
 
 import numpy as np
 import warp as wp
+
+from _measure import cpu_model, interleaved, now, shown, spread
 
 wp.config.quiet = True
 wp.config.log_level = logging.WARNING  # no start-up banner
 
 
-def best_of(fn, repeat: int):
-    fn()
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), out
+def pair(ours, base, repeat: int):
+    """Seconds of ``repeat`` runs of each, in turns after one untimed run each, and their last results."""
+    runs = interleaved({"ours": ours, "base": base}, repeat, warm=True)
+    return runs["ours"][0], runs["ours"][1], runs["base"][0], runs["base"][1]
 
 
 # --------------------------------------------------------------------------- 2D
@@ -219,10 +217,12 @@ def body_parts(lines, voxel, repeat):
     grown = geometry.meshable(lines, voxel)
     reach = float(grown.radius.max()) + 3.0 * voxel
     lo, hi = lines.points.min(axis=0) - reach, lines.points.max(axis=0) + reach
-    t_field, (field, _, _) = best_of(lambda: geometry._tube_field(grown, voxel, lo, hi, "cpu"), repeat)
-    t_mc, _ = best_of(lambda: marching_cubes(field, 0.0), repeat)
-    t_tri, _ = best_of(lambda: trimesh.voxel.ops.matrix_to_marching_cubes(field < 0, pitch=voxel), repeat)
-    return t_field, t_mc, t_tri, field.shape
+    field = geometry._tube_field(grown, voxel, lo, hi, "cpu")[0]
+    runs = interleaved({"field": lambda: geometry._tube_field(grown, voxel, lo, hi, "cpu"),
+                        "mc": lambda: marching_cubes(field, 0.0),
+                        "tri": lambda: trimesh.voxel.ops.matrix_to_marching_cubes(field < 0, pitch=voxel)},
+                       repeat, warm=True)
+    return runs["field"][0], runs["mc"][0], runs["tri"][0], field.shape
 
 
 def mesh_volume(v, f) -> float:
@@ -237,11 +237,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size2d", type=int, default=2048)
     ap.add_argument("--size3d", type=int, default=128)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5, help="runs of each side per case, in turns (default 5)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", "--small", dest="small", action="store_true",
                     help="512^2 and 48^3, a smoke test (--small: the old name)")
     args = ap.parse_args()
+    if args.repeat < 1:
+        ap.error(f"--repeat must be at least 1, got {args.repeat}")
     if args.small:
         args.size2d, args.size3d = 512, 48
     wp.init()
@@ -252,15 +254,15 @@ def main():
     setup_2d = time.perf_counter() - t0
     n2 = f"{args.size2d}^2"
     nodes = sum(len(d) for d, _ in layers)
-    t_ours, a = best_of(lambda: ours_brightness(layers, gain, "euclidean"), args.repeat)
-    t_base, b = best_of(lambda: scipy_brightness_edt(layers, gain), args.repeat)
+    t_ours, a, t_base, b = pair(lambda: ours_brightness(layers, gain, "euclidean"),
+                                lambda: scipy_brightness_edt(layers, gain), args.repeat)
     rows.append((f"lightning {n2}, Euclidean ({nodes} nodes)", "scipy EDT + NumPy exp", t_ours, t_base,
                  image_diff(a, b)))
     from wdendrite import Lattice
 
     graphs = [Lattice(layers[0][0].shape, 8).to_csgraph()] * 2
-    t_ours, a = best_of(lambda: ours_brightness(layers, gain, "path"), args.repeat)
-    t_base, b = best_of(lambda: scipy_brightness_dijkstra(layers, gain, graphs), 1)
+    t_ours, a, t_base, b = pair(lambda: ours_brightness(layers, gain, "path"),
+                                lambda: scipy_brightness_dijkstra(layers, gain, graphs), args.repeat)
     rows.append((f"lightning {n2}, path cost (octile)", "scipy dijkstra (limit) + NumPy exp", t_ours, t_base,
                  image_diff(a, b)))
     from scipy import ndimage
@@ -277,24 +279,21 @@ def main():
             g = ndimage.uniform_filter(g, size=2 * half + 1, mode="constant", cval=0.0)
         return g
 
-    t_ours, a = best_of(lambda: render.glow(value, radius=radius), args.repeat)
-    t_base, b = best_of(scipy_glow, args.repeat)
+    t_ours, a, t_base, b = pair(lambda: render.glow(value, radius=radius), scipy_glow, args.repeat)
     rows.append((f"glow {n2} (radius {radius:.0f})", "scipy uniform_filter x3", t_ours, t_base, image_diff(a, b)))
 
     t0 = time.perf_counter()
     labels, lichen, r = rock_setup(args.size3d, args.seed)
     setup_3d = time.perf_counter() - t0
     n3 = f"{args.size3d}^3"
-    t_ours, m = best_of(lambda: ours_rock(labels), args.repeat)
-    t_base, (v, f) = best_of(lambda: scipy_rock(labels), args.repeat)
+    t_ours, m, t_base, (v, f) = pair(lambda: ours_rock(labels), lambda: scipy_rock(labels), args.repeat)
     rows.append((f"rock {n3}: signed field + marching cubes", "scipy EDT + skimage MC", t_ours, t_base,
                  f"verts {len(m.vertices)} vs {len(v)}, volume {m.volume:.0f} vs {mesh_volume(v, f):.0f}"))
-    t_ours, mi = best_of(lambda: (ours_rock(labels), ours_lichen_iso(lichen, r)), args.repeat)
-    t_base, (_, (vl, fl)) = best_of(lambda: (scipy_rock(labels), scipy_lichen_iso(lichen, r)), args.repeat)
+    t_ours, mi, t_base, (_, (vl, fl)) = pair(lambda: (ours_rock(labels), ours_lichen_iso(lichen, r)),
+                                             lambda: (scipy_rock(labels), scipy_lichen_iso(lichen, r)), args.repeat)
     rows.append((f"rock + lichen {n3} ({len(lichen)} lichen nodes)", "scipy EDT + skimage MC", t_ours, t_base,
                  f"lichen volume {mi[1].volume:.0f} vs {mesh_volume(vl, fl):.0f}"))
-    t_ours, mt = best_of(lambda: ours_tubes(lichen, r), args.repeat)
-    t_base, bt = best_of(lambda: trimesh_tubes(lichen, r), 1)
+    t_ours, mt, t_base, bt = pair(lambda: ours_tubes(lichen, r), lambda: trimesh_tubes(lichen, r), args.repeat)
     rows.append((f"lichen tubes ({len(lichen) - len(lichen.roots)} edges)", "trimesh cylinder per edge",
                  t_ours, t_base, f"faces {len(mt.faces)} vs {len(bt.faces)}"))
 
@@ -302,8 +301,7 @@ def main():
 
     size_elm = 80 if args.size3d >= 80 else 40
     lines, voxel = elm_setup(size_elm, args.seed)
-    t_ours, mb = best_of(lambda: ours_body(lines, voxel), args.repeat)
-    t_base, (vb, fb) = best_of(lambda: scipy_body(lines, voxel), args.repeat)
+    t_ours, mb, t_base, (vb, fb) = pair(lambda: ours_body(lines, voxel), lambda: scipy_body(lines, voxel), args.repeat)
     rows.append((f"elm body {size_elm}^3 ({len(lines)} samples, voxel {voxel:g})", "scipy EDT + skimage MC", t_ours,
                  t_base, f"faces {len(mb.faces)} vs {len(fb)}, volume {mb.volume:.0f} vs {mesh_volume(vb, fb):.0f}, "
                          f"closed {mb.is_watertight}, bodies {len(mb.split(only_watertight=False))}"))
@@ -311,12 +309,14 @@ def main():
 
     print(f"setup, untimed above (first run, kernel compiles included): presets.lightning({n2}) {setup_2d:.2f} s; "
           f"presets.lichen_on_rock({n3}) {setup_3d:.2f} s (rock segmentation, lichen growth, meshes, preview)")
-    print(f"{'workload':48s} {'baseline':36s} {'ours s':>8s} {'base s':>8s} {'ratio':>6s}  check")
+    print(f"# bench_render  {now()}  {cpu_model()}  seconds: median (range) of {args.repeat} runs per side, in turns")
+    print("| workload | baseline | ours s | baseline s | ratio | check |")
+    print("| --- | --- | ---: | ---: | ---: | --- |")
     for name, base, to, tb, check in rows:
-        print(f"{name:48s} {base:36s} {to:8.3f} {tb:8.3f} {tb / to:6.1f}x  {check}")
-    print(f"elm body {size_elm}^3, grid {grid}: ours {t_ours:.3f} s in all, of which the tube field {t_field:.3f} s; "
-          f"on the same field scikit-image's marching_cubes alone (every cube) {t_mc:.3f} s, trimesh's "
-          f"matrix_to_marching_cubes of its inside voxels {t_tri:.3f} s")
+        print(f"| {name} | {base} | {shown(to)} | {shown(tb)} | {spread(tb)[0] / spread(to)[0]:.1f}x | {check} |")
+    print(f"\nelm body {size_elm}^3, grid {grid}: ours {shown(t_ours)} s in all, of which the tube field {shown(t_field)} s; "
+          f"on the same field scikit-image's marching_cubes alone (every cube) {shown(t_mc)} s, trimesh's "
+          f"matrix_to_marching_cubes of its inside voxels {shown(t_tri)} s")
 
 
 if __name__ == "__main__":

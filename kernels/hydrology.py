@@ -30,6 +30,7 @@ QUARTER = wp.constant(wp.float64(0.7853981633974483))  # pi / 4
 # two facet slopes this close (relative) are compared by their squares instead, which are exact
 # where the slopes themselves round (integer terrains: sqrt(1 + 1) against 2 / sqrt(2))
 TIE = wp.constant(wp.float64(1.0e-12))
+FAR = wp.constant(wp.int64(2**63 - 1))  # a flat distance no source reaches
 
 
 @wp.func
@@ -201,36 +202,16 @@ def push_flat(j: int, dist: wp.int64, dist_inout: wp.array(dtype=wp.int64), next
     heads_scratch[b] = j
 
 
-@wp.kernel
-def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8), w: int,
-                         next_scratch: wp.array(dtype=int), heads_scratch: wp.array(dtype=int),
-                         dist_inout: wp.array(dtype=wp.int64)):
-    """One thread: the distance of every lost cell (``lost_in`` 1: an interior cell with no
-    receiver) to its flat's way out, in steps of 2 (sides) and 3 (diagonals) over neighbours
-    of its own height, in one pass over the cells (Dial's buckets, a ring of 4).
-
-    A way out is a cell that is not lost next to a lost cell of its height (distance 0).
-    ``z_in``: the N elevations, row-major, ``w`` per row; ``dist_inout``: N int64s (a path
-    over a flat of N cells may be 3N long), all a value
-    above any distance on entry (cells no way out reaches keep it); ``next_scratch``: N ints;
-    ``heads_scratch``: 4 ints. Each bucket is spread in two passes, sides first, so a cell
-    gets its final distance the first time it is reached and is listed once.
-    """
+@wp.func
+def spread_flat(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8), w: int, pending: int,
+                next_scratch: wp.array(dtype=int), heads_scratch: wp.array(dtype=int),
+                dist_inout: wp.array(dtype=wp.int64)):
+    """Spread the ``pending`` cells already in the buckets (all at distance 0) over the lost
+    cells of their height, in steps of 2 (sides) and 3 (diagonals): Dial's buckets in a ring
+    of 4, one pass over the cells. Each bucket is spread in two passes, sides first, so a
+    cell gets its final distance the first time it is reached and is listed once."""
     n = z_in.shape[0]
     h = n / w
-    for b in range(4):
-        heads_scratch[b] = -1
-    pending = int(0)
-    i = int(0)
-    while i < n:
-        if lost_in[nonneg(i)] != wp.uint8(0):
-            for k in range(9):
-                j = i + (k / 3 - 1) * w + (k % 3 - 1)  # interior: all 8 neighbours exist
-                if k != 4 and lost_in[nonneg(j)] == wp.uint8(0) and dist_inout[nonneg(j)] != wp.int64(0):
-                    if z_in[nonneg(j)] == z_in[nonneg(i)]:
-                        push_flat(j, wp.int64(0), dist_inout, next_scratch, heads_scratch)
-                        pending += 1
-        i += 1
     d = wp.int64(0)
     while pending > 0:
         b = int(d & wp.int64(3))
@@ -257,3 +238,101 @@ def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dty
                 i = next_scratch[nonneg(i)]
         heads_scratch[b] = -1
         d += wp.int64(1)
+
+
+@wp.kernel
+def flat_distance_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8), w: int,
+                         from_higher: int, next_scratch: wp.array(dtype=int), heads_scratch: wp.array(dtype=int),
+                         dist_out: wp.array(dtype=wp.int64)):
+    """One thread: a distance over every flat, in steps of 2 (sides) and 3 (diagonals) over
+    the lost cells (``lost_in`` 1: interior cells with no receiver, so no lower neighbour)
+    of one height, from its sources (distance 0), by :func:`spread_flat`.
+
+    ``from_higher`` 0: towards lower terrain; the sources are the flats' ways out, cells that
+    are not lost next to a lost cell of their height. 1: away from higher terrain; the
+    sources are the lost cells next to a higher cell. ``z_in``: the N elevations,
+    row-major, ``w`` per row; ``dist_out``: N int64s (a path over a flat of N cells may be
+    3N long; :data:`FAR` where no source reaches); ``next_scratch``: N ints;
+    ``heads_scratch``: 4 ints.
+    """
+    n = z_in.shape[0]
+    for b in range(4):
+        heads_scratch[b] = -1
+    cell = int(0)
+    while cell < n:
+        dist_out[nonneg(cell)] = FAR
+        cell += 1
+    pending = int(0)
+    i = int(0)
+    while i < n:
+        if lost_in[nonneg(i)] != wp.uint8(0):
+            here = z_in[nonneg(i)]
+            for k in range(9):
+                j = i + (k / 3 - 1) * w + (k % 3 - 1)  # interior: all 8 neighbours exist
+                if k != 4:
+                    there = z_in[nonneg(j)]
+                    if from_higher != 0:
+                        if there > here and dist_out[nonneg(i)] != wp.int64(0):
+                            push_flat(i, wp.int64(0), dist_out, next_scratch, heads_scratch)
+                            pending += 1
+                    elif lost_in[nonneg(j)] == wp.uint8(0) and dist_out[nonneg(j)] != wp.int64(0):
+                        if there == here:
+                            push_flat(j, wp.int64(0), dist_out, next_scratch, heads_scratch)
+                            pending += 1
+        i += 1
+    spread_flat(z_in, lost_in, w, pending, next_scratch, heads_scratch, dist_out)
+
+
+@wp.func
+def flat_mask(lower: wp.int64, higher: wp.int64) -> wp.int64:
+    """``2 * lower - higher``, with ``higher`` 0 where no higher cell reaches (then on the whole flat)."""
+    away = higher
+    if away == FAR:
+        away = wp.int64(0)
+    return wp.int64(2) * lower - away
+
+
+@wp.kernel
+def flat_receiver_kernel(z_in: wp.array(dtype=wp.float64), lost_in: wp.array(dtype=wp.uint8),
+                         cells_in: wp.array(dtype=int), lower_in: wp.array(dtype=wp.int64),
+                         higher_in: wp.array(dtype=wp.int64), w: int, rec_out: wp.array2d(dtype=int),
+                         frac_out: wp.array2d(dtype=wp.float64), donors_out: wp.array(dtype=int)):
+    """Receiver of lost cell ``cells_in[tid]`` (flats without a way out are left alone): of its
+    neighbours of its height, the nearest way out (not lost; a side before a diagonal) if it
+    has one, else the lost one of lowest :func:`flat_mask` below its own; the first in
+    row-major order among equals (:func:`wdendrite.hydrology._drain_flats` proves that such a
+    neighbour exists). Writes every row of ``rec_out`` (k, N), and shares 1 and 0 in
+    ``frac_out`` when k = 2; counts the cell as a donor of its receiver."""
+    i = cells_in[wp.tid()]
+    if lower_in[nonneg(i)] < FAR:
+        here = z_in[nonneg(i)]
+        best = flat_mask(lower_in[nonneg(i)], higher_in[nonneg(i)])
+        to = int(-1)
+        out = int(-1)  # the nearest way out, if any
+        out_step = int(4)
+        for k in range(9):
+            dr = k / 3 - 1
+            dc = k % 3 - 1
+            j = i + dr * w + dc  # interior: all 8 neighbours exist
+            if k != 4 and z_in[nonneg(j)] == here:
+                if lost_in[nonneg(j)] == wp.uint8(0):
+                    step = 2
+                    if dr != 0 and dc != 0:
+                        step = 3
+                    if step < out_step:
+                        out = j
+                        out_step = step
+                else:
+                    mask = flat_mask(lower_in[nonneg(j)], higher_in[nonneg(j)])
+                    if mask < best:
+                        best = mask
+                        to = j
+        if out >= 0:
+            to = out
+        for row in range(rec_out.shape[0]):
+            rec_out[row, nonneg(i)] = to
+        if rec_out.shape[0] > 1:
+            frac_out[0, nonneg(i)] = wp.float64(1.0)
+            frac_out[1, nonneg(i)] = wp.float64(0.0)
+        if to >= 0:
+            wp.atomic_add(donors_out, nonneg(to), 1)

@@ -6,8 +6,8 @@
 
 The per-pixel mode used to build, for each pixel, every cell of its planned blocks at the levels
 below the finest, although most of those segments never come near a search. This script measured
-what a build driven by demand would save, before one was written (session 20). Since session 21
-the kernels draw levels 2..n-1 on demand from 3 levels on (``kernels/dendry.py:prepare_levels``),
+what a build driven by demand would save, before one was written. The kernels now
+draw levels 2..n-1 on demand from 3 levels on (``kernels/dendry.py:prepare_levels``),
 with the ``key`` bound below, a cell's searches gathered per level into one box
 (``want_box``); the script still measures the bounds one search at a time.
 It takes the cells of the cached mode (the same values the per-pixel mode draws) around a window

@@ -80,7 +80,7 @@ FIGURES = [
            "Lichen over a 128^3 rock: a dendrite on the rock's surface, then crusts of two kinds chosen by bands "
            "of path cost along the surface from it (orange within 1 node, grey-green between 1 and 3.5)."),
     Figure("tropisms-constructive", (("constructive", "Fig. 1"),),
-           "tropisms --toward axis,away_from_axis,top,bottom",
+           "tropisms --toward axis,away_from_axis,top,bottom --roots center",
            "Spatially varying weights: edges dearer away from the centre line (paths hug it), dearer near it "
            "(paths bend outward), cheaper near the top (tree-like), cheaper near the bottom (shrub-like)."),
     Figure("power-weights", (("constructive", "Fig. 2"),), "power-weights",
@@ -118,7 +118,24 @@ FIGURES = [
            "The same endpoints under W = 1 + v^n, n = 0, 1, 4, 8: Manhattan paths at n = 0, ever more erratic "
            "ones as n grows."),
     Figure("tropisms", (("thesis", "Fig. 4.5"),), "tropisms",
-           "Dendrites whose edges are cheaper toward one side grow toward it."),
+           "The same random endpoints reached from a root on the bottom row, over weights cheaper toward one "
+           "side, panels a to h as in the thesis: cheaper toward the left, the root at the bottom left (a, "
+           "\"trees blown by wind from left\") and right (b, \"a bush growing up from the right corner\"); the "
+           "same toward the right (c, d); cheaper near the centre line (e) and dearer near it (f, \"bending "
+           "outward\"); cheaper toward the top (g, \"a tree\") and the bottom (h, \"a shrub\")."),
+    # Dendry
+    Figure("dendry-terrain", (("dendry", "Fig. 1 (centre), Fig. 16"),), "terrain --size 768 --levels 2 --delta 0.075 --seed 0",
+           "A terrain on a Perlin control at the paper's Table 2 settings for Fig. 1 (centre) and Fig. 16 (768^2, "
+           "4 x 4 level-1 cells, 2 levels, eps 0.25, delta 0.075, beta 0.5), shaded, with its D8 drainage network in "
+           "blue. The command's defaults add level-1 outlets, free jitter below level 1 and primitives nearly on a "
+           "grid to the paper's method (`DendryParams.terrain()`), so that it drains (BENCHMARKS.md)."),
+    Figure("dendry-terrain-3", (("dendry", "Fig. 1 (right), Fig. 18 (right)"),),
+           "terrain --size 1024 --levels 3 --delta 0.075 --beta 0.1 --seed 0",
+           "The same at 3 levels and beta 0.1 (1024^2): finer branches, slopes nearly uniform."),
+    Figure("lichtenberg", (("dendry", "section 1 (Lichtenberg figures)"),),
+           "dendry --size 768 --levels 5 --control lichtenberg --rule lichtenberg",
+           "A Lichtenberg figure: branches joined 45 degrees downstream on the bowl control x^2 + (y + 1)^2, drawn "
+           "with a width per level."),
 ]
 """Every reproduced figure, in the index's order within each paper."""
 

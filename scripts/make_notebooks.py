@@ -31,19 +31,9 @@ SMALL = os.environ.get("WDENDRITE_SMALL") == "1"   # CI runs every notebook at s
 
 def show(img, scale=1, labels=None):
     """An RGB or grey float image in [0, 1] as a picture the notebook displays inline; a list of
-    them side by side, a white gap between, each under its label when ``labels`` are given."""
+    them side by side, a white gap between, each over its label when ``labels`` are given."""
     if isinstance(img, (list, tuple)):
-        pics = [show(i, scale).convert("RGB") for i in img]
-        top, gap = (14 if labels else 0), 6
-        out = Image.new("RGB", (sum(q.width for q in pics) + gap * (len(pics) - 1),
-                                top + max(q.height for q in pics)), "white")
-        x = 0
-        for k, q in enumerate(pics):
-            out.paste(q, (x, top))
-            if labels:
-                ImageDraw.Draw(out).text((x + 2, 1), str(labels[k]), fill="black")
-            x += q.width + gap
-        return out
+        img = wd.figure.panels(img, labels=labels)
     a = (np.clip(np.asarray(img, np.float32), 0, 1) * 255 + 0.5).astype(np.uint8)
     pic = Image.fromarray(a)
     return pic.resize((pic.width * scale, pic.height * scale), Image.NEAREST) if scale != 1 else pic'''
@@ -119,9 +109,12 @@ show(res.image)'''),
         ("code", '''\
 res = presets.weight_distributions((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
-        ("md", "**Tropisms**: weights biased toward one side stretch the cost contours and the dendrite with them. "
-               "Panels, left to right: biased toward the left, the right, the top and the bottom (strength 12; 20 "
-               "endpoints on one cost contour of each field):"),
+        ("md", "**Tropisms** (thesis Fig. 4.5): the same 20 random endpoints reached from a root on the bottom row "
+               "over weights made cheaper toward one side (strength 12), so each dendrite leans that way. Panels a to "
+               "h as in the thesis, each labelled with its tropism and its root: cheaper toward the left with the "
+               "root at the bottom left (a, a tree blown by a wind from the left) and right (b, a bush growing from "
+               "the corner), the same toward the right (c, d), cheaper near the vertical centre line (e) and dearer "
+               "near it (f, bending outward), cheaper toward the top (g, a tree) and the bottom (h, a shrub):"),
         ("code", '''\
 res = presets.tropisms((64, 64) if SMALL else (200, 200))
 show(res.image)'''),
@@ -299,12 +292,18 @@ show([hydrology.drainage_image(d8), hydrology.drainage_image(dinf)], labels=["D8
                "slope is `smootherstep` of `h^beta` between the control's minimum and maximum. With beta near 0 every "
                "slope is steep; larger values widen the valleys of the low ground, and beyond 1 the high ground rises "
                "in cliffs over wide plains. Its effect shows where the tree's elevations span the control's range: "
-               "here a plane rising from 0 (top) to 1 (bottom), beta = 0, 0.5, 1 and 2:"),
+               "here a plane rising from 0 (top) to 1 (bottom), beta = 0, 0.5, 1 and 2. Below it the paper's Fig. 13 "
+               "setup (a Perlin control, 2 levels, delta 0.08, seed 1, beta 0 to 1.5): our Perlin control spans only "
+               "about 0.3 to 0.8 over Table 1's rectangle, and the finer branches lie above it, so there beta changes "
+               "only the lowest valleys."),
         ("code", '''\
 ramp = control.plane((0.0, 1.0))                                  # 0 at the top, 1 at the bottom
 slopes = [wd.dendry((n, n), domain=((0.0, 0.0), (4.0, 4.0)), control=ramp, output="elevation",
                     params=dataclasses.replace(p, beta=b)) for b in (0.0, 0.5, 1.0, 2.0)]
-show([wd.render.relief(a, 4.0 / n) for a in slopes], labels=["beta 0", "beta 0.5", "beta 1", "beta 2"])'''),
+display(show([wd.render.relief(a, 4.0 / n) for a in slopes], labels=["beta 0", "beta 0.5", "beta 1", "beta 2"]))
+fig13 = [wd.dendry((n, n), domain=((0.0, 0.0), (4.0, 4.0)), control=ctl, output="elevation",
+                   params=wd.DendryParams.terrain(seed=1, delta=0.08, beta=b)) for b in (0.0, 0.5, 1.0, 1.5)]
+show([wd.render.relief(a, 4.0 / n) for a in fig13], labels=["beta 0", "beta 0.5", "beta 1", "beta 1.5"])'''),
         ("md", "**A sketch as the control** (the paper's Fig. 11: a U-shaped user sketch and the terrain made from "
                "it). Any drawing works: dark strokes are low ground, and the main valleys follow them. Here a U drawn "
                "with a few brush strokes, blurred, scaled to [0, 1] and drained so that it leads to the border:"),
@@ -323,17 +322,17 @@ show([big_sketch, wd.render.relief(z_u, 6.0 / n, hydrology.flow_accumulation(z_u
      labels=["the sketch", "the terrain and its rivers"])'''),
         ("md", "## The Lichtenberg figure, levels and points\n\nThe Lichtenberg variant joins each new branch 45 "
                "degrees downstream of the point nearest to it, on the paper's bowl control (lowest at its edge's "
-               "middle, here the bottom). `output=\"level\"` gives the level of the nearest branch (1: the trunk); "
-               "below it sets each branch's width and brightness. `wd.dendry_points` evaluates any (N, 2) points, "
-               "a mesh's vertices say, with the values an image gives its pixel centres."),
+               "middle, here the bottom). `wd.render.dendry_lines` draws the tree as antialiased lines, each level "
+               "1.4 times wider than the next finer one (the picture `wdendrite dendry` draws): left as ink on "
+               "paper, right as light with a glow. (`output=\"level\"` gives the level of the nearest branch, 1 "
+               "for the trunk.) `wd.dendry_points` evaluates any (N, 2) points, a mesh's vertices say, with the "
+               "values an image gives its pixel centres."),
         ("code", '''\
 pl = wd.DendryParams(levels=3 if SMALL else 5, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, seed=3)
 bowl = dict(domain=((-1.0, -1.0), (1.0, 1.0)), params=pl, control=control.lichtenberg())
-d = wd.dendry((n, n), output="distance", **bowl)
-lv = wd.dendry((n, n), output="level", **bowl)
-weight = (pl.levels + 1 - lv) / pl.levels                      # 1 on the trunk, 1 / levels on the finest
-bolt = np.exp(-(np.where(np.isfinite(d), d, np.inf) / (1.5 / n * pl.levels * weight)) ** 2) * weight
-show(bolt[::-1])                                                 # rows flipped: y up, the root at the bottom'''),
+lines = wd.render.dendry_lines((n, n), **bowl)[::-1]     # 1 on a branch; rows flipped: y up, the root at the bottom
+light = wd.render.colorize(lines, colormap="lightning", glow=wd.render.glow(lines, radius=3))
+show([1 - lines, light], labels=["1 - lines (ink)", "colorize(lines, glow=...)"])'''),
         ("code", '''\
 rows, cols = np.array([5, n // 2, n - 3]), np.array([7, n // 3, n - 1])
 step = 4.0 / n                                                          # the domain's width over n pixels

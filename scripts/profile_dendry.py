@@ -26,7 +26,7 @@ counting the instructions executed inside Warp launches, and reports instruction
 (a 1-pixel window is subtracted), reproducible to a few instructions. Instructions are not
 time (latency, cache misses and branch mispredictions count for nothing), so confirm a gain
 with ``ab_dendry.py``; valgrind runs kernels compiled for the CPU it emulates. Needs valgrind.
-(Session 28 cut 7 % of the paper search's instructions and gained 1-3 % of its time.)
+(A change that cut 7 % of the paper search's instructions gained 1-3 % of its time.)
 ``--count-lines`` joins the two: the instructions of one checkout's window (callgrind, one
 count per instruction address) attributed by function and line as in the default mode, with
 the amount per pixel.

@@ -5,8 +5,8 @@
     python scripts/stages_dendry.py /tmp/before --output distance
 
 Neither of the other profiles measures time per stage. ``profile_dendry.py --count`` counts
-instructions, and on this machine those have not predicted time: session 28 removed 7 % of
-them and gained 1-3 %. Its sampling mode attributes time through ``addr2line``, which is
+instructions, and on this machine those have not predicted time: a change that removed 7 % of
+them gained 1-3 %. Its sampling mode attributes time through ``addr2line``, which is
 unreliable where LLVM merged code: it put 17 % of a single-octave Perlin control's time under
 ``ridged``. This script takes the plain way: it makes one copy of the checkout's package per
 stage, each with the per-pixel kernel returning right after that stage, and times the copies

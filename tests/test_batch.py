@@ -40,8 +40,10 @@ params = { levels = 2, output = "elevation" }
 
 
 def wd(*args, cwd):
+    # no time limit of its own: a first run compiles kernels, minutes on a loaded machine with an empty
+    # cache; the suite's limit per test (pytest-timeout, in pyproject.toml) stops a run that hangs
     p = subprocess.run([sys.executable, "-m", "wdendrite.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                       text=True, timeout=120)
+                       text=True)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -90,6 +92,8 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     assert light["params"]["main_width"] == {"start": 3.0, "end": 2.0, "beta": 1.0, "along": "path"}
     _, whole = _whole_dendry(50, levels=2)
     assert np.array_equal(np.load(runs / "dendry_size50_seed0.npy"), whole)  # 16-pixel tiles join seamlessly
+    tiled = json.loads((runs / "dendry_size50_seed0.manifest.json").read_text())
+    assert tiled["made"] == "50 x 50 elevation in 16 tiles"  # (4 x 4 tiles of 16 pixels cover 50 x 50)
     assert not [p for p in runs.iterdir() if p.name.startswith(".")]  # no temporary files left
 
     # a re-run skips complete tasks; a lost output or a stale manifest is redone
@@ -106,6 +110,20 @@ def test_sweep_writes_outputs_and_manifests_then_resumes(tmp_path):
     redone = {m.name for m in runs.glob("*.manifest.json") if m.stat().st_mtime_ns != stamps[m.name]}
     assert redone == {"fractal_size32_seed0_cheap0.0.manifest.json", stale.name}
     assert not stray.exists() and not [p for p in runs.iterdir() if p.name.startswith(".")]
+
+
+def test_a_terrain_task_records_what_it_made_and_the_bar_ends_once(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "runs"\ndevice = "cpu"\n[[job]]\npreset = "terrain"\nsize = 40\n'
+                                        'seeds = [0, 1]\nformats = ["png", "npy"]\n')
+    code, out, err = wd("batch", "jobs.toml", cwd=tmp_path)  # the bar on, stderr a pipe
+    assert code == 0, err
+    for seed in (0, 1):
+        made = json.loads((tmp_path / "runs" / f"terrain_size40_seed{seed}.manifest.json").read_text())["made"]
+        z = np.load(tmp_path / "runs" / f"terrain_size40_seed{seed}.npy")
+        assert made == f"40 x 40 elevation from {z.min():.6g} to {z.max():.6g}"
+    # tqdm had drawn the finished bar once more when closing it: two copies of it in a captured stderr
+    finished = [ln for ln in re.split(r"[\r\n]", err) if ln.startswith("batch: 100%")]
+    assert len(finished) == 1, err
 
 
 def test_killed_tiled_run_resumes_with_the_missing_tiles(tmp_path):

@@ -1,5 +1,6 @@
 """The `wdendrite` command, run as a real subprocess (exit codes, messages, files), plus its registry."""
 
+import itertools
 import json
 import os
 import re
@@ -17,8 +18,10 @@ from wdendrite._spec import UsageError, all_presets
 
 def wd(*args, cwd):
     """Run the command; returns (exit code, stdout, stderr)."""
+    # no time limit of its own: a first run compiles kernels, minutes on a loaded machine with an empty
+    # cache; the suite's limit per test (pytest-timeout, in pyproject.toml) stops a run that hangs
     p = subprocess.run([sys.executable, "-m", "wdendrite.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                       text=True, timeout=120)
+                       text=True)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -170,6 +173,68 @@ def test_config_file_and_command_line_override(tmp_path):
 def test_unknown_preset_and_option_suggest_the_nearest(tmp_path):
     bad(["lightnin"], tmp_path, "did you mean 'lightning'")
     bad(["fractal", "--sed", "3"], tmp_path, "'--sed'", "did you mean '--seed'")
+
+
+def test_only_names_a_few_edits_away_are_suggested(capsys):
+    # '--colour' is no typo of '--count' (it had been suggested); '--cuont' is
+    assert cli.main(["fractal", "--colour", "red"]) == 2
+    err = capsys.readouterr().err
+    assert "unrecognized option '--colour' for 'fractal'" in err and "did you mean" not in err
+    assert cli.main(["fractal", "--cuont", "3"]) == 2
+    assert "did you mean '--count'?" in capsys.readouterr().err
+
+
+def _edit_counts(alphabet: str, longest: int, swaps: bool) -> dict:
+    """Least single edits between every two words of up to ``longest`` letters, by breadth-first search
+    (insert, delete, substitute; with ``swaps`` also swapping two neighbours)."""
+    words = [""] + ["".join(w) for n in range(1, longest + 1) for w in itertools.product(alphabet, repeat=n)]
+
+    def steps(w):
+        for i in range(len(w) + 1):
+            for ch in alphabet:
+                yield w[:i] + ch + w[i:]
+        for i in range(len(w)):
+            yield w[:i] + w[i + 1:]
+            for ch in alphabet:
+                yield w[:i] + ch + w[i + 1:]
+            if swaps and i + 1 < len(w):
+                yield w[:i] + w[i + 1] + w[i] + w[i + 2:]
+
+    out = {}
+    for a in words:
+        seen, frontier, k = {a: 0}, [a], 0
+        while frontier:
+            k += 1
+            frontier = [v for w in frontier for v in steps(w) if len(v) <= longest + 1 and v not in seen]
+            for v in frontier:
+                seen.setdefault(v, k)
+        out.update({(a, b): seen[b] for b in words})
+    return out
+
+
+def test_edit_counts_lie_between_brute_force_searches_with_and_without_swaps():
+    from wdendrite._spec import edits
+
+    with_swaps, plain = _edit_counts("abc", 3, True), _edit_counts("abc", 3, False)
+    for (a, b), d in plain.items():
+        assert with_swaps[(a, b)] <= edits(a, b) <= d, (a, b)
+        if a[::-1] != a and len(a) == 2:  # one swap of neighbours is one edit
+            assert edits(a, a[::-1]) == 1
+    assert (edits("kitten", "sitting"), edits("chaep", "cheap"), edits("colour", "count")) == (3, 1, 4)
+
+
+@pytest.mark.parametrize("preset, listed", [
+    ("lightning", ".png, .npy, .npz, .json, .svg"),
+    ("terrain", ".png, .npy"),
+    ("tree", ".png, .npy, .obj, .ply, .stl, .glb, .npz, .json"),
+    ("rock", ".png, .npy, .obj, .ply, .stl, .glb"),
+])
+def test_an_unknown_suffix_lists_only_what_the_preset_writes(preset, listed, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main([preset, "-o", "x.jpg"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"wdendrite: error: -o/--out 'x.jpg': unknown suffix '.jpg'; use one of {listed}\n"
+    assert not list(tmp_path.iterdir())
 
 
 def test_bad_values_are_named(tmp_path):
@@ -529,7 +594,7 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["fractal", "--size", "16", "-o", "b" * 300 + ".png"], None, ["File name too long"]),
     (["tropism-objects", "--size", "16", "--seed", "-1"], None, ["--seed expects an integer in [0, 2**32)",
                                                            "but got -1"]),
-    (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit on one cost contour of the 8 x 8"]),
+    (["tropisms", "--size", "8"], None, ["'endpoints' = 20 is more than fit in the upper three quarters of the 8 x 8"]),
     # a library check names the Python parameter; the command adds its option
     (["lightning", "--size", "32", "--forks", "-1"], None, ["'forks' >= 0, but got -1 (--forks)"]),
     (["lightning", "--size", "32", "--glow-radius", "-3"], None, ["'glow_radius', but got -3.0 (--glow-radius)"]),
@@ -553,7 +618,10 @@ def test_every_output_reaches_the_disk_before_the_renames(tmp_path, monkeypatch)
     (["costs", "--size", "8", "--generators", "99999999"], None, ["'generators' <= 64", "(--generators)"]),
     # the schedule from so large a d had overflowed its endpoint counts, blamed on --count and --beta
     (["fractal", "--size", "32", "--d", "1e30"], None, ["'d' <= ", "but got 1e+30 (--d)"]),
-    (["tropisms", "--size", "32", "--toward", "left,left"], None, ["'toward' lists 'left' twice", "(--toward)"]),
+    (["tropisms", "--size", "32", "--toward", "left,left", "--roots", "right"], None,
+     ["'toward' lists ('left', 'right') twice", "(--toward)"]),
+    (["tropisms", "--size", "32", "--toward", "left,top"], None,
+     ["one entry of 'roots' per entry of 'toward' (2), or one for all, but got 8", "(--roots, --toward)"]),
     (["weight-distributions", "--size", "32", "--ns", "1,1.0"], None, ["'ns' lists 1.0 twice", "(--ns)"]),
     # a value the config file gave is said to come from it, not from an option never given
     (["tropism-objects", "--size", "16"], "seed = -3\n", ["config key 'seed' in 'c.toml'", "but got -3"]),
@@ -601,11 +669,10 @@ def test_a_tiled_terrain_refused_by_its_tiles_leaves_nothing(tmp_path, monkeypat
 
 def test_a_reader_that_goes_away_does_not_make_a_finished_run_fail(tmp_path):
     p = subprocess.run(f"{sys.executable} -m wdendrite.cli fractal --size 16 -o f.png --quiet | true",
-                       shell=True, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+                       shell=True, cwd=tmp_path, capture_output=True, text=True)  # (no time limit: see wd)
     assert "Traceback" not in p.stderr and (tmp_path / "f.png").exists()
     p = subprocess.run(["bash", "-c", f"set -o pipefail; {sys.executable} -m wdendrite.cli fractal --size 16 "
-                                      "-o g.png --quiet | true"], cwd=tmp_path, capture_output=True, text=True,
-                       timeout=120)
+                                      "-o g.png --quiet | true"], cwd=tmp_path, capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
 
 
@@ -613,7 +680,7 @@ def test_a_run_with_stdout_and_stderr_closed_finishes(tmp_path):
     # Python then has no sys.stderr: the progress bar (shown after half a second) must stay off,
     # it had failed inside tqdm's lock and hung the run
     p = subprocess.run(["bash", "-c", f"{sys.executable} -m wdendrite.cli terrain --size 256 -o t.png >&- 2>&-"],
-                       cwd=tmp_path, timeout=120)
+                       cwd=tmp_path)
     assert p.returncode == 0 and (tmp_path / "t.png").exists()
 
 

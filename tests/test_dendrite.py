@@ -114,6 +114,17 @@ def test_downstream_counts_and_paths():
     np.testing.assert_array_equal(den.depth, depth)
 
 
+def test_paths_is_a_list_of_every_endpoints_walk_to_its_root():
+    lat = wd.Lattice((30, 30), 8, weights=wd.weights.Uniform(seed=5))
+    den = wd.trace(wd.shortest_paths(lat, [[15, 15]]), wd.endpoints.random(lat, 12, seed=1))
+    paths = den.paths()
+    # a list users can take len() of and index, read twice, one entry per endpoint in its order
+    assert isinstance(paths, list) and len(paths) == len(den.endpoints) == 12
+    assert [p[0] for p in paths] == den.endpoints.tolist() and paths[3] is not den.paths()[3]
+    for p in paths:  # each step goes to the parent, and the walk ends at a root
+        assert p.dtype == np.int64 and np.array_equal(den.parent[p[:-1]], p[1:]) and den.parent[p[-1]] == -1
+
+
 def test_trace_does_not_depend_on_the_order_of_the_endpoints(device):
     # walks claim nodes in whatever order threads run (on the CPU: the endpoints' order);
     # the dendrite must come out the same, bit for bit, whatever that order is

@@ -227,3 +227,15 @@ def test_table1s_terrain_is_the_commands_own(tmp_path):
 
     assert cli.main(["terrain", "--size", "64", "--seed", "3", "-o", str(tmp_path / "t.npy"), "--quiet"]) in (0, None)
     np.testing.assert_array_equal(np.load(tmp_path / "t.npy"), _table1().terrain("terrain", 64, 3, 3))
+
+
+def test_outlets_leave_a_bounded_controls_tree_that_drains_as_it_is(device):
+    # the Lichtenberg bowl has no interior minimum: its key points drain to the rim already, so
+    # outlets (flooding from the key points next to its edge, never from outside it) change nothing;
+    # flooding from the points outside the bowl (16 x scale there) had lifted every point above them
+    p = DendryParams(levels=3, eps=0.25, delta=0.05, rule="lichtenberg", resolution=2.0, seed=3)
+    kw = dict(domain=((-1.0, -1.0), (1.0, 1.0)), control=control.lichtenberg(), device=device)
+    for output in ("distance", "level"):
+        a = dendry((96, 96), params=p, output=output, **kw)
+        b = dendry((96, 96), params=dataclasses.replace(p, outlets=True), output=output, **kw)
+        assert np.array_equal(a, b, equal_nan=True)

@@ -50,14 +50,14 @@ def test_warm_starts_give_the_same_dendrite_as_cold_starts(monkeypatch):
     for cheap in (0.0, 0.5):
         p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=15.0, cheap=cheap)
         warm = wd.grow(LAT, [[48, 48]], p, seed=7)
-        real = sssp.shortest_paths
+        real = sssp._search
 
         def cold(*args, warm_start=None, **kwargs):
             return real(*args, **kwargs)
 
-        monkeypatch.setattr(growth, "shortest_paths", cold)
+        monkeypatch.setattr(growth, "_search", cold)
         again = wd.grow(LAT, [[48, 48]], p, seed=7)
-        monkeypatch.setattr(growth, "shortest_paths", real)
+        monkeypatch.setattr(growth, "_search", real)
         for f in ("nodes", "parent", "cost", "label", "generation", "endpoints"):
             np.testing.assert_array_equal(getattr(warm, f), getattr(again, f))
 
@@ -108,13 +108,13 @@ def test_no_endpoint_lands_on_the_dendrite_it_grows_from(cheap, monkeypatch):
     p = wd.FractalParams(count=4, d=150.0, alpha=2.0, beta=3.0, epsilon=5.0, cheap=cheap)
     assert p.schedule()[-1][1] < p.band
     drawn = []
-    real = growth.trace
+    real = growth._trace
 
     def spy(cf, ends, *, extend=None, **kwargs):
         drawn.append((np.asarray(ends).copy(), None if extend is None else extend.nodes.copy()))
         return real(cf, ends, extend=extend, **kwargs)
 
-    monkeypatch.setattr(growth, "trace", spy)
+    monkeypatch.setattr(growth, "_trace", spy)
     wd.grow(LAT, [[48, 48]], p, seed=3)
     assert len(drawn) == len(p.schedule())
     for ends, before in drawn[1:]:
@@ -132,13 +132,13 @@ def test_endpoints_lie_in_the_band_of_costs_from_the_dendrite(cheap, monkeypatch
     p = wd.FractalParams(count=6, d=150.0, alpha=1.6, beta=2.5, epsilon=25.0, cheap=cheap)
     gens = np.array([[48, 48]])
     drawn = []
-    real = growth.trace
+    real = growth._trace
 
     def spy(cf, ends, *, extend=None, generation=None, **kwargs):
         drawn.append((generation, np.asarray(ends).copy(), None if extend is None else extend.nodes.copy()))
         return real(cf, ends, extend=extend, generation=generation, **kwargs)
 
-    monkeypatch.setattr(growth, "trace", spy)
+    monkeypatch.setattr(growth, "_trace", spy)
     den = wd.grow(LAT, gens, p, seed=4)
     assert len(drawn) >= 3 and den.generation.max() >= 2
     graph, r = LAT.to_csgraph(), p.band
@@ -258,6 +258,7 @@ def test_schedules_of_exactly_the_longest_length_are_allowed():
 )
 def test_bad_growth_arguments_raise_before_any_search(kwargs, error, words, monkeypatch):
     monkeypatch.setattr(growth, "shortest_paths", lambda *a, **k: pytest.fail("searched before checking"))
+    monkeypatch.setattr(growth, "_search", lambda *a, **k: pytest.fail("searched before checking"))
     with pytest.raises(error) as info:
         wd.grow(LAT, [[48, 48]], PARAMS, **kwargs)
     assert words in str(info.value)
@@ -396,6 +397,7 @@ def test_a_start_with_a_step_that_is_no_lattice_edge_is_refused(monkeypatch):
     start = wd.trace(wd.shortest_paths(LAT, [[48, 48]]), [[5, 5]])
     calls = []
     monkeypatch.setattr(growth, "shortest_paths", lambda *a, **k: calls.append(1))
+    monkeypatch.setattr(growth, "_search", lambda *a, **k: calls.append(1))
     for cheap in (0.0, 0.5):
         with pytest.raises(ValueError, match=r"'start' row \d+ = .* steps to its parent by .* no edge of the 4-connected"):
             wd.grow(four, [[48, 48]], dataclasses.replace(PARAMS, cheap=cheap), start=start)
@@ -514,7 +516,7 @@ def test_an_interrupted_growth_closes_its_progress_bar(monkeypatch):
             self.closed = True
 
     monkeypatch.setattr(tqdm.auto, "tqdm", Bar)
-    monkeypatch.setattr(growth, "trace", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    monkeypatch.setattr(growth, "_trace", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
     with pytest.raises(KeyboardInterrupt):
         wd.grow(LAT, [[48, 48]], PARAMS, progress=True)
     assert len(bars) == 1 and bars[0].closed  # (had been left open, its line on the screen)

@@ -221,28 +221,101 @@ def test_accumulation_refuses_too_many_cells_before_copying(launches):
     assert launches == []
 
 
-def _drained_flats_reference(surface, rec):
-    """Receivers for the interior cells of ``rec`` (a D8 reference's) that have none: a plain
-    heap Dijkstra over same-height neighbours (steps 2, diagonals 3) from the cells that drain
-    or lie on the border, then the first neighbour in row-major order one step nearer."""
+_STEPS = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]  # row-major
+
+
+def _has_lower(surface):
+    """Cells with a strictly lower 8-neighbour, (H, W) bool."""
     h, w = surface.shape
-    lost = {k for k, to in rec.items() if to is None and 0 < k[0] < h - 1 and 0 < k[1] < w - 1}
-    steps = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
-    near = lambda k: [((k[0] + dr, k[1] + dc), 3 if dr and dc else 2) for dr, dc in steps  # noqa: E731
-                      if 0 <= k[0] + dr < h and 0 <= k[1] + dc < w and surface[k[0] + dr, k[1] + dc] == surface[k]]
-    dist = {}
-    heap = [(0, k) for k in rec if k not in lost and any(n in lost for n, _ in near(k))]
-    while heap:
-        d, k = heapq.heappop(heap)
-        if k in dist:
-            continue
-        dist[k] = d
-        heap += [(d + s, n) for n, s in near(k) if n in lost and n not in dist]
-        heapq.heapify(heap)
-    out = dict(rec)
-    for k in lost & dist.keys():
-        out[k] = next(n for n, s in near(k) if n in dist and dist[n] + s == dist[k])
+    pad = np.pad(surface, 1, constant_values=np.inf)
+    out = np.zeros(surface.shape, bool)
+    for dr, dc in _STEPS:
+        out |= pad[1 + dr: 1 + dr + h, 1 + dc: 1 + dc + w] < surface
     return out
+
+
+def _lost(surface):
+    """Interior cells without a strictly lower neighbour, (H, W) bool."""
+    out = ~_has_lower(surface)
+    out[[0, -1], :] = out[:, [0, -1]] = False
+    return out
+
+
+def _scipy_flat_distances(surface, lost):
+    """SciPy's Dijkstra over the flats (same-height 8-neighbours, steps 2 and diagonals 3):
+    (towards lower, away from higher), each (H, W) float with inf where no source reaches.
+    Towards lower: over the lost cells and the cells beside them of their height (the ways
+    out, the sources). Away from higher: over the lost cells only, from those beside a higher cell."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    h, w = surface.shape
+    edges, ways_out, high = [], set(), set()
+    for r, c in zip(*np.nonzero(lost)):
+        for dr, dc in _STEPS:
+            rr, cc = r + dr, c + dc
+            if surface[rr, cc] > surface[r, c]:
+                high.add(r * w + c)
+            elif surface[rr, cc] == surface[r, c]:
+                edges.append((r * w + c, rr * w + cc, 3 if dr and dc else 2, bool(lost[rr, cc])))
+                if not lost[rr, cc]:
+                    ways_out.add(rr * w + cc)
+    out = []
+    for sources, keep in ((ways_out, lambda e: True), (high, lambda e: e[3])):
+        kept = [e for e in edges if keep(e)]
+        graph = coo_matrix(([e[2] for e in kept], ([e[0] for e in kept], [e[1] for e in kept])),
+                           shape=(h * w, h * w)).tocsr()
+        dist = np.full(h * w, np.inf)
+        if sources:
+            dist = dijkstra(graph, directed=False, indices=sorted(sources), min_only=True)
+        out.append(dist.reshape(h, w))
+    return out
+
+
+def _drained_flats_reference(surface, rec):
+    """Receivers for the lost cells of ``rec`` (a D8 reference's) on flats that drain: the nearest
+    way out beside it (a side before a diagonal), else the neighbour of its height of lowest mask
+    2 * lower - higher (0 for higher on a flat that touches no higher cell), the first in
+    row-major order among equals; asserts that the mask falls (the receivers then end outside)."""
+    h, w = surface.shape
+    lost = _lost(surface)
+    lower, higher = _scipy_flat_distances(surface, lost)
+    higher[np.isinf(higher)] = 0
+    mask = 2 * lower - higher
+    out = dict(rec)
+    for r, c in zip(*np.nonzero(lost & np.isfinite(lower))):
+        same = [(dr, dc) for dr, dc in _STEPS if surface[r + dr, c + dc] == surface[r, c]]
+        outs = sorted((3 if dr and dc else 2, k) for k, (dr, dc) in enumerate(same) if not lost[r + dr, c + dc])
+        if outs:
+            dr, dc = same[outs[0][1]]
+        else:
+            dr, dc = min(same, key=lambda s: mask[r + s[0], c + s[1]])  # (min keeps the first of equals)
+            assert mask[r + dr, c + dc] < mask[r, c]
+        out[(r, c)] = (r + dr, c + dc)
+    return out
+
+
+def test_flat_distances_equal_scipy_dijkstra():
+    from wdendrite.hydrology import _flat_distances
+
+    rng = np.random.default_rng(8)
+    far = np.iinfo(np.int64).max
+    terrains = [hydrology.fill(rng.integers(0, 3, (21, 26)).astype(float)) for _ in range(4)]
+    terrains += [rng.integers(0, 2, (17, 19)).astype(float),  # natural flats, some closed (no way out)
+                 np.zeros((7, 8)),  # a flat touching no higher cell: nothing is away from higher
+                 hydrology.fill(np.round(hydrology.fbm_terrain((40, 36), seed=5) * 6).astype(float)),
+                 _serpentine(15, 14)]
+    for k, surface in enumerate(terrains):
+        lost = _lost(surface)
+        assert lost.sum() > 20
+        got = [d.numpy().reshape(surface.shape) for d in _flat_distances(surface, lost)]
+        want = _scipy_flat_distances(surface, lost)
+        for g, ref in zip(got, want):
+            np.testing.assert_array_equal(np.where(g == far, np.inf, g)[lost], ref[lost])
+        if k == 4:
+            assert np.isinf(want[0][lost]).any()
+        if k == 5:
+            assert np.isinf(want[1][lost]).all() and np.isfinite(want[0][lost]).all()
 
 
 def _benchmark(name: str):
@@ -267,10 +340,21 @@ def _serpentine(h: int, w: int) -> np.ndarray:
     return _benchmark("bench_hydrology").serpentine(h, w)
 
 
+def _trough(rng, h=9, w=60):
+    """A long valley: walls of 10 around a rough floor below 3, spilling west at (h // 2, 0) (at 3),
+    so that the fill makes its floor one flat of (h - 2) x (w - 2) cells."""
+    z = np.full((h, w), 10.0)
+    z[1:-1, 1:-1] = 3.0 * rng.random((h - 2, w - 2))
+    z[h // 2, 0] = 3.0
+    return z
+
+
 @pytest.mark.parametrize("make", [lambda rng: rng.random((14, 17)),
                                   lambda rng: rng.integers(0, 4, (15, 13)).astype(float),  # natural flats too
                                   lambda rng: hydrology.fbm_terrain((24, 30), seed=2).astype(float),
-                                  lambda rng: _serpentine(17, 12)])
+                                  lambda rng: _serpentine(17, 12),
+                                  lambda rng: rng.integers(0, 3, (30, 41)).astype(float),  # wide filled flats
+                                  lambda rng: _trough(rng, 10, 33)])
 def test_filled_d8_equals_brute_force_priority_flood_and_flat_draining(make):
     z = make(np.random.default_rng(4))
     area = hydrology.flow_accumulation(z, filled=True)
@@ -290,14 +374,49 @@ def test_filled_d8_equals_brute_force_priority_flood_and_flat_draining(make):
     assert np.isclose(sum(dinf[e] for e in ends), z.size)
 
 
+@pytest.mark.parametrize("method", ["d8", "dinf"])
+def test_filled_flow_ends_on_the_border_on_random_terrains(method):
+    # no cycle and no interior end: all the area reaches the border cells without a lower neighbour
+    rng = np.random.default_rng(12)
+    for k in range(8):
+        shape = tuple(int(n) for n in rng.integers(8, 40, 2))
+        z = rng.integers(0, 2 + k % 4, shape).astype(float)
+        if k % 2:
+            z += 1e-3 * rng.random(shape)  # rough floors: flats only where the fill makes them
+        area = hydrology.flow_accumulation(z, method=method, filled=True)
+        surface = hydrology.fill(z)
+        ends = ~_has_lower(surface)
+        ends[1:-1, 1:-1] = False  # border cells without a lower neighbour
+        assert np.isclose(area[ends].sum(), z.size), (k, shape)
+        assert (area >= 1).all()
+
+
 def test_a_filled_basin_drains_through_its_outlet():
     # the review's case: a pit whose fill makes a flat of eight cells, spilling east at (2, 3)
     z = np.array([[5, 5, 5, 5, 5], [5, 2, 2, 2, 5], [5, 2, 1, 2, 0], [5, 2, 2, 2, 5], [5, 5, 5, 5, 5]], float)
     for method in ("d8", "dinf"):
         area = hydrology.flow_accumulation(z, method=method, filled=True)
         assert area[2, 4] == z.size, method  # everything, the border's 5s included, leaves there
-        # the flat's cells pass their areas towards the outlet, not among themselves in a loop
-        np.testing.assert_array_equal(area[1:4, 1:4], [[4, 6, 9], [2, 3, 4], [4, 6, 9]])
+        # the flat's east column drains out directly; its west column, away from the walls, onto the
+        # flat's middle (2, 2), which passes it all (11 cells) to the outlet (2, 3)
+        np.testing.assert_array_equal(area[1:4, 1:4], [[4, 2, 5], [2, 11, 12], [4, 2, 5]])
+
+
+@pytest.mark.parametrize("method", ["d8", "dinf"])
+def test_a_filled_trough_drains_along_one_line(method):
+    # a flat drained only towards its way out ran down the valley in parallel lines, one per row
+    # (drainage maps hatched along their rivers); drained also away from the walls, it gathers onto
+    # one line: in every cross-section one cell carries nearly all the area from upstream
+    rng = np.random.default_rng(11)
+    for h, w in ((9, 60), (12, 50)):
+        z = _trough(rng, h, w)
+        area = hydrology.flow_accumulation(z, method=method, filled=True)
+        assert np.isclose(area[h // 2, 0], z.size)
+        for c in range(1, w - 20):  # (within 20 columns of its head the valley is still gathering)
+            column = np.sort(area[1:-1, c])
+            upstream = h * (w - 1 - c)  # every cell east of the column drains through it
+            assert column[-1] >= 0.9 * upstream, (h, c, column)
+            assert column[-2] <= 0.1 * column[-1], (h, c, column)
 
 
 def test_dinf_splits_flow_by_angle_and_conserves_area():

@@ -4,6 +4,7 @@ import json
 import os
 import warnings
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -212,28 +213,102 @@ def test_every_writer_refuses_to_overwrite_and_empty_dendrites(tmp_path):
     assert not _leftovers(tmp_path)
 
 
-def test_16_bit_colour_png_is_valid_and_exact(tmp_path):
+def _png_chunks(data: bytes) -> dict:
+    import struct
+
+    out, at = {}, 8
+    while at < len(data):
+        length = struct.unpack(">I", data[at:at + 4])[0]
+        out[data[at + 4:at + 8]] = out.get(data[at + 4:at + 8], b"") + data[at + 8:at + 8 + length]
+        at += 12 + length
+    return out
+
+
+def _unfiltered(raw: np.ndarray, bpp: int) -> np.ndarray:
+    """PNG scanlines decoded by the specification's rules, one byte at a time (the test's reference)."""
+    h, n = raw.shape[0], raw.shape[1] - 1
+    out = np.zeros((h, n), np.int64)
+    for r in range(h):
+        kind = int(raw[r, 0])
+        for i in range(n):
+            a = int(out[r, i - bpp]) if i >= bpp else 0
+            b = int(out[r - 1, i]) if r else 0
+            c = int(out[r - 1, i - bpp]) if r and i >= bpp else 0
+            p = a + b - c
+            pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+            paeth = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            out[r, i] = (int(raw[r, 1 + i]) + (0, a, b, (a + b) // 2, paeth)[kind]) % 256
+    return out.astype(np.uint8)
+
+
+def _png16_samples(path, h, w, c):
     import struct
     import zlib
 
-    rgb = np.random.default_rng(3).random((7, 9, 3))
+    chunks = _png_chunks(Path(path).read_bytes())
+    assert struct.unpack(">IIBB", chunks[b"IHDR"][:10]) == (w, h, 16, 2 if c == 3 else 6)
+    raw = np.frombuffer(zlib.decompress(chunks[b"IDAT"]), np.uint8).reshape(h, 1 + w * c * 2)
+    return raw[:, 0], _unfiltered(raw, 2 * c).view(">u2").reshape(h, w, c)
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_16_bit_colour_png_is_valid_and_exact(tmp_path, channels):
+    rng = np.random.default_rng(3)
+    # rows that suit different filters: noise, a ramp along x, a copy of the row above, a flat colour
+    rgb = rng.random((12, 40, channels))
+    rgb[3:6] = np.linspace(0, 1, 40)[None, :, None] * np.array([1.0, 0.5, 0.25, 1.0][:channels])
+    rgb[6:9] = rgb[2]
+    rgb[9:] = 0.3
     p = save_png(tmp_path / "c16.png", rgb, bits=16)
-    data = p.read_bytes()
-    # Pillow reads it (as 8-bit), which checks the chunks and CRCs
+    want = (rgb * 65535 + 0.5).astype(np.uint16)
+    # Pillow decodes it (to 8 bits: the high bytes), which checks the chunks, CRCs and its own unfiltering
     with Image.open(p) as im:
         im.load()
-        assert im.size == (9, 7)
-        np.testing.assert_allclose(np.asarray(im.convert("RGB")) / 255.0, rgb, atol=1.5 / 255)
-    # the IDAT holds every sample at 16 bits
-    w, h, depth, ctype = struct.unpack(">IIBB", data[16:26])
-    assert (w, h, depth, ctype) == (9, 7, 16, 2)
-    start = data.index(b"IDAT") + 4
-    length = struct.unpack(">I", data[start - 8:start - 4])[0]
-    raw = np.frombuffer(zlib.decompress(data[start:start + length]), np.uint8).reshape(7, 1 + 9 * 3 * 2)
-    assert np.all(raw[:, 0] == 0)
-    samples = raw[:, 1:].copy().view(">u2").reshape(7, 9, 3)
-    np.testing.assert_array_equal(samples, (rgb * 65535 + 0.5).astype(np.uint16))
+        assert im.size == (40, 12)
+        np.testing.assert_array_equal(np.asarray(im), (want >> 8).astype(np.uint8))
+    # every 16-bit sample, unfiltered by the specification's rules
+    kinds, samples = _png16_samples(p, 12, 40, channels)
+    np.testing.assert_array_equal(samples, want)
+    assert len(set(kinds.tolist())) >= 3, kinds  # (the rows did take different filters)
     assert not _leftovers(tmp_path)
+
+
+def test_a_smooth_16_bit_colour_png_is_smaller_filtered(tmp_path):
+    from wdendrite import io as wio
+
+    y, x = np.mgrid[0:64, 0:96] / 95.0
+    data = wio._quantized(np.stack([x, y, 0.5 * (x + y)], axis=-1), 16)
+    wio._png16_rgb(tmp_path / "plain.png", data, filtered=False)
+    wio._png16_rgb(tmp_path / "filtered.png", data)
+    plain, filtered = ((tmp_path / f).stat().st_size for f in ("plain.png", "filtered.png"))
+    assert filtered * 5 < plain, (filtered, plain)
+    np.testing.assert_array_equal(_png16_samples(tmp_path / "filtered.png", 64, 96, 3)[1], data)
+
+
+@pytest.mark.parametrize("channels", [None, 3, 4])
+def test_uint8_and_uint16_images_are_levels_of_their_dtype(tmp_path, channels):
+    rng = np.random.default_rng(5)
+    shape = (6, 7) if channels is None else (6, 7, channels)
+    u8 = rng.integers(0, 256, shape).astype(np.uint8)
+    u8.flat[:2] = (0, 255)
+    u16 = rng.integers(0, 65536, shape).astype(np.uint16)
+    u16.flat[:4] = (0, 65535, 128, 385)  # (385 = 257 + 128: the largest level rounding down to 1)
+    expect8 = np.floor(u16 / 257.0 + 0.5).astype(np.uint8)  # the nearest 8-bit level
+    # at their own depth they are kept; at the other, rescaled to the nearest level
+    np.testing.assert_array_equal(np.asarray(Image.open(save_png(tmp_path / "a.png", u8))), u8)
+    np.testing.assert_array_equal(np.asarray(Image.open(save_png(tmp_path / "b.png", u16, bits=8))), expect8)
+    big_endian = u16.astype(">u2")  # (any byte order)
+    np.testing.assert_array_equal(np.asarray(Image.open(save_png(tmp_path / "c.png", big_endian, bits=8))), expect8)
+    for name, img, want in (("d.png", u16, u16), ("e.png", u8, u8.astype(np.uint16) * 257)):
+        p = save_png(tmp_path / name, img, bits=16)
+        if channels in (3, 4):
+            np.testing.assert_array_equal(_png16_samples(p, 6, 7, channels)[1], want)
+        else:
+            np.testing.assert_array_equal(np.asarray(Image.open(p)).astype(np.int64), want)
+    # floats stay values in [0, 1], other integer dtypes 0 and 1 only
+    np.testing.assert_array_equal(np.asarray(Image.open(save_png(tmp_path / "f.png", u8 / 255.0))), u8)
+    with pytest.raises(ValueError, match=r"this int64 image spans \[0, 255\]; pass 8-bit levels as uint8"):
+        save_png(tmp_path / "g.png", u8.astype(np.int64))
 
 
 def empty_dendrite(shape):
@@ -280,7 +355,7 @@ def test_a_replaced_file_keeps_its_permissions(tmp_path):
         ("abc", TypeError, "'image', but got dtype <U3"),
         (np.zeros((0, 0)), ValueError, r"'image', but got shape \(0, 0\)"),
         (np.zeros((4, 4, 2)), ValueError, r"'image', but got shape \(4, 4, 2\)"),
-        (np.full((4, 4), 200, np.uint8), ValueError, r"values in \[0, 1\], but this uint8 image spans \[200, 200\]"),
+        (np.full((4, 4), 200, np.int32), ValueError, r"values in \[0, 1\], but this int32 image spans \[200, 200\]"),
     ],
 )
 def test_bad_png_images_name_image_and_leave_the_old_file(tmp_path, image, exc, match):

@@ -216,7 +216,12 @@ def test_bad_preset_values_raise_before_any_kernel(func, kw, match, launches):
         (presets.tropisms, dict(shape=(32, 32), toward="left"), ValueError, r"'toward'.*the string 'left': a sequence"),
         (presets.tropism_objects, dict(shape=(16, 16, 16), toward="top"), ValueError, r"the string 'top': a sequence"),
         # a repeated entry had drawn two panels but kept one dendrite in parts["dendrites"]
-        (presets.tropisms, dict(shape=(32, 32), toward=["left", "left"]), ValueError, r"'toward' lists 'left' twice"),
+        (presets.tropisms, dict(shape=(32, 32), toward=["left", "left"], roots=["right"]), ValueError,
+         r"'toward' lists \('left', 'right'\) twice"),
+        (presets.tropisms, dict(shape=(32, 32), toward=["left", "top"], roots=["left", "middle"]), ValueError,
+         r"every entry of 'roots' in \('left', 'center', 'right'\), but got 'middle'"),
+        (presets.tropisms, dict(shape=(32, 32), toward=["left", "top", "right"], roots=["left", "right"]), ValueError,
+         r"one entry of 'roots' per entry of 'toward' \(3\), or one for all, but got 2"),
         (presets.tropism_objects, dict(shape=(16, 16, 16), toward=("axis", "top", "axis")), ValueError,
          r"'toward' lists 'axis' twice"),
         (presets.weight_distributions, dict(shape=(32, 32), ns=[1, 1]), ValueError, r"'ns' lists 1 twice"),
@@ -231,6 +236,66 @@ def test_panel_lists_are_non_empty_sequences_without_repeats(func, kw, exc, matc
     with pytest.raises(exc, match=match):
         func(**kw)
     assert launches == []
+
+
+MULTI_PANEL = {  # name -> (its small run, the labels it must carry, panel shape, columns)
+    "fractal_grid": (lambda: run("fractal_grid"),
+                     ["alpha = 2, beta = 2", "alpha = 1.5, beta = 2", "alpha = 2, beta = 3", "alpha = 1.5, beta = 3"],
+                     (40, 40), 2),
+    "weight_distributions": (lambda: run("weight_distributions"), ["n = 0", "n = 1", "n = 4", "n = 8"], (48, 48), 4),
+    "tropisms": (lambda: run("tropisms"),
+                 ["(a) toward left, root left", "(b) toward left, root right", "(c) toward right, root left",
+                  "(d) toward right, root right", "(e) toward axis, root center", "(f) away from axis, root center",
+                  "(g) toward top, root center", "(h) toward bottom, root center"], (48, 48), 4),
+    "width_demo": (lambda: run("width_demo"), ["T = 5.0", "T = 1.6", "Ts = 0.6", "Ts = 0.2"], (64, 40), 4),
+    "taper_demo": (lambda: run("taper_demo"), ["T = 5", "eq. 2 along each path", "eq. 2 along each branch"],
+                   (64, 64), 3),
+    "tropism_objects": (lambda: run("tropism_objects"), ["toward axis", "toward top"], (320, 320), 2),
+    "power_weights": (lambda: presets.power_weights((48, 48), alphas=(0.5, 2.0), endpoints=6, seed=1),
+                      ["alpha = 0.5", "alpha = 2"], (48, 48), 2),
+    "cheap_paths": (lambda: presets.cheap_paths((60, 60), factors=(1.0, 0.5, 0.25), added=6, seed=1),
+                    ["D = 1", "D = 0.5", "D = 0.25"], (60, 60), 2),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MULTI_PANEL))
+def test_every_panel_of_a_figure_is_labelled_with_its_parameters(name):
+    make, labels, (h, w), columns = MULTI_PANEL[name]
+    res = make()
+    assert res.parts["labels"] == labels
+    img, rows = res.image, -(-len(labels) // columns)
+    assert img.shape[1] == columns * w + (columns - 1) * 4
+    strip = (img.shape[0] - (rows - 1) * 4) // rows - h
+    assert strip > 0 and img.shape[0] == rows * (h + strip) + (rows - 1) * 4
+    strips = []
+    for k in range(len(labels)):
+        r, c = divmod(k, columns)
+        y, x = r * (h + strip + 4), c * (w + 4)
+        above = img[y: y + strip, x: x + w]
+        ink = np.flatnonzero((above < 0.9).any(axis=(0, 2)))
+        assert ink.size, f"panel {k} of {name} has no label"
+        assert abs((ink[0] + ink[-1] + 1) / 2 - w / 2) <= 2  # centred over its panel
+        strips.append(above)
+    assert all(not np.array_equal(a, b) for i, a in enumerate(strips) for b in strips[i + 1:])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_tropisms_grow_from_the_bottom_row_and_lean_toward_the_cheap_side(seed):
+    # thesis Fig. 4.5: the root at the bottom, the same endpoints in every panel, the weights make the difference
+    res = presets.tropisms((64, 64), endpoints=12, seed=seed)
+    dens = res.parts["dendrites"]
+    ends = {tuple(map(tuple, d.nodes[d.endpoints].tolist())) for d in dens.values()}
+    assert len(ends) == 1  # (as sets of coordinates: endpoints rows come in each dendrite's own order)
+    for (toward, root), den in dens.items():
+        (r, c), = den.nodes[den.roots].tolist()
+        assert r == 61 and {"left": c < 16, "center": c == 32, "right": c > 48}[root]
+    x = {k: d.nodes[:, 1].mean() for k, d in dens.items()}
+    y = {k: d.nodes[:, 0].mean() for k, d in dens.items()}
+    off_axis = {k: np.abs(d.nodes[:, 1] - 32).mean() for k, d in dens.items()}
+    for root in ("left", "right"):
+        assert x[("left", root)] < x[("right", root)]
+    assert y[("top", "center")] < y[("bottom", "center")]  # rows grow downward: nodes higher up
+    assert off_axis[("axis", "center")] < off_axis[("away_from_axis", "center")]
 
 
 def test_panel_lists_key_every_panel():
@@ -286,7 +351,7 @@ def test_the_fractal_command_checks_its_schedule_before_the_lattice(launches):
     (presets.tropism_objects, dict(shape=(10, 10, 10), endpoints=300), "in the upper part"),
     (presets.simple_dendrite, dict(shape=(8, 8), endpoints=100), "in"),
     (presets.weight_distributions, dict(shape=(8, 8), endpoints=100), "in"),
-    (presets.tropisms, dict(shape=(8, 8)), "on one cost contour"),
+    (presets.tropisms, dict(shape=(8, 8)), "in the upper three quarters"),
     (presets.taper_demo, dict(shape=(8, 8), endpoints=100), "in the lower half"),
 ])
 def test_too_many_endpoints_are_reported_against_the_presets_own_parameter(func, kw, where):

@@ -225,6 +225,35 @@ def test_colorize_adds_light_over_the_background(device):
     np.testing.assert_allclose(grey, 0.25, atol=1e-6)
 
 
+def test_colorize_takes_any_matplotlib_colormap_a_callable_or_colours(device):
+    mpl = pytest.importorskip("matplotlib")
+    v = np.linspace(0.0, 1.0, 7 * 41, dtype=np.float32).reshape(7, 41)
+    for name in ("viridis", "magma_r", "terrain"):
+        table = mpl.colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3]
+        step = np.abs(np.diff(table, axis=0)).max()  # ours interpolates the 256 colours, Matplotlib picks one
+        got = colorize(v, colormap=name, device=device)
+        assert got.shape == (7, 41, 3) and got.dtype == np.float32
+        assert np.abs(got - mpl.colormaps[name](v)[..., :3]).max() <= step + 1e-6, name
+        # the Colormap object itself is a callable colormap: the same picture
+        np.testing.assert_array_equal(colorize(v, colormap=mpl.colormaps[name], device=device), got)
+    ramp = colorize(v, colormap=lambda t: np.stack([t, t * t, 1.0 - t], axis=1), device=device)
+    np.testing.assert_allclose(ramp, np.stack([v, v * v, 1.0 - v], axis=-1), atol=1e-5)  # (t^2 between samples)
+    two = colorize(v, colormap=[[0.0, 0.0, 0.0], [1.0, 0.5, 0.0]], device=device)
+    np.testing.assert_allclose(two, np.stack([v, 0.5 * v, 0 * v], axis=-1), atol=1e-6)
+    one = colorize(v, colormap=np.array([[0.2, 0.4, 0.6]]), device=device)
+    np.testing.assert_allclose(one, np.broadcast_to([0.2, 0.4, 0.6], one.shape), atol=1e-6)
+
+
+def test_colormap_names_beyond_ours_need_matplotlib(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # (an import of it now fails, as when it is missing)
+    with pytest.raises(ValueError, match=r"other names are Matplotlib's colormaps, and Matplotlib is not "
+                                         r"installed\), but got 'viridis'"):
+        colorize(np.zeros((2, 2)), colormap="viridis")
+    np.testing.assert_allclose(colorize(np.full((2, 2), 0.5), colormap="grey"), 0.5, atol=1e-6)  # ours need none
+
+
 def test_rows_render_a_subset():
     br = branch_order(DEN)
     main = br.order == 0
@@ -256,7 +285,7 @@ def test_rows_render_a_subset():
         (lambda: brightness(DEN, 2.0, rows=np.zeros(0, int)), "rows"),
         (lambda: brightness(DEN, 2.0, rows=[]), "'rows' is empty"),  # (a float array to NumPy)
         (lambda: brightness(DEN, 2.0, rows=np.zeros(len(DEN), bool)), "'rows' selects no node"),
-        (lambda: colorize(np.zeros((2, 2)), colormap="jet"), "colormap"),
+        (lambda: colorize(np.zeros((2, 2)), colormap="no-such-map"), "colormap"),
         (lambda: composite([]), "layers"),
         (lambda: composite([np.zeros((2, 2)), np.zeros((3, 2))]), "layers"),
         (lambda: composite([np.zeros((2, 2))], mode="multiply"), "mode"),
@@ -403,10 +432,23 @@ def test_unit_range_maps_the_finite_values_onto_0_1():
         (lambda: brightness(DEN, 2.0, metric="euclidean", lattice=LAT), ValueError,
          r"'lattice' is only used with metric='path', but metric is 'euclidean'"),
         (lambda: colorize(np.zeros((4, 4)), colormap=["grey"]), TypeError,
-         r"Expected 'colormap' as a str, one of \('grey', 'lightning', .*\), but got \['grey'\]"),
+         r"Expected a real-valued \(N, 3\) array for 'colormap', but got dtype <U4"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=3), TypeError,
+         r"Expected 'colormap' as a name \(one of \('grey', 'lightning', .*\) or a Matplotlib colormap's\), a "
+         r"callable or an \(N, 3\) array of colours, but got int"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=np.zeros((4, 4))), ValueError,
+         r"Expected a non-empty \(N, 3\) array for 'colormap', but got shape \(4, 4\)"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=[[0, 0, 0], [2, 1, 1]]), ValueError,
+         r"Expected the colours of 'colormap' in \[0, 1\], but they span \[0, 2\]"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=lambda t: t), ValueError,
+         r"Expected a non-empty \(256, 3\) or \(256, 4\) \(returned by the callable\) array for 'colormap', "
+         r"but got shape \(256,\)"),
+        (lambda: colorize(np.zeros((4, 4)), colormap=lambda t: 1 / 0), ValueError,
+         r"'colormap' <function .*> failed on 256 values from 0 to 1: ZeroDivisionError"),
         (lambda: glow(np.ones((4, 4)), passes=2**40), ValueError, r"Expected 'passes' <= 64, but got 1099511627776"),
     ],
-    ids=["lattice", "colormap", "passes"],
+    ids=["lattice", "colormap-text", "colormap-int", "colormap-shape", "colormap-range", "colormap-returns",
+         "colormap-fails", "passes"],
 )
 def test_a_lattice_without_path_costs_an_unhashable_colormap_and_endless_passes_are_refused(call, exc, match,
                                                                                              launches):
@@ -505,3 +547,57 @@ def test_coverage_of_a_distance_field_sums_to_the_width_and_refuses_bad_distance
         wd.render.coverage(np.array([-1.0]), 1.0)
     with pytest.raises(ValueError, match="'width'"):
         wd.render.coverage(np.array([1.0]), 0.0)
+
+
+# Dendry trees drawn as lines
+
+_BOWL = dict(domain=((0.0, 0.0), (2.0, 2.0)), control=wd.control.lichtenberg())
+_TREE = wd.DendryParams(levels=3, eps=0.25, delta=(0.05, 0.01, 0.0), rule="lichtenberg", seed=2)
+
+
+def test_the_tree_of_the_first_levels_is_the_whole_trees_first_levels(device):
+    # what dendry_lines rests on: cutting the parameters to k levels keeps levels 1..k as they are
+    n = 96
+    whole = wd.dendry((n, n), params=_TREE, output="distance", device=device, **_BOWL)
+    level = wd.dendry((n, n), params=_TREE, output="level", device=device, **_BOWL)
+    for k in (1, 2):
+        cut = wd.DendryParams(levels=k, eps=0.25, delta=_TREE.delta[:k], rule="lichtenberg", seed=2)
+        first = wd.dendry((n, n), params=cut, output="distance", device=device, **_BOWL)
+        assert np.all(first >= whole)  # fewer branches, never nearer
+        np.testing.assert_array_equal(first[level <= k], whole[level <= k])
+
+
+def test_dendry_lines_draw_each_level_at_its_own_width(device):
+    n = 128
+    cover = wd.render.dendry_lines((n, n), params=_TREE, device=device, **_BOWL)
+    assert cover.shape == (n, n) and cover.dtype == np.float32 and 0 <= cover.min() and cover.max() <= 1
+    # the documented widths: the finest level an eighth of its 16-pixel cell, within [1, 1.5]; x 1.4 a level
+    widths = [1.5 * 1.4**2, 1.5 * 1.4, 1.5]
+    px = 2.0 / n
+    d = wd.dendry((n, n), params=_TREE, output="distance", device=device, **_BOWL) / px
+    level = wd.dendry((n, n), params=_TREE, output="level", device=device, **_BOWL)
+
+    def line(w):  # a stroke of width w, seen by a pixel d from its middle (coverage's own tests hold it)
+        return wd.render.coverage(d, w)
+
+    # nearest to the trunk: the trunk's own width; elsewhere between the finest and the trunk's
+    np.testing.assert_allclose(cover[level == 1], line(widths[0])[level == 1], atol=1e-6)
+    assert np.all(cover >= line(widths[-1]) - 1e-6) and np.all(cover <= line(widths[0]) + 1e-6)
+    assert (cover > line(widths[-1]) + 0.1).any()  # some finer branches lie within a coarser one's width
+    assert len(np.unique(np.round(cover, 3))) > 50  # antialiased: many partial covers
+    again = wd.render.dendry_lines((n, n), params=_TREE, distance=d * px, device=device, **_BOWL)
+    np.testing.assert_array_equal(again, cover)
+    thin = wd.render.dendry_lines((n, n), params=_TREE, widths=[1.0, 1.0, 1.0], device=device, **_BOWL)
+    np.testing.assert_allclose(thin, line(1.0), atol=1e-6)  # one width for all: the whole tree at that width
+
+
+@pytest.mark.parametrize("kw, exc, match", [
+    (dict(widths=[1.0, 2.0]), ValueError, r"one width per level \(3\), but got \[1.0, 2.0\]"),
+    (dict(widths=[1.0, 0.0, 1.0]), ValueError, r"'widths\[1\]'"),
+    (dict(distance=np.zeros((5, 5))), ValueError, r"'distance' has shape \(5, 5\), but 'shape' is \(16, 16\)"),
+    (dict(params=None), TypeError, "DendryParams for 'params'"),
+])
+def test_dendry_lines_refuse_bad_input_before_any_kernel(kw, exc, match, launches):
+    with pytest.raises(exc, match=match):
+        wd.render.dendry_lines((16, 16), **{"params": _TREE, **_BOWL, **kw})
+    assert launches == []

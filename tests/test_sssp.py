@@ -13,6 +13,7 @@ from scipy.sparse.csgraph import dijkstra
 import wdendrite as wd
 from wdendrite import _checks
 from wdendrite.lattice import half_offsets
+from wdendrite.sssp import _search
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -122,7 +123,7 @@ def test_result_does_not_depend_on_bucket_width_or_schedule(problem, delta, fifo
     # rounding ties may follow a GPU's thread timing, so the comparison is the CPU's)
     lat, gens = problem
     a = wd.shortest_paths(lat, gens, device="cpu")
-    b = wd.shortest_paths(lat, gens, delta=delta, _fifo=fifo, device="cpu")
+    b = _search(lat, gens, delta=delta, fifo=fifo, device="cpu")
     np.testing.assert_array_equal(a.dist.view(np.uint32), b.dist.view(np.uint32))
     np.testing.assert_array_equal(a.label, b.label)
 
@@ -137,9 +138,9 @@ def test_one_launch_search_equals_buckets_driven_from_the_host(problem, delta, l
     split = data.draw(st.integers(1, len(gens)))
     runs = []
     for host in (False, True):
-        first = wd.shortest_paths(lat, gens[:split], limit=limit, delta=delta, _host_rounds=host, device="cpu")
+        first = _search(lat, gens[:split], limit=limit, delta=delta, host_rounds=host, device="cpu")
         cold = (first.dist.copy(), first.label.copy(), first.rounds, first.relaxed)
-        warm = wd.shortest_paths(lat, gens, limit=limit, delta=delta, warm_start=first, _host_rounds=host,
+        warm = _search(lat, gens, limit=limit, delta=delta, warm_start=first, host_rounds=host,
                                  device="cpu")
         runs.append((cold, (warm.dist, warm.label, warm.rounds, warm.relaxed)))
     for (one, host) in zip(*runs):
@@ -187,7 +188,7 @@ def test_records_of_another_stride_are_searched_by_the_general_kernel(monkeypatc
     gens = np.array([[3, 4], [15, 12]])
     one = wd.shortest_paths(lat, gens, device="cpu")
     one = (one.dist.copy(), one.label.copy(), one.rounds, one.relaxed)
-    host = wd.shortest_paths(lat, gens, _host_rounds=True, device="cpu")
+    host = _search(lat, gens, host_rounds=True, device="cpu")
     np.testing.assert_array_equal(one[0].view(np.uint32), host.dist.view(np.uint32))
     np.testing.assert_array_equal(one[1], host.label)
     assert one[2:] == (host.rounds, host.relaxed)
@@ -206,7 +207,7 @@ def test_one_launch_search_equals_host_buckets_on_larger_lattices(shape, conn, s
     for delta, limit in ((0.3, np.inf), (None, 60.0)):
         one = wd.shortest_paths(lat, gens, delta=delta, limit=limit, device="cpu")
         one = (one.dist.copy(), one.label.copy(), one.rounds, one.relaxed)
-        host = wd.shortest_paths(lat, gens, delta=delta, limit=limit, _host_rounds=True, device="cpu")
+        host = _search(lat, gens, delta=delta, limit=limit, host_rounds=True, device="cpu")
         np.testing.assert_array_equal(one[0].view(np.uint32), host.dist.view(np.uint32))
         np.testing.assert_array_equal(one[1], host.label)
         assert one[2:] == (host.rounds, host.relaxed) and one[2] > (20 if delta else 0)
@@ -217,7 +218,7 @@ def test_one_launch_search_equals_host_buckets_on_larger_lattices(shape, conn, s
 def test_generation_round_schedule_matches_scipy(problem, limit, threads):
     # the GPU schedule: threads stride over each frontier generation
     lat, gens = problem
-    cf = wd.shortest_paths(lat, gens, limit=limit, _fifo=False, _max_threads=threads, device="cpu")
+    cf = _search(lat, gens, limit=limit, fifo=False, max_threads=threads, device="cpu")
     _check_against_scipy(lat, gens, cf, limit=limit)
     ref = wd.shortest_paths(lat, gens, limit=limit, device="cpu")
     assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()
@@ -248,7 +249,7 @@ def test_warm_start_after_edges_lowered_in_place_equals_cold_start(problem, data
     own = lat.with_weights(lat.weights)
     split = data.draw(st.integers(1, len(gens)))
     fifo = data.draw(st.booleans())
-    first = wd.shortest_paths(own, gens[:split], _fifo=fifo)
+    first = _search(own, gens[:split], fifo=fifo)
     rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
     dirs = rng.integers(0, len(lat.offsets), size=data.draw(st.integers(0, 12)))
     coords = np.stack([rng.integers(0, n, size=len(dirs)) for n in lat.shape], axis=1).reshape(-1, lat.ndim)
@@ -264,13 +265,13 @@ def test_warm_start_after_edges_lowered_in_place_equals_cold_start(problem, data
         lowered = own._lower_in_place(dirs, coords, factor, "cpu")
     else:  # records other than the host's (a GPU's) take the new weights from the search itself
         lowered = (own.padded_indices(coords), dirs.astype(np.int32), expected[idx], None)
-    warm = wd.shortest_paths(own, gens, warm_start=first, _lowered=lowered, _fifo=fifo)
+    warm = _search(own, gens, warm_start=first, lowered=lowered, fifo=fifo)
     np.testing.assert_array_equal(own.weights, expected)
     cold = wd.shortest_paths(lat.with_weights(expected), gens)
     np.testing.assert_array_equal(warm.dist.view(np.uint32), cold.dist.view(np.uint32))
     np.testing.assert_array_equal(warm.label, cold.label)
     with pytest.raises(ValueError, match="own lattice"):
-        wd.shortest_paths(lat.with_weights(expected), gens, warm_start=warm, _lowered=lowered)
+        _search(lat.with_weights(expected), gens, warm_start=warm, lowered=lowered)
 
 
 @SETTINGS
@@ -457,7 +458,7 @@ def test_unstored_weights_give_the_stored_result(shape, conn, dist, uses_pow, de
         return
     assert a.dist.tobytes() == b.dist.tobytes() and a.label.tobytes() == b.label.tobytes()
     # the generation-round schedule (GPUs) weighs hashed edges with the same code
-    c = wd.shortest_paths(hashed, gens, device=device, _fifo=False, _max_threads=7)
+    c = _search(hashed, gens, device=device, fifo=False, max_threads=7)
     assert a.dist.tobytes() == c.dist.tobytes() and a.label.tobytes() == c.label.tobytes()
     ends = np.argwhere(np.isfinite(a.dist))[::7]
     da, db = wd.trace(a, ends), wd.trace(b, ends)
@@ -494,7 +495,7 @@ def test_stamp_ids_wrap_safely():
     stamps = lat.device_arrays().stamps
     stamps.last = stamps.LIMIT - 10
     for fifo in (True, False):
-        again = wd.shortest_paths(lat, [[3, 4], [30, 40]], _fifo=fifo)
+        again = _search(lat, [[3, 4], [30, 40]], fifo=fifo)
         assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()
     assert stamps.last < 10**6
 
@@ -590,8 +591,8 @@ def test_a_consumed_warm_start_is_not_unpacked_and_says_so():
     kept = wd.shortest_paths(lat, [[5, 5], [20, 30]], limit=60.0, warm_start=first)
     # without the private flag a warm start keeps its costs
     np.testing.assert_array_equal(first.dist, ref)
-    spent = wd.shortest_paths(lat, [[5, 5], [20, 30], [25, 2]], limit=50.0, warm_start=kept,
-                              _consume_warm_start=True)
+    spent = _search(lat, [[5, 5], [20, 30], [25, 2]], limit=50.0, warm_start=kept,
+                              consume_warm_start=True)
     assert kept._fields.dist is None and kept._fields.spent
     with pytest.raises(RuntimeError, match="warm start"):
         kept.dist
@@ -648,8 +649,8 @@ def test_searches_reusing_a_lattices_frontiers_and_launches_equal_fresh_ones():
     runs = [([[2, 3]], 60.0, True), ([[20, 30], [5, 5]], np.inf, True), ([[2, 3]], 25.0, False),
             ([[29, 40]], 90.0, True), ([[2, 3]], 25.0, True), ([[10, 10]], 12.0, False)]
     for gens, limit, fifo in runs:
-        kept = wd.shortest_paths(lat, gens, limit=limit, _fifo=fifo)
-        fresh = wd.shortest_paths(wd.Lattice(shape, 8, weights=dist), gens, limit=limit, _fifo=fifo)
+        kept = _search(lat, gens, limit=limit, fifo=fifo)
+        fresh = _search(wd.Lattice(shape, 8, weights=dist), gens, limit=limit, fifo=fifo)
         assert kept.dist.tobytes() == fresh.dist.tobytes() and kept.label.tobytes() == fresh.label.tobytes()
         assert (kept.rounds, kept.relaxed) == (fresh.rounds, fresh.relaxed)
         # as a search stopped halfway (an interrupt) would leave them: the next one must not care
@@ -751,9 +752,9 @@ def test_the_gpus_launch_shapes_give_the_cpus_results(chunk, monkeypatch):
     monkeypatch.setattr(ws._Frontiers, "__init__", gpu_like)
     for (lat, g), (ref, ref_warm), band in zip(zip(lats, gens), refs, bands):
         lat = wd.Lattice(lat.shape, 8, weights=wd.weights.Uniform(r=5, seed=3), mask=lat.mask)  # fresh records
-        cf = wd.shortest_paths(lat, g, _fifo=False, _max_threads=5)
+        cf = _search(lat, g, fifo=False, max_threads=5)
         _check_against_scipy(lat, g, cf)
-        warm = wd.shortest_paths(lat, np.vstack([g, [[7, 20]]]), warm_start=cf, _fifo=False, _max_threads=5)
+        warm = _search(lat, np.vstack([g, [[7, 20]]]), warm_start=cf, fifo=False, max_threads=5)
         assert cf.dist.tobytes() == ref.dist.tobytes() and cf.label.tobytes() == ref.label.tobytes()
         assert warm.dist.tobytes() == ref_warm.dist.tobytes() and warm.label.tobytes() == ref_warm.label.tobytes()
         got = ws.band_nodes(warm, 1.0, 9.0)

@@ -16,14 +16,44 @@ Start here::
 Every model of the papers is one call in :mod:`wdendrite.presets` (lightning, trees, coral,
 lichen, moss, letters, terrains), also on the command line: ``wdendrite --help``.
 Modules: lattice, weights, sssp (searches), endpoints, dendrite (trace), growth (fractal growth),
-refine, render, skeleton (smooth centre lines), geometry (meshes), preview (ray-cast pictures),
-dendry, control, hydrology, io, heightmaps (terrain files: 16-bit heightmaps that carry their
-range, raw .r16/.raw, GeoTIFF), presets, batch (``import wdendrite.batch``: job files, Dask) and
-tiles (``import wdendrite.tiles``: images written tile by tile, resumably). Kernels run on the
-CPU or CUDA: ``device=``.
+refine, render, figure (labelled panels), skeleton (smooth centre lines), geometry (meshes), preview
+(ray-cast pictures), dendry, control, hydrology, io, heightmaps (terrain files: 16-bit heightmaps
+that carry their range, raw .r16/.raw, GeoTIFF), presets, batch (``import wdendrite.batch``: job
+files, Dask) and tiles (``import wdendrite.tiles``: images written tile by tile, resumably).
+Kernels run on the CPU or CUDA: ``device=``.
 """
 
-from . import control, endpoints, geometry, heightmaps, hydrology, io, presets, preview, render, skeleton, weights
+
+def _find_source_kernels() -> None:
+    """Give a source checkout imported as ``wdendrite`` its ``wdendrite.kernels``.
+
+    An installation maps the checkout's top-level ``kernels/`` folder into the package (a
+    wheel copies it, an editable install adds a finder). Python started in the checkout's
+    root (``python -c``, ``python -m``) puts the root first on ``sys.path``, so the checkout's
+    ``wdendrite/`` shadows any installed copy, and it holds no ``kernels/``: when nothing else
+    finds the kernels, load them from the checkout, so host code and kernels come from one tree.
+    """
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    name = f"{__name__}.kernels"
+    if importlib.util.find_spec(name) is not None:
+        return
+    folder = Path(__file__).resolve().parent.parent / "kernels"
+    if not (folder / "__init__.py").is_file():
+        return  # (the import below then names what is missing)
+    spec = importlib.util.spec_from_file_location(name, folder / "__init__.py",
+                                                  submodule_search_locations=[str(folder)])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+
+
+_find_source_kernels()
+
+from . import (control, endpoints, figure, geometry, heightmaps, hydrology, io, presets, preview, render,  # noqa: E402
+               skeleton, weights)
 from .dendrite import Dendrite, trace
 from .dendry import DendryParams, default_control, dendry, dendry_points
 from .growth import FractalParams, grow
@@ -31,7 +61,18 @@ from .lattice import Lattice
 from .refine import refine
 from .sssp import CostField, shortest_paths
 
-__version__ = "0.1.0"
+
+def _installed_version() -> str:
+    """The version of the installed distribution (pyproject.toml is its only source)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("wdendrite")
+    except PackageNotFoundError:  # a source tree on the path that was never installed
+        return "0+unknown"
+
+
+__version__ = _installed_version()
 
 
 def _document_fields() -> None:
@@ -57,6 +98,7 @@ __all__ = [
     "dendry",
     "dendry_points",
     "endpoints",
+    "figure",
     "geometry",
     "grow",
     "heightmaps",

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import _checks
 from .dendry import DendryParams, coordinate_limit
-from .render import coverage, relief, strokes, unit_range
+from .render import dendry_lines, relief, strokes, unit_range
 
 __all__ = ["MODELS", "TABLE1", "TERRAIN", "Made", "costs", "dendry", "dendry_setup", "fractal", "relief", "terrain", "unit_range"]
 
@@ -185,6 +185,11 @@ def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
            control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
 
+    The picture of the distance draws the tree's branches dark on paper, antialiased, each level
+    wider than the next finer one (:func:`wdendrite.render.dendry_lines`, which evaluates the tree
+    once per level). The level and the elevation are drawn as grey from their lowest
+    value (black) to their highest (white).
+
     Args:
         size: image side in pixels.
         output: distance (domain units), elevation (control units) or level (1..n of the nearest branch).
@@ -199,12 +204,16 @@ def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
     from .dendry import dendry as _dendry
 
     z = _dendry(**setup, output=output)
-    if output == "distance":  # dark antialiased branches 1.5 pixels wide on paper
-        img = 1.0 - coverage(np.where(np.isfinite(z), z, np.inf) * (size / extent), 1.5)
-    else:
-        img = unit_range(z)
-    return Made(np.repeat(img[..., None].astype(np.float32), 3, axis=2), parts={"field": z}, quantity=output,
+
+    def lines() -> np.ndarray:  # (the other levels are evaluated only for a picture)
+        return _grey(1.0 - dendry_lines(**setup, distance=z))
+
+    return Made(lines if output == "distance" else _grey(unit_range(z)), parts={"field": z}, quantity=output,
                 domain=setup["domain"])
+
+
+def _grey(value: np.ndarray) -> np.ndarray:
+    return np.repeat(value[..., None].astype(np.float32), 3, axis=2)
 
 
 def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 4.0, control: Control = "perlin",

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import ast
 import dataclasses
-import difflib
 import inspect
 import re
 import sys
@@ -75,10 +74,28 @@ class UsageError(ValueError):
     """Bad usage or input: the command prints the message and exits with code 2."""
 
 
+def edits(a: str, b: str) -> int:
+    """The edits (insertions, deletions, substitutions, swaps of neighbours) that turn ``a`` into ``b``
+    (the optimal string alignment distance)."""
+    prev2, prev = None, list(range(len(b) + 1))
+    for i in range(1, len(a) + 1):
+        row = [i] + [0] * len(b)
+        for j in range(1, len(b) + 1):
+            row[j] = min(prev[j] + 1, row[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                row[j] = min(row[j], prev2[j - 2] + 1)
+        prev2, prev = prev, row
+    return prev[-1]
+
+
 def nearest(word: str, names) -> str:
-    """``"; did you mean 'x'?"`` for the closest of ``names``, or an empty string."""
-    near = difflib.get_close_matches(str(word), [str(n) for n in names], n=1, cutoff=0.5)
-    return f"; did you mean {near[0]!r}?" if near else ""
+    """``"; did you mean 'x'?"`` for the name of ``names`` fewest edits away (:func:`edits`, case and
+    leading dashes aside), or an empty string when none is near: no edit for words of up to 2
+    letters, 1 up to 4, 2 up to 8, 3 beyond (a typo, not another word)."""
+    bare = str(word).lstrip("-").lower()
+    allowed = 0 if len(bare) <= 2 else 1 if len(bare) <= 4 else 2 if len(bare) <= 8 else 3
+    scored = sorted((edits(bare, str(n).lstrip("-").lower()), k, str(n)) for k, n in enumerate(names))
+    return f"; did you mean {scored[0][2]!r}?" if scored and scored[0][0] <= allowed else ""
 
 
 # --------------------------------------------------------------------------- parameters
@@ -95,12 +112,32 @@ def progress_bar(desc: str, *, quiet: bool, total: int | None = None, leave: boo
         from tqdm.auto import tqdm
 
     kw = dict(total=total, desc=desc, disable=off, leave=leave, file=sys.stderr, **extra)
+    bar = _drawn_once(tqdm)
     if delay:
         try:
-            return tqdm(**kw, delay=delay)
+            return bar(**kw, delay=delay)
         except TypeError:  # tqdm < 4.62 has no delay
             pass
-    return tqdm(**kw)
+    return bar(**kw)
+
+
+def _drawn_once(tqdm):
+    """``tqdm`` whose closing leaves its last line as it was drawn. tqdm draws a kept bar once more when
+    it closes (with the overall rate): on a terminal over the same line, but where stderr goes to a
+    file or a pipe, as a second copy of the finished bar."""
+    from tqdm.std import tqdm as text_bar
+
+    if tqdm.display is not text_bar.display:  # (a notebook's widget bar: closing draws no text)
+        return tqdm
+
+    class Bar(tqdm):
+        def close(self):
+            shown = not self.disable and self.leave and getattr(self, "last_print_n", None) == self.n
+            if shown:  # the line on screen is the finished bar: only end it (a no-op display shadows the method)
+                self.display = lambda *args, **kwargs: True
+            super().close()
+
+    return Bar
 
 
 def _fmt(v) -> str:

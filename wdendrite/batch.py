@@ -150,8 +150,9 @@ def _no_repeats(values: list, what: str, where: str) -> None:
             raise UsageError(f"{where}: {what} lists {v!r} twice")
 
 
-def _formats(value, where: str) -> list[str]:
-    from .cli import SUFFIXES
+def _formats(value, where: str, preset) -> list[str]:
+    """The job's ``formats``, checked: known to the command; an unknown one's message lists ``preset``'s."""
+    from .cli import SUFFIXES, _formats as writes
 
     fmts = [value] if isinstance(value, str) else value
     if not isinstance(fmts, list) or not fmts:
@@ -160,8 +161,9 @@ def _formats(value, where: str) -> list[str]:
     for f in fmts:
         f = str(f).lower().lstrip(".")
         if "." + f not in SUFFIXES and f != "zarr":
-            allowed = [s[1:] for s in SUFFIXES] + ["zarr"]
-            raise UsageError(f"{where}: unknown format {f!r}{nearest(f, allowed)}; allowed: {', '.join(allowed)}")
+            allowed = [s[1:] for s in writes(preset)] + (["zarr"] if preset.name in TILED_PRESETS else [])
+            raise UsageError(f"{where}: unknown format {f!r}{nearest(f, allowed)}; preset {preset.name!r} writes: "
+                             f"{', '.join(allowed)}")
         if f in out:
             raise UsageError(f"{where}: format {f!r} is listed twice in 'formats' {value!r}")
         out.append(f)
@@ -218,7 +220,7 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
                 sized[size] = preset.sized(size)
             except UsageError:
                 raise UsageError(f"{where}: 'size'/'sizes' expects positive integers, but got {size!r}") from None
-    fmts = _formats(job.get("formats", top_formats), where)
+    fmts = _formats(job.get("formats", top_formats), where, preset)
     if not preset.meshes and {"obj", "ply", "stl", "glb"} & set(fmts):
         raise UsageError(f"{where}: preset {name!r} makes no mesh (it is 2D); drop the mesh formats")
     if not preset.dendrite and {"npz", "json", "svg"} & set(fmts):
@@ -570,6 +572,8 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
 
     def placed_all():
         rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
+        h, w = setup["shape"]
+        rec["made"] = f"{h} x {w} {output} in {counted(len(tile_windows(setup['shape'], task.tile)), 'tile')}"
         made.update(_manifest(task, rec, started), tile=task.tile, output=output)
         if manifest:
             _write_manifest(task, made)

@@ -73,19 +73,21 @@ def probe_folder(folder) -> None:
         pass
 
 
-def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES, ours=None) -> list[Path]:
+def check_outputs(paths, *, force: bool, suffixes: tuple[str, ...] = SUFFIXES, ours=None,
+                  writes: tuple[str, ...] | None = None) -> list[Path]:
     """Validate output paths before any work: known suffix, existing writable folder, no clobbering
-    (``ours(path)``: True for a file this very run may replace, one a killed run of it left)."""
+    (``ours(path)``: True for a file this very run may replace, one a killed run of it left;
+    ``writes``: the suffixes an unknown one's message lists, default ``suffixes``)."""
     out = []
     for p in paths:
         try:
-            out.append(_checked_output(Path(p), out, force, suffixes, ours))
+            out.append(_checked_output(Path(p), out, force, suffixes, ours, writes or suffixes))
         except OSError as exc:  # a name the file system refuses (too long, say)
             raise UsageError(f"-o/--out {str(p)!r}: {exc.strerror or exc}") from None
     return out
 
 
-def _checked_output(p: Path, out: list, force: bool, suffixes, ours=None) -> Path:
+def _checked_output(p: Path, out: list, force: bool, suffixes, ours=None, writes=SUFFIXES) -> Path:
     """``p`` if it may be written (see :func:`check_outputs`); ``out``: the paths checked before it."""
     if p.resolve() in [q.resolve() for q in out]:
         raise UsageError(f"-o/--out {str(p)!r} is given twice")
@@ -97,7 +99,7 @@ def _checked_output(p: Path, out: list, force: bool, suffixes, ours=None) -> Pat
             raise UsageError(f"-o/--out {str(p)!r}: {suffix!r} is not written tile by tile; "
                              f"use one of {', '.join(suffixes)}")
         raise UsageError(f"-o/--out {str(p)!r}: unknown suffix {p.suffix or '(none)'!r}; "
-                         f"use one of {', '.join(suffixes)}")
+                         f"use one of {', '.join(writes)}")
     folder = p.parent if str(p.parent) else Path(".")
     if not folder.is_dir():
         raise UsageError(f"-o/--out {str(p)!r}: the folder {str(folder)!r} does not exist or is not a folder")
@@ -285,7 +287,7 @@ class _Ticker:
     def __init__(self, desc: str, quiet: bool):
         # shown only for work that takes more than a moment
         self.bar = progress_bar(desc, quiet=quiet, leave=False, delay=0.5, bar_format="{desc} {elapsed}")
-        self._stop = None
+        self._stop, self._drawn = None, False
 
     def __enter__(self):
         import threading
@@ -296,13 +298,18 @@ class _Ticker:
             def tick():
                 while not self._stop.wait(0.5):
                     self.bar.refresh()
+                    self._drawn = True
 
-            threading.Thread(target=tick, daemon=True).start()
+            self._thread = threading.Thread(target=tick, daemon=True)
+            self._thread.start()
         return self.bar
 
     def __exit__(self, *exc):
         if self._stop is not None:
             self._stop.set()
+            self._thread.join()  # (no refresh after the clearing)
+        if self._drawn:  # (tqdm's close clears only a line it drew itself: these refreshes it does not count)
+            self.bar.clear()
         self.bar.close()
 
 
@@ -327,7 +334,7 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     preset = all_presets().get(name)
     if preset is None:
         raise UsageError(f"unknown preset {name!r}{nearest(name, all_presets())}")
-    paths = check_outputs(outputs, force=force)
+    paths = check_outputs(outputs, force=force, writes=_formats(preset))
     for p in paths:
         if p.suffix.lower() in MESH and not preset.meshes:
             raise UsageError(f"preset {name!r} makes no mesh (it is 2D); write {_listed(_formats(preset))}")
@@ -692,13 +699,20 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
 
 
 def _made(result) -> str:
-    """What a result holds, in a few words (dendrite and mesh sizes)."""
+    """What a result holds, in a few words: dendrite and mesh sizes, else the size and finite range
+    of its field (a terrain's elevation, a Dendry image)."""
     bits = []
     den, mesh = getattr(result, "dendrite", None), getattr(result, "mesh", None)
     if den is not None:
         bits.append(f"{counted(len(den), 'node')}, {counted(len(den.endpoints), 'endpoint')}")
     if mesh is not None and hasattr(mesh, "faces"):
         bits.append(f"{len(mesh.faces)} faces")
+    parts = getattr(result, "parts", None) or {}
+    field = next((parts[k] for k in ("elevation", "field") if isinstance(parts.get(k), np.ndarray)), None)
+    if not bits and field is not None and field.ndim == 2:
+        finite = field[np.isfinite(field)]
+        span = f" from {finite.min():.6g} to {finite.max():.6g}" if finite.size else ", no finite value"
+        bits.append(f"{field.shape[0]} x {field.shape[1]} {'elevation' if 'elevation' in parts else 'field'}{span}")
     return ", ".join(bits)
 
 

@@ -420,12 +420,14 @@ def image(values, *, domain=((0.0, 0.0), (1.0, 1.0))) -> Control:
     return Control("image", dom, float(arr.min()), float(arr.max()), values=arr)
 
 
-def flood(z0: np.ndarray, rise: np.float32, seeds: np.ndarray | None = None) -> np.ndarray:
+def flood(z0: np.ndarray, rise: np.float32, seeds: np.ndarray | None = None,
+          blocked: np.ndarray | None = None) -> np.ndarray:
     """``z0`` ((H, W) float32) filled by a priority flood (Barnes et al. 2014) from the ``seeds``
     ((H, W) bool; default: the border cells), which keep their values: every other cell reached
     over 8-connected neighbours ends at least ``rise`` (or one float32 step, when ``rise`` > 0)
     above the cell it was reached from, so each has a strictly lower neighbour and a descending
-    path to a seed (with ``rise`` 0, a path that never climbs). Cells no seed reaches keep their values."""
+    path to a seed (with ``rise`` 0, a path that never climbs). The flood never enters
+    ``blocked`` cells ((H, W) bool, default none); they and cells no seed reaches keep their values."""
     import heapq
 
     z = np.array(z0, dtype=np.float32)
@@ -436,6 +438,8 @@ def flood(z0: np.ndarray, rise: np.float32, seeds: np.ndarray | None = None) -> 
     up = np.float32(np.inf)
     done = np.array(seeds, dtype=bool)
     heap = [(z[r, c], r, c) for r, c in zip(*np.nonzero(done))]
+    if blocked is not None:
+        done |= blocked
     heapq.heapify(heap)
     while heap:
         v, r, c = heapq.heappop(heap)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Iterator
 
 import numpy as np
 import warp as wp
@@ -248,11 +247,10 @@ class Dendrite:
             out.append(int(self.parent[out[-1]]))
         return np.asarray(out, dtype=np.int64)
 
-    def paths(self) -> Iterator[np.ndarray]:
-        """Yield the path of every endpoint, in ``endpoints`` order: ``(L,)`` int64 rows from the
-        endpoint to its root."""
-        for e in self.endpoints:
-            yield self.path(e)
+    def paths(self) -> list[np.ndarray]:
+        """The path of every endpoint, in ``endpoints`` order: a list of ``(L,)`` int64 rows from the
+        endpoint to its root (a new list each call; ``len(den.paths()) == len(den.endpoints)``)."""
+        return [self.path(e) for e in self.endpoints]
 
 
 def _read_only(arr: np.ndarray) -> np.ndarray:
@@ -349,7 +347,6 @@ def trace(
     *,
     extend: Dendrite | None = None,
     generation: int | None = None,
-    **_hooks,
 ) -> Dendrite:
     """Backtrack least-cost paths from ``endpoints`` to their generators (greedy descent).
 
@@ -368,9 +365,6 @@ def trace(
             branch takes the label of the node it joins.
         generation: value stored in ``Dendrite.generation`` for the new nodes
             (default: one more than ``extend``'s largest, else 0).
-        _hooks: ``_drawn=True`` from growth only: the endpoints are an int64 ``(M, ndim)``
-            array drawn from this cost field's band (in bounds, usable, of finite cost), so
-            they are not checked again.
 
     Returns:
         A :class:`Dendrite` holding ``extend``'s nodes followed by the new ones.
@@ -382,13 +376,17 @@ def trace(
         TypeError: a ``costfield`` that is not a :class:`CostField`, a ``generation``
             that is not an integer.
     """
+    return _trace(costfield, endpoints, extend=extend, generation=generation)
+
+
+def _trace(costfield: CostField, endpoints, *, extend: Dendrite | None = None, generation: int | None = None,
+           drawn: bool = False) -> Dendrite:
+    """:func:`trace`; ``drawn=True`` (growth) says the endpoints are an int64 ``(M, ndim)`` array drawn
+    from this cost field's band (in bounds, usable, of finite cost), so they are not checked again."""
     if not isinstance(costfield, CostField):
         raise TypeError(f"Expected a CostField for 'costfield', but got {type(costfield).__name__}")
     lattice = costfield.lattice
-    if set(_hooks) - {"_drawn"}:
-        raise TypeError(f"trace() got an unexpected keyword argument {min(set(_hooks) - {'_drawn'})!r}")
-    _drawn = bool(_hooks.get("_drawn", False))
-    pts = endpoints if _drawn else _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
+    pts = endpoints if drawn else _checks.node_coordinates("endpoints", endpoints, lattice.shape, lattice.mask)
     if extend is not None:
         if not isinstance(extend, Dendrite):
             raise TypeError(f"Expected a Dendrite for 'extend', but got {type(extend).__name__}")
@@ -412,7 +410,7 @@ def trace(
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
         # costs are read from the records: the cost field's dist array is not needed
-        bad = None if _drawn else ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
+        bad = None if drawn else ~np.isfinite(read_states(arrays, starts, costfield.limit)[0])
         if bad is not None and bad.any():
             row = int(np.argmax(bad))
             why = "above the cost field's limit" if np.isfinite(costfield.limit) else "unreachable from every generator"

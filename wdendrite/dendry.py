@@ -90,44 +90,19 @@ class DendryParams:
 
     Neighbourhoods (:meth:`radii`). A new key point of level k joins the nearest polyline
     piece among the segments of levels < k owned by the ``(2 rl + 1)^2`` cells around its
-    ancestor at each coarser level. The authors' implementation searches 3 x 3 cells
-    (``rl = 1``; the paper argues that jitter keeps key points packed, so that links reach at
-    most two cells). Against a brute-force search over every piece of a region, that rule
-    missed no link (in 470 000) with straight segments (``subdivision=False``, or no
-    smoothing and no displacement), ``eps >= 0.25``, up to 3 levels and the terrain rule, and
-    there it is kept. Curved and displaced segments reach farther, and it missed links even in
-    the paper's recommended regime: 1 to 2 in 10 000 at ``eps = 0.25, delta = 0.1`` (also
-    with ``delta = 0`` but smoothing on, or ``eps = 0.3``), 0.1-0.3 % at ``eps = 0``,
-    0.2-0.5 % at ``delta = 0.3``, 4-7 % at ``delta = 1``, and 0.02-0.4 % with the
-    Lichtenberg rule, whose branches join downstream of their projections. So the terrain
-    rule's links search 5 x 5 cells (``rl = 2``: no miss in about 730 000 links,
-    displacements up to 0.5, 2 to 5 levels; also used at 6) or 7 x 7 cells (``rl = 3``:
-    displacements above 0.5; no miss in about 350 000 links, up to ``delta = 1``, either
-    rule). The Lichtenberg rule searches 5 x 5 cells between packed key points (``eps >=
-    0.25``, displacements up to 0.1) up to 3 levels (no miss in 38 000 links); elsewhere 5 x 5
-    missed links (about 1 in 60 000 beyond 3 levels, and at ``eps = 0``), so it searches 7 x 7
-    cells. Displacements count only where they bend something: at levels 1-3 (one piece from
-    level 4 on) and with subdivision on. A wider search gives the same tree except where the
-    narrower one missed. Queries search the ``(2 rq + 1)^2`` cells around the point at every
-    level: 5 x 5 (7 x 7 at level 1 when it is the only level), and 7 x 7 where links search
-    7 x 7, because segments reach as far there (5 x 5 queries got up to 2 pixels in 10 000
-    wrong, by up to 0.03 cell). From 4 levels on queries search 7 x 7 cells: the finest
-    segments join pieces several finest cells from their owners, and 5 x 5 queries missed the
-    nearest piece for 1-2 pixels in 10 000 at 4-6 levels in the paper's regime (0.5 % at
-    ``eps = 0, delta = 0.5``, 6 levels). At 6 levels links search 7 x 7 cells unless the key
-    points are packed with displacements up to 0.1 (5 x 5 missed about 1 link in 1 000 at
-    ``eps`` 0-0.25 with ``delta = 0.5``, none in 85 000 at ``eps`` 0.25-0.3, ``delta`` 0-0.1).
-    7 x 7 is the widest search the kernels hold, so misses remain at free jitter with large
-    displacements, found by brute force over every piece: links 7 in 22 000 at 6 levels
-    (``eps = 0, delta = 0.5``) and 0.55 % at ``delta = 1``; queries at ``eps = 0, delta = 1``
-    0.05 % of pixels at 4 levels, 0.65 % at 5 and 1.6 % at 6; the Lichtenberg rule at 6
-    levels 1 pixel in 10 000. Wider searches cost the cached mode up to about half its rate
-    at 4-6 levels; the per-pixel mode builds more cells per pixel: 5 x 5 links take about 1.2-1.3x
-    the time of 3 x 3 at 2 levels (where both draw the level-1 segments far from the pixel only
-    when a link search comes near them) and 2.3-3.8x at 4-6, 7 x 7 about 3x that of
-    5 x 5, and 7 x 7 queries 1.3-1.4x those of 5 x 5 at 4-5 levels.
-    ``search="paper"`` keeps the authors' 3 x 3 links (and 5 x 5 queries, 7 x 7 at one level)
-    everywhere: faster per pixel, at the miss rates above.
+    ancestor at each coarser level; a query searches the ``(2 rq + 1)^2`` cells around the
+    point at every level. The authors' implementation searches 3 x 3 cells for links
+    (``rl = 1``), which holds only while key points stay packed and segments straight:
+    curved, displaced segments and the Lichtenberg rule's joins reach farther, and a 3 x 3
+    search then misses links. With ``search="exact"`` (the default) the widths are chosen per
+    regime (jitter ``eps``, displacement ``delta``, levels, smoothing, rule) as the narrowest
+    that missed no link and no nearest piece against a brute-force search over every piece
+    (3 x 3, 5 x 5 or 7 x 7 cells); a wider search gives the same tree except where a narrower
+    one misses. 7 x 7 is the widest the kernels hold, so at free jitter with large
+    displacements beyond 4 levels a few links and pixels are still missed. ``search="paper"``
+    keeps the authors' 3 x 3 links (and 5 x 5 queries, 7 x 7 at one level) everywhere: faster
+    per pixel, at the miss rates measured in BENCHMARKS.md ("Dendry's neighbourhoods"), which
+    also gives each regime's rates and costs.
     """
 
     levels: int = 1
@@ -171,9 +146,8 @@ class DendryParams:
     measured to miss no link in each regime (3 x 3, 5 x 5 or 7 x 7 cells; 7 x 7, the widest the
     kernels hold, still misses some at free jitter with large displacements beyond 4 levels, see
     the class docstring), with queries as wide; ``"paper"`` the 3 x 3 of
-    the authors' implementation everywhere, faster per pixel but missing about 1 link in 10 000 at
-    the paper's parameters and more at larger jitter or displacement (DendryParams' docstring has
-    the measured rates)."""
+    the authors' implementation everywhere, faster per pixel but missing some links at the paper's
+    parameters and more at larger jitter or displacement (rates in BENCHMARKS.md)."""
 
     outlets: bool = False
     """Give every level-1 river an outlet at the domain's border (our addition to the paper's method).
@@ -185,7 +159,9 @@ class DendryParams:
     one key point per level-1 cell a valley narrower than a cell makes sinks even where the
     control itself drains. With ``outlets``, before any pixel is evaluated the level-1 key points
     of the cells that overlap ``domain`` take values filled by a priority flood over their
-    8-connected grid from the key points outside ``domain``, which keep the control's values:
+    8-connected grid from the key points outside ``domain`` and, for a bounded control, from those
+    next to its edge, all of which keep the control's values (the flood never enters key points
+    outside a bounded control's domain):
     each ends at least ``OUTLET_RISE`` times the control's range (and at least one float32 step)
     above the neighbour the flood reached it from, so every one has a lower neighbour and every
     level-1 river runs down to the border. Values only rise: key points that descend to the
@@ -380,10 +356,8 @@ def _setup(p: DendryParams, domain, control_domain, output: str) -> _kd.Setup:
     # Per pixel, 2 levels: where links are narrower than queries (the paper's 3 x 3), the level-1
     # segments of the block's outer ring whose boxes come within a level-1 cell of the pixel are
     # drawn with the others, not left pending: link searches reached most of them, and drawing them
-    # on demand cost more. At the Table 1 setup, against drawing every level-1 segment: 1.05-1.08x
-    # at 0.85-1.2 cells, 0.96-1.0x at 0.4 and 0.94-0.97x at 1.5-2; every ring cell pending, 0.96x
-    # (BENCHMARKS.md, session 29). Where links reach as far as queries, the ring lies beyond the
-    # queries and all of it waits.
+    # on demand cost more at the Table 1 setup (a reach of one level-1 cell measured best). Where
+    # links reach as far as queries, the ring lies beyond the queries and all of it waits.
     s.near1 = 1.0 if s.rl < s.r1 else 0.0
     (dx0, dy0), (dx1, dy1) = domain
     (cx0, cy0), (cx1, cy1) = control_domain
@@ -433,9 +407,17 @@ def _give_outlets(s: _kd.Setup, ctl: _kd.Control, params: DendryParams, control:
     res = params.resolution
     (x0, y0), (x1, y1) = domain
     x, y = p[..., 0].astype(np.float64), p[..., 1].astype(np.float64)
-    inside = (p[..., 3] > 0.0) & (x >= x0 * res) & (x <= x1 * res) & (y >= y0 * res) & (y <= y1 * res)
+    usable = p[..., 3] > 0.0  # (a bounded control's key points outside its domain have no segments)
+    inside = usable & (x >= x0 * res) & (x <= x1 * res) & (y >= y0 * res) & (y <= y1 * res)
+    # the flood starts from the usable key points outside the domain and from those next to an
+    # unusable one (a bounded control's rim), and never enters the unusable ones
+    pad = np.pad(~usable, 1)
+    rim = np.zeros_like(usable)
+    for dy in range(3):
+        for dx in range(3):
+            rim |= pad[dy : dy + h, dx : dx + w]
     rise = np.float32(OUTLET_RISE * max(control.maximum - control.minimum, 1e-12))
-    z = flood(p[..., 2], rise, seeds=~inside)
+    z = flood(p[..., 2], rise, seeds=usable & (~inside | rim), blocked=~usable)
     s.outlet_lo = wp.vec2i(i0, j0)
     s.outlet_n = wp.vec2i(w, h)
     s.outlet_z = wp.array(z.ravel(), dtype=float, device=device)
@@ -496,7 +478,7 @@ def _cached_work(p: DendryParams, output: str, plan) -> int:
     return work
 
 
-# Costs that decide dendry_points' "auto" mode, measured on the CPU (2026-12-02): a primitive's
+# Costs that decide dendry_points' "auto" mode, measured on the CPU: a primitive's
 # query costs about as much as building 5 cells; a cell of a large cached block about 2.5 times
 # one of a point's own small blocks (which stay in cache); a cached tile's launches about 3000
 # cells (0.15-0.25 ms; the tiles share one storage, planned on the host).
@@ -907,7 +889,8 @@ def dendry(
     mode: Mode = "auto",
     control_domain=None,
     device=None,
-) -> np.ndarray:
+    as_warp: bool = False,
+) -> np.ndarray | wp.array:
     """Evaluate Dendry on the pixels of an image (or of a window of it).
 
     Args:
@@ -929,9 +912,12 @@ def dendry(
         control_domain: rectangle of the control's coordinates the domain maps onto
             (default ``control.domain``).
         device: Warp device (default: Warp's default device).
+        as_warp: return the image as the ``wp.array`` on ``device`` that the kernels wrote (no
+            copy to the host: for pipelines that continue on a GPU).
 
     Returns:
-        (h, w) float32 array (the window's size).
+        (h, w) float32 array (the window's size): a NumPy array, or with ``as_warp`` a
+        ``wp.array2d(dtype=float)`` on ``device``.
 
     Raises:
         ValueError, TypeError: for a bad shape, domain, window, output, mode or params,
@@ -946,6 +932,7 @@ def dendry(
     shape = lattice_shape(shape, ranks=(2,), whole=False)  # (a window of a larger image may be asked for)
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
+    as_warp = flag("as_warp", as_warp)
     _check_elevation_control(control, output, control_domain)
     r0, c0, h, w = _window(window, shape)
     (x0, y0), (x1, y1) = domain
@@ -963,7 +950,7 @@ def dendry(
     control = default_control() if control is None else control  # (its range is sampled with kernels)
     # the image on the device, and its copy on the host when the device is a GPU
     fits_in_memory(4 * h * w, device, f"A Dendry image of shape {(h, w)}")
-    if not device.is_cpu:
+    if not device.is_cpu and not as_warp:
         fits_in_memory(4 * h * w, "cpu", f"The host copy of a Dendry image of shape {(h, w)}")
     s = _setup(params, domain, control_domain, output)
     ctl = control.struct(device)
@@ -1005,7 +992,7 @@ def dendry(
     else:
         _run_pixels(params, output, h * w, device,
                     lambda slots, nslots, first, size: launch(slots, 0, nslots, first, size))
-    return out.numpy()
+    return out if as_warp else out.numpy()
 
 
 def dendry_points(

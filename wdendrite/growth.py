@@ -12,9 +12,9 @@ import numpy as np
 
 from . import _checks
 from . import endpoints as _endpoints
-from .dendrite import Dendrite, trace
+from .dendrite import Dendrite, _trace
 from .lattice import Lattice
-from .sssp import CostField, load_state, read_states, shortest_paths
+from .sssp import CostField, _search, load_state, read_states, shortest_paths
 
 __all__ = ["FractalParams", "grow", "lower_dendrite_weights"]
 
@@ -414,7 +414,7 @@ def grow(
                 grew = True
                 first = 0 if den is None else len(den)
                 # (new branches take the label of the node they join: the first generators' rows)
-                den = trace(cf, ep, extend=den, generation=first_generation + it, _drawn=True)
+                den = _trace(cf, ep, extend=den, generation=first_generation + it, drawn=True)
                 if first:
                     # before the next search reuses the records that hold this field
                     den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
@@ -434,12 +434,11 @@ def grow(
                         else:
                             dirs, lower = _dendrite_edges(lat, den, new_rows)  # (traced: all lattice edges)
                             lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
-                        cf = shortest_paths(lat, gens, warm_start=cf, _consume_warm_start=sf is not cf,
-                                            _lowered=lowered)
+                        cf = _search(lat, gens, warm_start=cf, consume_warm_start=sf is not cf, lowered=lowered)
                     # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
                     # join the generators
-                    sf = shortest_paths(base_lat, structure, limit=limit, warm_start=sf, _consume_warm_start=True,
-                                        _walked=den._padded[first:])
+                    sf = _search(base_lat, structure, limit=limit, warm_start=sf, consume_warm_start=True,
+                                 walked=den._padded[first:])
                     if new_generators:
                         cf = sf
             if bar is not None:

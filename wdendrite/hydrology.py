@@ -119,11 +119,17 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     end cells sum to the number of cells.
 
     With ``filled=True`` the depressions are filled first and the flats (those the fill makes
-    and any others) are then drained: every interior cell of a flat passes its area to a
-    neighbour of the same height one step nearer to where the flat drains (a neighbour of it
-    that has a way down, or the border), distances in steps of 2 (sides) and 3 (diagonals),
-    the first in row-major order among equals; one receiver each, for D-infinity too. All the
-    area then ends on the border.
+    and any others) are then drained the way of Garbrecht & Martz (1997) and Barnes, Lehman &
+    Mulla (2014): on each flat (8-connected interior cells of one height without a lower
+    neighbour) two distances are taken over the flat's cells, in steps of 2 (sides) and 3
+    (diagonals): towards lower terrain (from the flat's ways out: its neighbours of its
+    height that have a way down, or lie on the border) and away from higher terrain (from
+    the flat's cells next to a higher cell). A flat cell next to a way out passes its area
+    to the nearest one (a side before a diagonal); any other, to the neighbour on its flat
+    of lowest ``2 * towards - away`` (the first in row-major order among equals), which is
+    lower than its own. So flow leaves the walls, gathers along the flat's middle and runs
+    to its outlet, one line down a filled valley. One receiver each, for D-infinity too.
+    All the area then ends on the border.
 
     Runs on Warp's CPU device whatever the default device: the receivers are found one
     thread per cell, then one thread walks the flow graph, visiting each cell once after all
@@ -141,8 +147,8 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     Raises:
         ValueError, TypeError: an elevation that is not a finite, non-empty 2D real array, or
             has 2**31 cells or more; a method other than ``"d8"`` or ``"dinf"``.
-        MemoryError: when the arrays (about 36 bytes per cell for D8, 56 for D-infinity)
-            would not fit in free memory.
+        MemoryError: when the arrays (about 36 bytes per cell for D8, 56 for D-infinity; 32
+            more with ``filled``) would not fit in free memory.
     """
     if not isinstance(method, str) or method not in ("d8", "dinf"):
         raise ValueError(f"Expected 'method' in ('d8', 'dinf'), but got {method!r}")
@@ -157,8 +163,8 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
     two = method == "dinf"
     # bytes per cell: the float64 elevations (read in place), receivers (and shares),
     # donors, stack, areas and the returned array
-    # (and with ``filled``, the fill's copies and the flats' distances)
-    _checks.fits_in_memory(cells * (8 + 4 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0) + (24 if filled else 0)), "cpu",
+    # (and with ``filled``, the fill's copies and the flats' two distances)
+    _checks.fits_in_memory(cells * (8 + 4 + 4 + 4 + 8 + 8 + (4 + 16 if two else 0) + (32 if filled else 0)), "cpu",
                            f"flow_accumulation of {cells} cells")
     z = _elevation("elevation", elevation)
     if filled:
@@ -174,53 +180,67 @@ def flow_accumulation(elevation, *, method: Literal["d8", "dinf"] = "d8", filled
         wp.launch(_k.dinf_kernel, dim=z.shape, inputs=[zw], outputs=[rec, frac, donors], device=cpu)
     else:
         wp.launch(_k.d8_kernel, dim=z.shape, inputs=[zw], outputs=[rec, donors], device=cpu)
-    if filled:  # arrays on the CPU device: their NumPy views write through
-        _drain_flats(z, rec.numpy(), frac.numpy() if two else None, donors.numpy())
+    if filled:
+        _drain_flats(z, rec, frac, donors)
     area = wp.full(z.size, wp.float64(1.0), dtype=wp.float64, device=cpu)
     wp.launch(_k.accumulate_kernel, dim=1, inputs=[rec, frac, donors, wp.empty(z.size, dtype=int, device=cpu)],
               outputs=[area], device=cpu)
     return area.numpy().reshape(z.shape)
 
 
-_STEPS = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]  # row-major, as the kernels
+def _drain_flats(z: np.ndarray, rec: wp.array, frac: wp.array, donors: wp.array) -> None:
+    """Give every interior cell without a receiver, on a flat that drains, a neighbour of its
+    height (see :func:`flow_accumulation`); in place.
 
+    ``rec``: (k, N) receivers (-1: none), ``frac``: (k, N) shares (k = 2) or a placeholder,
+    ``donors``: (N,) counts; Warp arrays on the CPU device.
 
-def _drain_flats(z: np.ndarray, rec: np.ndarray, frac: np.ndarray | None, donors: np.ndarray) -> None:
-    """Give every interior cell without a receiver, on a flat that drains, the neighbour of its
-    height one step nearer the flat's way out (see :func:`flow_accumulation`); in place.
-
-    ``rec``: (k, N) receivers (-1: none), ``frac``: (k, N) shares or None, ``donors``: (N,) counts.
-    The distances are integers (steps 2 and 3), so one thread finds them all in one pass over
-    the flats' cells (:func:`wdendrite.kernels.hydrology.flat_distance_kernel`); runs on Warp's
-    CPU device, as the accumulation does.
+    Why every such cell finds a receiver of strictly lower mask ``2 * lower - higher``, so
+    that the receivers form no cycle and all the area reaches a way out: both distances are
+    shortest paths over the same graph (the flat's cells, steps 2 and 3), so across one
+    step of length s they differ by at most s (the triangle inequality; ``higher`` is 0 on
+    a whole flat that touches no higher cell). A cell at ``lower`` d > 0 has a neighbour on
+    its shortest path at d - s: a way out (which it then takes), or a flat cell whose mask
+    is lower by 2s - (higher difference) >= s > 0. Masks fall along the receivers, so every
+    path over the flat ends at a way out, and each way out drains on (or is on the border).
     """
     h, w = z.shape
-    lost = rec[0] < 0
+    lost = rec.numpy()[0] < 0
     lost.reshape(h, w)[[0, -1], :] = False  # the border is where water leaves
     lost.reshape(h, w)[:, [0, -1]] = False
-    cells = np.flatnonzero(lost)
+    cells = np.flatnonzero(lost).astype(np.int32)
     if cells.size == 0:
         return
-    far = np.iinfo(np.int64).max
-    dist = wp.full(z.size, far, dtype=wp.int64, device="cpu")
-    wp.launch(_k.flat_distance_kernel, dim=1, device="cpu",
-              inputs=[wp.array(z.ravel(), dtype=wp.float64, copy=False, device="cpu"),
-                      wp.array(lost.view(np.uint8), dtype=wp.uint8, copy=False, device="cpu"), w,
-                      wp.empty(z.size, dtype=int, device="cpu"), wp.empty(4, dtype=int, device="cpu")],
-              outputs=[dist])
-    dist = dist.numpy()
-    zf = z.ravel()
-    cells = cells[dist[cells] < far]
-    to = np.full(cells.size, -1, dtype=rec.dtype)
-    for dr, dc in _STEPS:  # the first neighbour in row-major order one step nearer
-        nb = cells + (dr * w + dc)
-        pick = (to < 0) & (zf[nb] == zf[cells]) & (dist[nb] == dist[cells] - (3 if dr and dc else 2))
-        to[pick] = nb[pick]
-    rec[:, cells] = to
-    if frac is not None:
-        frac[0, cells] = 1.0
-        frac[1, cells] = 0.0
-    np.add.at(donors, to, 1)
+    lower, higher = _flat_distances(z, lost)
+    wp.launch(_k.flat_receiver_kernel, dim=cells.size, device="cpu",
+              inputs=[_cpu(z.ravel(), wp.float64), _cpu(lost.view(np.uint8), wp.uint8), _cpu(cells, int), lower,
+                      higher, w],
+              outputs=[rec, frac, donors])
+
+
+def _cpu(a: np.ndarray, dtype) -> wp.array:
+    return wp.array(a, dtype=dtype, copy=False, device="cpu")
+
+
+def _flat_distances(z: np.ndarray, lost: np.ndarray) -> tuple[wp.array, wp.array]:
+    """Distances over the flats of ``z`` ((H, W) float64) in steps of 2 (sides) and 3
+    (diagonals), through the ``lost`` cells ((H, W) or (N,) bool: interior cells without a
+    lower neighbour) of one height: towards lower terrain (from the cells that are not lost
+    next to a lost cell of their height, the flats' ways out) and away from higher terrain
+    (from the lost cells next to a higher cell).
+
+    Returns two (N,) int64 CPU Warp arrays, in that order; cells no source reaches hold the
+    largest int64. One thread each (:func:`wdendrite.kernels.hydrology.flat_distance_kernel`).
+    """
+    zf, lf = _cpu(z.ravel(), wp.float64), _cpu(np.ravel(lost).view(np.uint8), wp.uint8)
+    nxt, heads = wp.empty(z.size, dtype=int, device="cpu"), wp.empty(4, dtype=int, device="cpu")
+    out = []
+    for from_higher in (0, 1):
+        dist = wp.empty(z.size, dtype=wp.int64, device="cpu")
+        wp.launch(_k.flat_distance_kernel, dim=1, inputs=[zf, lf, z.shape[1], from_higher, nxt, heads],
+                  outputs=[dist], device="cpu")
+        out.append(dist)
+    return out[0], out[1]
 
 
 def drainage_image(area) -> np.ndarray:

@@ -191,42 +191,88 @@ def final_mode(path) -> int:
     return 0o666 & ~_umask()  # (a device's mode, /dev/null's 0o666 say, says nothing of a file's)
 
 
-def _png16_rgb(path, rgb: np.ndarray) -> None:
-    """Write an (H, W, 3|4) uint16 image as a 16-bit PNG (Pillow cannot write 16-bit colour)."""
+def _png_filtered(rows: np.ndarray, bpp: int) -> np.ndarray:
+    """PNG scanlines of the (H, N) uint8 ``rows``: each row's filter type byte, then its filtered bytes.
+
+    Every row takes the one of the five filters (none, sub, up, average, Paeth; ``bpp`` bytes per
+    pixel) whose bytes, read as signed, sum to the least magnitude: the heuristic of the PNG
+    specification, which lets zlib find the runs of a smooth image. A band of rows at a time.
+    """
+    h, n = rows.shape
+    out = np.empty((h, n + 1), np.uint8)
+    band = max(1, (1 << 18) // n)  # rows per band: a few MB of candidates
+    above = np.zeros(n, np.uint8)
+    for r0 in range(0, h, band):
+        x = rows[r0:r0 + band]
+        m = len(x)
+        up = np.empty_like(x)
+        up[0], up[1:] = above, x[:-1]
+        left = np.zeros_like(x)
+        left[:, bpp:] = x[:, :-bpp]
+        corner = np.zeros_like(x)
+        corner[:, bpp:] = up[:, :-bpp]
+        # Paeth's predictor: the one of left, up and corner nearest left + up - corner (ties in that order)
+        a, b, c = left.astype(np.int16), up.astype(np.int16), corner.astype(np.int16)
+        pa, pb, pc = np.abs(b - c), np.abs(a - c), np.abs(a + b - 2 * c)
+        paeth = np.where((pa <= pb) & (pa <= pc), left, np.where(pb <= pc, up, corner))
+        average = (left >> 1) + (up >> 1) + (left & up & 1)  # floor((left + up) / 2) without overflow
+        cands = np.stack([x, x - left, x - up, x - average, x - paeth])  # uint8: differences modulo 256
+        choice = np.minimum(cands, 0 - cands).sum(axis=2, dtype=np.uint32).argmin(axis=0)
+        out[r0:r0 + m, 0] = choice
+        out[r0:r0 + m, 1:] = cands[choice, np.arange(m)]
+        above = x[-1]
+    return out
+
+
+_PNG_LEVEL = 3  # zlib's level for 16-bit colour: near level 6's size on filtered rows, in less time (BENCHMARKS.md)
+
+
+def _png16_rgb(path, rgb: np.ndarray, *, level: int = _PNG_LEVEL, filtered: bool = True) -> None:
+    """Write an (H, W, 3|4) uint16 image as a 16-bit PNG (Pillow cannot write 16-bit colour).
+
+    ``level``: zlib's compression level; ``filtered``: False writes every row unfiltered (filter
+    type 0; for comparisons)."""
     import struct
     import zlib
 
     h, w, c = rgb.shape
     rows = np.ascontiguousarray(rgb.astype(">u2")).view(np.uint8).reshape(h, w * c * 2)
-    raw = np.concatenate([np.zeros((h, 1), np.uint8), rows], axis=1)  # filter type 0 on every row
+    if filtered:
+        raw = _png_filtered(rows, bpp=2 * c)
+    else:
+        raw = np.concatenate([np.zeros((h, 1), np.uint8), rows], axis=1)
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
     header = struct.pack(">IIBBBBB", w, h, 16, 2 if c == 3 else 6, 0, 0, 0)
     with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), level))
                 + chunk(b"IEND", b""))
 
 
 def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False) -> Path:
-    """Save a grey (H, W) or colour (H, W, 3|4) image with values in [0, 1] as an 8- or 16-bit PNG.
+    """Save a grey (H, W) or colour (H, W, 3|4) image as an 8- or 16-bit PNG.
 
     Grey images and 8-bit colour go through Pillow; 16-bit colour is encoded here
-    (Pillow has no 16-bit RGB mode). The write is atomic.
+    (Pillow has no 16-bit RGB mode), each row with the PNG filter that suits it.
+    The write is atomic.
 
     Args:
         path: output ``.png`` file; its folder must exist.
-        image: ``(H, W)`` grey or ``(H, W, 3|4)`` RGB(A) array, row 0 at the top. Floats are
-            clipped to [0, 1] (light that saturates; a UserWarning when most of them lie above 1,
-            as 0-255 levels do); bool and integer arrays must hold 0 and 1 only.
+        image: ``(H, W)`` grey or ``(H, W, 3|4)`` RGB(A) array, row 0 at the top. uint8 and
+            uint16 images are levels of their dtype's range (0-255, 0-65535), kept as they are at
+            their own depth and rescaled (rounded) to the other. Floats are values in [0, 1],
+            clipped to it (light that saturates; a UserWarning when most of them lie above 1, as
+            0-255 levels do); bool and other integer arrays must hold 0 and 1 only.
         bits: 8 or 16 bits per channel.
         overwrite: replace an existing file.
 
     Raises:
         ValueError: a ``path`` not ending in ``.png`` (any case), an empty image, a bad shape, NaN
-            or inf values, integer values outside [0, 1] (0-255 levels, say), ``bits`` not 8 or
-            16, a missing folder, a ``path`` that is a folder.
+            or inf values, values outside [0, 1] in an integer image other than uint8 and uint16
+            (0-255 levels as int64, say), ``bits`` not 8 or 16, a missing folder, a ``path`` that
+            is a folder.
         TypeError: an image that is not numbers (bool images are fine), ``bits`` not an int.
         FileExistsError: ``path`` exists and ``overwrite`` is False.
         OSError: the system refused the write (a full disk, say); it names ``path``, and no file is left.
@@ -239,24 +285,38 @@ def save_png(path, image: np.ndarray, *, bits: int = 8, overwrite: bool = False)
                                lambda s: len(s) == 2 or (len(s) == 3 and s[2] in (3, 4)), kinds="biuf", dtype=None)
     if _checks.integer("bits", bits) not in (8, 16):
         raise ValueError(f"Expected 'bits' in (8, 16), but got {bits!r}")
-    if img.dtype.kind in "iu" and (img.min() < 0 or img.max() > 1):
+    levels = img.dtype.kind == "u" and img.dtype.itemsize in (1, 2)
+    if img.dtype.kind in "iu" and not levels and (img.min() < 0 or img.max() > 1):
         # float values beyond [0, 1] are clipped (light that saturates); integer ones are levels
         raise ValueError(f"Expected 'image' values in [0, 1], but this {img.dtype} image spans [{img.min()}, "
-                         f"{img.max()}]; divide 8-bit levels by 255 (16-bit by 65535) first")
+                         f"{img.max()}]; pass 8-bit levels as uint8 (16-bit as uint16), or divide them by 255 "
+                         "(65535) first")
     if img.dtype.kind == "f" and np.count_nonzero(img > 1) > img.size // 2:
         warnings.warn(f"'image' has most of its values above 1 (up to {float(img.max()):.6g}); floats are clipped to "
                       "[0, 1], so it saves mostly white: divide 8-bit levels by 255 first", UserWarning, stacklevel=2)
-    data = _quantized(img, bits)
+    data = _levels(img, bits) if levels else _quantized(img, bits)
     if bits == 16 and img.ndim == 3:
         return atomic_write(path, lambda tmp: _png16_rgb(tmp, data), overwrite=overwrite)
     pil = Image.fromarray(data)
     return atomic_write(path, lambda tmp: pil.save(tmp, format="PNG"), overwrite=overwrite)
 
 
+def _levels(img: np.ndarray, bits: int) -> np.ndarray:
+    """uint8 / uint16 levels at ``bits`` per sample: the same levels at their own depth, else
+    ``round(x * (2^bits - 1) / (2^depth - 1))`` (exact in integers: 257 = 65535 / 255)."""
+    img = img.astype(img.dtype.newbyteorder("="), copy=False)  # (Pillow takes native byte order)
+    if img.dtype == (np.uint8 if bits == 8 else np.uint16):
+        return img
+    if bits == 16:
+        return img.astype(np.uint16) * np.uint16(257)
+    return ((img.astype(np.uint32) + 128) // 257).astype(np.uint8)  # (x / 257 is never halfway: 257 is odd)
+
+
 def _quantized(img: np.ndarray, bits: int, *, lo: float = 0.0, hi: float = 1.0) -> np.ndarray:
     """``round(clip((img - lo) / (hi - lo), 0, 1) * (2^bits - 1))`` as uint8 / uint16 (when
-    ``hi <= lo``, a constant field's range: 0, and the top level above ``lo``), computed in float64 a band of rows at a time (a whole-image float64 copy of a
-    large picture costs seconds in page faults)."""
+    ``hi <= lo``, a constant field's range: 0, and the top level above ``lo``), computed in
+    float64 a band of rows at a time (a whole-image float64 copy of a large picture costs
+    seconds in page faults)."""
     top = 255 if bits == 8 else 65535
     half = not np.isfinite(hi - lo)  # a span float64 cannot hold: halve everything first
     lo, hi = (lo / 2.0, hi / 2.0) if half else (lo, hi)

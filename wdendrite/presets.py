@@ -21,8 +21,9 @@ from typing import Literal
 
 import numpy as np
 
-from . import _checks, _panels, _scenes
+from . import _checks, _scenes
 from . import endpoints as _ep
+from . import figure as _fig
 from . import lightning as _lightning
 from . import geometry as _geo
 from . import render as _r
@@ -107,20 +108,15 @@ def _drawing(den: Dendrite, width=1.6) -> np.ndarray:
     return _ink(_r.strokes(den, width))
 
 
-def _tile(panels: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:
-    """Panels of one size in a grid with white gaps."""
-    h, w = panels[0].shape[:2]
-    rows = math.ceil(len(panels) / columns)
-    out = np.ones((rows * h + (rows - 1) * gap, columns * w + (columns - 1) * gap, 3), np.float32)
-    for i, p in enumerate(panels):
-        r, c = divmod(i, columns)
-        out[r * (h + gap): r * (h + gap) + h, c * (w + gap): c * (w + gap) + w] = p
-    return out
+def _tile(panels: list[np.ndarray], columns: int, labels: list[str]) -> np.ndarray:
+    """Panels of one size in a grid with white gaps, each over its label (see :func:`wdendrite.figure.panels`);
+    a multi-panel preset keeps the labels in ``parts["labels"]``, in the panels' order."""
+    return _fig.panels(panels, columns=columns, labels=labels)
 
 
-def _entries(name: str, values, what: str, check=lambda v: v) -> list:
+def _entries(name: str, values, what: str, check=lambda v: v, *, distinct: bool = True) -> list:
     """``values``, one entry per panel, as a list of ``check(entry)``: a non-empty list, tuple or 1D
-    array without repeats (each entry keys its panel's dendrite in ``parts["dendrites"]``)."""
+    array, without repeats when ``distinct`` (each entry keys its panel's dendrite in ``parts["dendrites"]``)."""
     if isinstance(values, (str, bytes)):
         raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got the string {values!r}: a "
                          "sequence of them is expected, not one string")
@@ -129,7 +125,7 @@ def _entries(name: str, values, what: str, check=lambda v: v) -> list:
     if len(values) == 0 or (isinstance(values, np.ndarray) and values.ndim != 1):
         raise ValueError(f"Expected '{name}' as a non-empty list of {what}, but got {values!r}")
     out = [check(v) for v in (values.tolist() if isinstance(values, np.ndarray) else values)]
-    for i, v in enumerate(out):
+    for i, v in enumerate(out if distinct else []):
         if v in out[:i]:
             raise ValueError(f"'{name}' lists {values[i]!r} twice; each entry is one panel, keyed by it in "
                              "parts['dendrites']")
@@ -239,8 +235,8 @@ def fractal_grid(
             dens[(a, b)] = den
             panels.append(_drawing(den, 1.3))
             labels.append(f"alpha = {a:g}, beta = {b:g}")
-    image = _panels.labelled(panels, labels, len(alphas))
-    return Result(image, dens[(alphas[0], betas[0])], parts={"dendrites": dens, "d": d})
+    return Result(_tile(panels, len(alphas), labels), dens[(alphas[0], betas[0])],
+                  parts={"dendrites": dens, "d": d, "labels": labels})
 
 
 def dla_imitation(shape=(500, 500), *, iterations: int = 4, alpha: float = 2.0, beta: float = 4.0, count: int = 6,
@@ -307,9 +303,9 @@ def power_weights(shape=(200, 200), *, alphas=(0.3, 1.0, 3.0), endpoints: int = 
         min_spacing=_spacing(shape, endpoints)))
     dens = {a: trace(shortest_paths(Lattice(shape, connectivity, weights=_w.Power(alpha=a, seed=seed)),
                                     [[h - 2, w // 2]]), ends) for a in alphas}
-    image = _panels.labelled([_drawing(d, 1.3) for d in dens.values()], [f"alpha = {a:g}" for a in alphas],
-                             len(alphas))
-    return Result(image, dens[alphas[0]], parts={"dendrites": dens})
+    labels = [f"alpha = {a:g}" for a in alphas]
+    return Result(_tile([_drawing(d, 1.3) for d in dens.values()], len(alphas), labels), dens[alphas[0]],
+                  parts={"dendrites": dens, "labels": labels})
 
 
 def cheap_paths(shape=(200, 200), *, factors=(1.0, 0.8, 0.6, 0.3), former: int = 4, added: int = 24,
@@ -355,25 +351,22 @@ def cheap_paths(shape=(200, 200), *, factors=(1.0, 0.8, 0.6, 0.3), former: int =
         rust = np.array([0.2, 0.75, 0.9], np.float32)  # light each later stroke takes away (a rust red)
         img = 1.0 - _r.strokes(den, 2.2, ink=1.0 - new)[..., None] - _r.strokes(den, 1.3, ink=new)[..., None] * rust
         panels.append(np.clip(img, 0.0, 1.0))
-    image = _panels.labelled(panels, [f"D = {f:g}" for f in factors], 2)
-    return Result(image, dens[factors[0]], parts={"dendrites": dens})
+    labels = [f"D = {f:g}" for f in factors]
+    return Result(_tile(panels, 2, labels), dens[factors[0]], parts={"dendrites": dens, "labels": labels})
 
 
-def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, band: bool = False, connectivity: int = 8):
-    """One drawing per weight distribution; endpoints fixed, or (``band``) on one cost contour of each field."""
-    gen = np.array([[shape[0] // 2, shape[1] // 2]])
-    ep = _endpoints_in("endpoints", endpoints, "in", shape,
-                      lambda: _ep.random(shape, endpoints, seed=seed, min_spacing=_spacing(shape, endpoints)))
+def _panels_of_weights(shape, distributions, endpoints: int, seed: int, *, roots=None, connectivity: int = 8,
+                       within=None, where: str = "in"):
+    """One drawing per weight distribution, every panel with the same endpoints (drawn ``within`` a
+    region, ``where`` saying which in errors); each grows from its own root of ``roots`` (default:
+    the lattice's centre)."""
+    ep = _endpoints_in("endpoints", endpoints, where, shape, lambda: _ep.random(
+        shape, endpoints, seed=seed, within=within, min_spacing=_spacing(shape, endpoints)))
+    roots = [(shape[0] // 2, shape[1] // 2)] * len(distributions) if roots is None else roots
     panels, dens = [], []
-    for dist in distributions:
+    for dist, root in zip(distributions, roots):
         lat = Lattice(shape, connectivity, weights=dist)
-        cf = shortest_paths(lat, gen)
-        if band:
-            # the contour is stretched toward the cheap side, and so is the dendrite
-            d = float(np.quantile(cf.dist[np.isfinite(cf.dist)], 0.25))
-            ep = _endpoints_in("endpoints", endpoints, "on one cost contour of", shape, lambda: _ep.in_band(
-                cf, endpoints, d, 0.08 * d, seed=seed, min_spacing=min(shape) / 20))
-        den = trace(cf, ep)
+        den = trace(shortest_paths(lat, [root]), ep)
         dens.append(den)
         panels.append(_drawing(den, 1.2))
     return panels, dens
@@ -417,21 +410,65 @@ def weight_distributions(shape=(200, 200), *, ns: tuple[float, ...] = (0, 1, 4, 
     _checks.stop_if_checking()  # (a check of the preset stops before the weight arrays are drawn)
     panels, dens = _panels_of_weights(shape, [_polynomial(shape, n, seed, connectivity) for n in ns], endpoints,
                                       seed, connectivity=connectivity)
-    image = _panels.labelled(panels, [f"n = {n:g}" for n in ns], len(ns))
-    return Result(image, dens[1 if len(dens) > 1 else 0], parts={"dendrites": dict(zip(ns, dens))})
+    labels = [f"n = {n:g}" for n in ns]
+    return Result(_tile(panels, len(ns), labels), dens[1 if len(dens) > 1 else 0],
+                  parts={"dendrites": dict(zip(ns, dens)), "labels": labels})
 
 
-def tropisms(shape=(200, 200), *, toward=("left", "right", "top", "bottom"), strength: float = 12.0,
-             endpoints: int = 20, seed: int = 0) -> Result:
-    """Spatially biased weights (constructive path planning, Fig. 5; thesis Fig. 4.5): endpoints on one
-    cost contour, which the bias stretches toward the cheap side, so each dendrite grows toward it.
-    Unlike the papers, whose root sits at the bottom among scattered endpoints, the root is at the
-    centre, so that the four directions show side by side on the same footing."""
+def _toward_words(toward: str) -> str:
+    """A panel's label for a tropism name: ``"toward left"``, ``"away from axis"``."""
+    return "away from axis" if toward == "away_from_axis" else f"toward {toward}"
+
+
+_ROOTS = ("left", "center", "right")
+"""Where a tropism panel's root sits on the bottom row: near the left corner, in the middle, near the right corner."""
+
+
+def tropisms(shape=(200, 200), *,
+             toward=("left", "left", "right", "right", "axis", "away_from_axis", "top", "bottom"),
+             roots=("left", "right", "left", "right", "center", "center", "center", "center"),
+             strength: float = 12.0, endpoints: int = 20, seed: int = 0) -> Result:
+    """Spatially biased weights (thesis Fig. 4.5; constructive path planning, Fig. 5): the same random
+    endpoints reached from a root on the bottom row over weights made cheaper toward one side, so each
+    dendrite leans that way. The defaults are the thesis' eight panels, a to h: cheaper toward the
+    left with the root at the bottom left (a) and right (b), the same toward the right (c, d), cheaper
+    near the vertical centre line (e), dearer near it (f), cheaper toward the top (g) and toward the
+    bottom (h). Four panels a row; each is labelled with its letter, tropism and root.
+    ``parts["dendrites"]`` holds every panel's dendrite, keyed by ``(toward, root)``.
+
+    Args:
+        shape: each panel's lattice shape (H, W).
+        toward: where each panel's weights are cheapest (left, right, top, bottom, axis:
+            near the vertical centre line, away_from_axis: far from it), one panel each.
+        roots: where each panel's root sits on the bottom row (left, center, right), one per
+            entry of ``toward``, or one for every panel.
+        strength: tropism strength: weights scale by 1 + strength * g, g from 0 on the cheap side to 1 (>= 0).
+        endpoints: number of endpoints, the same in every panel, drawn in the upper three quarters.
+        seed: seed of the weights and the endpoints.
+    """
     shape = _shape(shape, 2)
-    toward = _entries("toward", toward, f"tropism names from {_w._TOWARD}")
+    toward = _entries("toward", toward, f"tropism names from {_w._TOWARD}", distinct=False)
+    roots = _entries("roots", roots, f"root places from {_ROOTS}", distinct=False)
+    for r in roots:
+        if r not in _ROOTS:
+            raise ValueError(f"Expected every entry of 'roots' in {_ROOTS}, but got {r!r}")
+    if len(roots) == 1:
+        roots = roots * len(toward)
+    if len(roots) != len(toward):
+        raise ValueError(f"Expected one entry of 'roots' per entry of 'toward' ({len(toward)}), or one for all, "
+                         f"but got {len(roots)}: roots={tuple(roots)!r}, toward={tuple(toward)!r}")
+    _entries("toward", list(zip(toward, roots)), "(toward, root) pairs")  # each pair keys one panel
     dists = [_w.Uniform(r=10, seed=seed) * _w.Tropism(t, strength=strength) for t in toward]
-    panels, dens = _panels_of_weights(shape, dists, _checks.integer("endpoints", endpoints, low=1), seed, band=True)
-    return Result(_tile(panels, len(dists)), dens[0], parts={"dendrites": dict(zip(toward, dens))})
+    h, w = shape
+    column = {"left": round(0.1 * (w - 1)), "center": w // 2, "right": round(0.9 * (w - 1))}
+    upper = _ep.Box((2, 2), (0.75 * (h - 1), w - 3))
+    panels, dens = _panels_of_weights(shape, dists, _checks.integer("endpoints", endpoints, low=1), seed,
+                                      roots=[(h - 3, column[r]) for r in roots], within=upper,
+                                      where="in the upper three quarters of")
+    labels = [f"({chr(97 + i) if i < 26 else i + 1}) {_toward_words(t)}, root {r}"
+              for i, (t, r) in enumerate(zip(toward, roots))]
+    return Result(_tile(panels, min(4, len(panels)), labels), dens[0],
+                  parts={"dendrites": dict(zip(zip(toward, roots), dens)), "labels": labels})
 
 
 def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
@@ -456,13 +493,10 @@ def competition(shape=(300, 300), *, count: int = 6, seed: int = 0) -> Result:
 
 
 def _text_mask(text: str, height: int) -> np.ndarray:
-    from PIL import Image, ImageDraw, ImageFont
+    from PIL import Image, ImageDraw
 
     try:  # (a size FreeType refuses, or an image Pillow will not make, is reported against 'height')
-        try:
-            font = ImageFont.load_default(size=max(8, int(height * 0.8)))
-        except TypeError:  # Pillow without FreeType: the small bitmap font, scaled up below
-            font = ImageFont.load_default()
+        font = _fig.font(max(8, int(height * 0.8)))  # (the bitmap font, where Pillow has no FreeType, scaled below)
         left, top, right, bottom = ImageDraw.Draw(Image.new("L", (1, 1))).textbbox((0, 0), text, font=font)
         img = Image.new("L", (right - left + 8, bottom - top + 8), 0)
         ImageDraw.Draw(img).text((4 - left, 4 - top), text, fill=255, font=font)
@@ -570,8 +604,8 @@ def width_demo(shape=(200, 120), *, seed: int = 0) -> Result:
                for k in (0.6, 0.2)]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
     labels = ["T = 5.0", "T = 1.6", "Ts = 0.6", "Ts = 0.2"]
-    return Result(_panels.labelled(panels, labels, 4), den, parts={"values": values, "thesis_dendrite": thesis_den,
-                                                                   "lattices": (lat, thesis_lat)})
+    return Result(_tile(panels, 4, labels), den, parts={"values": values, "thesis_dendrite": thesis_den,
+                                                        "lattices": (lat, thesis_lat), "labels": labels})
 
 
 def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: float = 1.0, endpoints: int = 6,
@@ -603,7 +637,7 @@ def taper_demo(shape=(200, 200), *, start: float = 5.0, end: float = 0.8, beta: 
     values = [_r.brightness(den, wd_, metric="path", lattice=lat) for wd_ in widths]
     panels = [_r.colorize(v, colormap="lightning") for v in values]
     labels = [f"T = {start:g}", "eq. 2 along each path", "eq. 2 along each branch"]
-    return Result(_panels.labelled(panels, labels, 3), den, parts={"values": values, "lattice": lat})
+    return Result(_tile(panels, 3, labels), den, parts={"values": values, "lattice": lat, "labels": labels})
 
 
 # --------------------------------------------------------------------------- 3D models
@@ -683,8 +717,10 @@ def tropism_objects(shape=(60, 60, 60), *, toward=("axis", "away_from_axis", "to
                                       sigma=_SIGMA)
         dens[t], meshes[t] = den, mesh
         pics.append(_geo.preview(mesh, size=(320, 320), color=_WOOD, elevation=10))
-    return Result(_tile(pics, len(pics)), dens[toward[0]], meshes[toward[0]], parts={"dendrites": dens,
-                                                                                     "meshes": meshes})
+    labels = [_toward_words(t) for t in toward]
+    return Result(_tile(pics, len(pics), labels), dens[toward[0]], meshes[toward[0]], parts={"dendrites": dens,
+                                                                                     "meshes": meshes,
+                                                                                     "labels": labels})
 
 
 def staghorn_coral(shape=(50, 50, 50), *, endpoints: int = 24, refine_n: int | None = 7, seed: int = 0) -> Result:

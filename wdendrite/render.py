@@ -1,4 +1,5 @@
-"""Brightness images of dendrites (Xu & Mould lightning), tapering, compositing and colour maps.
+"""Brightness images of dendrites (Xu & Mould lightning), tapering, compositing and colour maps;
+Dendry trees drawn as lines.
 
 A pixel at distance ``d`` from the dendrite gets the brightness
 ``V = exp(-(d / T)^2)``, where ``T`` (pixels, or cost units on a weighted
@@ -30,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Callable, Literal, Sequence
 
 import numpy as np
 import warp as wp
@@ -43,12 +44,14 @@ from .sssp import shortest_paths
 
 __all__ = [
     "COLORMAPS",
+    "DENDRY_WIDENING",
     "Taper",
     "branch_order",
     "brightness",
     "colorize",
     "composite",
     "coverage",
+    "dendry_lines",
     "distance_field",
     "glow",
     "node_widths",
@@ -392,7 +395,8 @@ def brightness(
     clamp: float | None = None,
     rows=None,
     device=None,
-) -> np.ndarray:
+    as_warp: bool = False,
+) -> np.ndarray | wp.array:
     """The papers' lightning brightness ``V = exp(-(d/T)^2)`` of a 2D dendrite.
 
     Args:
@@ -411,9 +415,12 @@ def brightness(
         clamp: values above it become 1 (the thesis uses 0.7), in (0, 1]; None: no clamp.
         rows: render only these dendrite rows (int array or bool mask).
         device: Warp device (default: Warp's default device).
+        as_warp: return the image as the ``wp.array`` on the device that the kernels wrote (no
+            copy to the host: for pipelines that continue on a GPU).
 
     Returns:
-        ``(H, W)`` float32 brightness in [0, 1].
+        ``(H, W)`` float32 brightness in [0, 1]: a NumPy array, or with ``as_warp`` a
+        ``wp.array2d(dtype=float)`` on the device.
 
     Raises:
         ValueError: an empty or 3D dendrite, a non-positive width or reach,
@@ -424,6 +431,7 @@ def brightness(
         raise ValueError(f"brightness() renders 2D dendrites, but the dendrite has shape {den.shape}; "
                          "use wdendrite.geometry for 3D")
     reach = _checks.positive("reach", reach)
+    as_warp = _checks.flag("as_warp", as_warp)
     if clamp is None:
         clamp_f = 2.0
     else:
@@ -449,7 +457,7 @@ def brightness(
         wp.launch(_k.brightness_packed_kernel, dim=packed.shape[0],
                   inputs=[packed, wp.array(w, dtype=float, device=device), reach, clamp_f],
                   outputs=[out], device=device)
-    return out.numpy().reshape(den.shape)
+    return out.reshape(den.shape) if as_warp else out.numpy().reshape(den.shape)
 
 
 def strokes(dendrite: Dendrite, width: Width = 1.5, *, ink=None, device=None) -> np.ndarray:
@@ -648,11 +656,60 @@ COLORMAPS: dict[str, tuple[tuple[float, float, float], ...]] = {
 """Colour maps from dark (V = 0) to bright (V = 1), as evenly spaced RGB stops in [0, 1]."""
 
 
-def _lut(colormap: str, size: int = 256) -> np.ndarray:
-    stops = np.asarray(COLORMAPS[colormap], np.float64)
+_LUT_SIZE = 256  # colours sampled from a callable or a Matplotlib colormap, evenly spaced over [0, 1]
+
+
+def _stops_lut(stops: np.ndarray, size: int = _LUT_SIZE) -> np.ndarray:
     x = np.linspace(0.0, 1.0, len(stops))
     t = np.linspace(0.0, 1.0, size)
     return np.stack([np.interp(t, x, stops[:, c]) for c in range(3)], axis=1).astype(np.float32)
+
+
+def _colours(value, rows: int | None = None) -> np.ndarray:
+    """``value`` (for ``colormap``) as an (n, 3) float32 array of colours in [0, 1]; ``rows``: the
+    (rows, 3|4) colours a callable returned for as many values (their alpha dropped)."""
+    shapes = f"({rows}, 3) or ({rows}, 4) (returned by the callable)" if rows else "(N, 3)"
+    arr = _checks.finite_array("colormap", value, shapes, lambda s: len(s) == 2 and s[1] in ((3, 4) if rows else (3,))
+                               and (rows is None or s[0] == rows))[:, :3]
+    if arr.min() < 0 or arr.max() > 1:
+        raise ValueError(f"Expected the colours of 'colormap' in [0, 1], but they span [{arr.min():.6g}, "
+                         f"{arr.max():.6g}]")
+    return np.ascontiguousarray(arr)
+
+
+def _matplotlib_lut(name: str) -> np.ndarray:
+    try:
+        import matplotlib  # (optional, and slow to import: only for a name of its own)
+    except ImportError:
+        raise ValueError(f"Expected 'colormap' in {tuple(COLORMAPS)} (other names are Matplotlib's colormaps, and "
+                         f"Matplotlib is not installed), but got {name!r}") from None
+    try:
+        cmap = matplotlib.colormaps[name]
+    except KeyError:
+        raise ValueError(f"Expected 'colormap' in {tuple(COLORMAPS)} or a Matplotlib colormap name, but got "
+                         f"{name!r}") from None
+    return _colours(cmap(np.linspace(0.0, 1.0, _LUT_SIZE)), _LUT_SIZE)
+
+
+def _lut(colormap) -> np.ndarray:
+    """The (n >= 2, 3) float32 colours at evenly spaced values from 0 to 1 that ``colormap`` names (see
+    :func:`colorize`); raises before any work when it names none."""
+    if isinstance(colormap, str):
+        if colormap in COLORMAPS:
+            return _stops_lut(np.asarray(COLORMAPS[colormap], np.float64))
+        return _matplotlib_lut(colormap)
+    if callable(colormap):
+        t = np.linspace(0.0, 1.0, _LUT_SIZE)
+        try:
+            colours = colormap(t)
+        except Exception as exc:  # (any failure of the user's function, named as the parameter's)
+            raise ValueError(f"'colormap' {colormap!r} failed on {_LUT_SIZE} values from 0 to 1: {exc!r}") from exc
+        return _colours(colours, _LUT_SIZE)
+    if isinstance(colormap, (np.ndarray, list, tuple)):
+        stops = _colours(colormap)
+        return stops if len(stops) >= 2 else np.repeat(stops, 2, axis=0)  # (one colour: every value gets it)
+    raise TypeError(f"Expected 'colormap' as a name (one of {tuple(COLORMAPS)} or a Matplotlib colormap's), a "
+                    f"callable or an (N, 3) array of colours, but got {type(colormap).__name__}")
 
 
 def _rgb(name: str, value, shape) -> np.ndarray:
@@ -663,7 +720,7 @@ def _rgb(name: str, value, shape) -> np.ndarray:
 def colorize(
     value: np.ndarray,
     *,
-    colormap: str = "lightning",
+    colormap: str | Callable[[np.ndarray], np.ndarray] | np.ndarray = "lightning",
     glow: np.ndarray | None = None,
     glow_color: tuple[float, float, float] = (0.45, 0.4, 1.0),
     background=None,
@@ -676,7 +733,12 @@ def colorize(
 
     Args:
         value: ``(H, W)`` brightness in [0, 1] (others are clipped to it).
-        colormap: a name of :data:`COLORMAPS`.
+        colormap: a name of :data:`COLORMAPS`; any other name is a Matplotlib colormap's (when
+            Matplotlib is installed; ``"viridis"``, ``"magma_r"``...); a callable taking an
+            ``(n,)`` float64 array of values in [0, 1] and returning their ``(n, 3)`` or ``(n, 4)``
+            colours in [0, 1] (a Matplotlib ``Colormap`` is one; alpha is ignored), sampled at
+            256 evenly spaced values; or an ``(N, 3)`` array of colours in [0, 1] at evenly
+            spaced values from 0 to 1. Colours between samples are interpolated linearly.
         glow: optional ``(H, W)`` halo (e.g. from :func:`glow`).
         glow_color: RGB of the halo in [0, 1].
         background: an RGB triple or an ``(H, W, 3)`` image in [0, 1] (default black).
@@ -686,14 +748,15 @@ def colorize(
         ``(H, W, 3)`` float32 in [0, 1].
 
     Raises:
-        ValueError: an empty, non-2D or non-finite ``value`` or ``glow``, a bad colour, an unknown colormap.
-        TypeError: a ``colormap`` that is not a str.
+        ValueError: an empty, non-2D or non-finite ``value`` or ``glow``, a bad colour, an unknown
+            colormap name (or any name beyond :data:`COLORMAPS` without Matplotlib), a callable
+            that fails or returns no ``(256, 3|4)`` colours in [0, 1], an array of colours that is
+            not ``(N, 3)`` in [0, 1].
+        TypeError: a ``colormap`` that is neither a name, a callable nor an array; colours that are
+            not numbers.
     """
     img = _image("value", value)
-    if not isinstance(colormap, str):  # (a list is unhashable: the look-up below would fail on that)
-        raise TypeError(f"Expected 'colormap' as a str, one of {tuple(COLORMAPS)}, but got {colormap!r}")
-    if colormap not in COLORMAPS:
-        raise ValueError(f"Expected 'colormap' in {tuple(COLORMAPS)}, but got {colormap!r}")
+    lut = _lut(colormap)
     halo = np.zeros_like(img) if glow is None else _image("glow", glow)
     if halo.shape != img.shape:
         raise ValueError(f"'glow' has shape {halo.shape}, but 'value' has shape {img.shape}")
@@ -704,7 +767,7 @@ def colorize(
         out = wp.empty(img.shape, dtype=wp.vec3)
         wp.launch(_k.colorize_kernel, dim=img.shape,
                   inputs=[wp.array(img, dtype=float), wp.array(halo, dtype=float),
-                          wp.array(_lut(colormap), dtype=wp.vec3), wp.vec3(*gc.tolist()),
+                          wp.array(lut, dtype=wp.vec3), wp.vec3(*gc.tolist()),
                           wp.array(bg, dtype=wp.vec3)],
                   outputs=[out])
         return out.numpy()
@@ -763,3 +826,66 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
                           0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
                   outputs=[out])
         return out.numpy()
+
+
+DENDRY_WIDENING = 1.4
+"""How much wider :func:`dendry_lines` draws each level of a Dendry tree than the next finer level."""
+
+
+def _dendry_widths(params, pixel: float) -> list[float]:
+    """Line widths (pixels) of levels 1..n at ``pixel`` domain units a pixel: the finest level an
+    eighth of its cell wide, within [1, 1.5] pixels, each coarser one :data:`DENDRY_WIDENING` wider."""
+    finest_cell = 1.0 / (params.resolution * 2.0 ** (params.levels - 1) * pixel)
+    fine = float(np.clip(finest_cell / 8.0, 1.0, 1.5))
+    return [fine * DENDRY_WIDENING ** (params.levels - k) for k in range(1, params.levels + 1)]
+
+
+def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=None, device=None) -> np.ndarray:
+    """A Dendry tree drawn as antialiased lines, each level at its own width (a Lichtenberg figure, rivers).
+
+    The tree grows level by level, each level adding branches to the coarser ones, so the distance
+    to its levels 1..k is :func:`wdendrite.dendry`'s distance with ``params`` cut to k levels. A pixel
+    takes the most that one level's lines cover of it: the :func:`coverage` of a stroke of that
+    level's width at the pixel's distance to the level's tree (the pixel filter of :func:`strokes`).
+
+    Args:
+        shape, domain, params, control, device: as :func:`wdendrite.dendry` takes them (its
+            ``output`` is the distance). The pixel's side is the domain's width over ``W``.
+        widths: line width of each level, 1 to n, in pixels (default: the finest level an eighth of
+            its cell wide, within [1, 1.5] pixels, each coarser level :data:`DENDRY_WIDENING` wider).
+        distance: the ``(H, W)`` distance to the whole tree when it is already computed (saves one
+            evaluation of the finest level).
+
+    Returns:
+        ``(H, W)`` float32 coverage: 1 on a branch, 0 away from every branch (draw ink on paper
+        as ``1 - value``, or light with :func:`colorize`).
+
+    Raises:
+        ValueError: what :func:`wdendrite.dendry` refuses; ``widths`` not one positive width per
+            level; a ``distance`` of another shape (before any evaluation).
+    """
+    import dataclasses
+
+    from .dendry import DendryParams, dendry
+
+    if not isinstance(params, DendryParams):
+        raise TypeError(f"Expected a DendryParams for 'params', but got {type(params).__name__}")
+    (x0, _), (x1, _) = domain
+    pixel = (float(x1) - float(x0)) / int(shape[1])
+    if widths is None:
+        widths = _dendry_widths(params, pixel)
+    if np.ndim(widths) != 1 or len(widths) != params.levels:
+        raise ValueError(f"Expected 'widths' as one width per level ({params.levels}), but got {widths!r}")
+    widths = [_width_number(f"widths[{i}]", w) for i, w in enumerate(widths)]
+    if distance is not None and np.shape(distance) != tuple(shape):
+        raise ValueError(f"'distance' has shape {np.shape(distance)}, but 'shape' is {tuple(shape)}")
+    cover = np.zeros(tuple(shape), np.float32)
+    for k, width in enumerate(widths, 1):
+        if k == params.levels and distance is not None:
+            d = np.asarray(distance)
+        else:  # the tree of levels 1..k (per-level tuples cut alike)
+            cut = {n: getattr(params, n)[:k] for n in ("eps", "delta") if isinstance(getattr(params, n), tuple)}
+            d = dendry(shape, domain=domain, params=dataclasses.replace(params, levels=k, **cut), control=control,
+                       output="distance", device=device)
+        np.maximum(cover, coverage(d / pixel, width), out=cover)  # (+inf: no branch in reach, no cover)
+    return cover

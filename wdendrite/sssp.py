@@ -274,13 +274,11 @@ class _Frontiers:
 
 
 def _default_delta(lattice: Lattice) -> float:
-    # Least-cost paths run along cheap edges, so the bucket width follows the
-    # cheap end of the weights: 16 times their 10th percentile was the best
-    # width, within 10 %, on the CPU for both uniform (1 + 10 R) and heavily
-    # skewed power weights (R^3); the mean misleads for the latter by 20x. With all buckets in
-    # one launch (no launch per bucket), half that width relaxed 10-20 % fewer nodes yet took
-    # 0.94-1.02x the time on stored weights (cold searches at 600^2-1024^2 and 80^3, fractal
-    # growth at 512^2) and 0.90x on hashed ones: not enough to make the width depend on the device.
+    """The bucket width of a search on ``lattice``: 16 times the 10th percentile of its weights.
+
+    Least-cost paths run along cheap edges, so the width follows the cheap end of the weights
+    (the mean misleads for skewed weights such as R^3); BENCHMARKS.md ("Shortest paths") has the
+    widths tried."""
     if lattice._weights is not None:
         # whole rows (along x) spread over the weights held in the host records, read in place: cheap, and they
         # still see weights that vary across the lattice (tropisms, maps)
@@ -352,27 +350,6 @@ def _check_warm_start(warm: CostField, lattice: Lattice, gens: np.ndarray, limit
         )
 
 
-_HOOKS = {"_fifo": None, "_host_rounds": False, "_max_threads": None, "_consume_warm_start": False, "_walked": None,
-          "_lowered": None}
-"""Keyword arguments of :func:`shortest_paths` kept out of its signature, with their defaults:
-
-- ``_fifo``: the schedule (default: a work queue per bucket on single-threaded CPU devices,
-  generation rounds on GPUs); the tests choose it.
-- ``_host_rounds``: with the work queue, drive the buckets from the host, one launch
-  each, instead of in one launch (the same costs, labels and counts: the tests compare them).
-- ``_max_threads``: threads per generation-round launch (GPU striding exercised on the CPU).
-- ``_consume_warm_start``: the caller will not read ``warm_start`` again, so its costs need
-  not be kept when the search reuses their memory.
-- ``_walked``: padded node indices of the generator rows after the warm start's, given by
-  growth, whose generators are the warm start's followed by nodes its walks just added on
-  this lattice: those rows are not checked again.
-- ``_lowered``: ``(padded nodes, dirs, new weights, records)`` from growth's
-  ``Lattice._lower_in_place`` on ``warm_start``'s own lattice: only these edges went down since
-  the warm start (the search's records take the new weights unless they are ``records``,
-  which hold them).
-"""
-
-
 def shortest_paths(
     lattice: Lattice,
     generators,
@@ -381,7 +358,6 @@ def shortest_paths(
     limit: float | None = None,
     warm_start: CostField | None = None,
     delta: float | None = None,
-    **_hooks,
 ) -> CostField:
     """Least path cost from the nearest generator to every lattice node.
 
@@ -403,7 +379,6 @@ def shortest_paths(
         delta: bucket width of the near-far threshold, in cost units. Larger
             means fewer, bigger rounds (better for GPUs); smaller means less
             repeated work. Default: 16 times the 10th percentile of the edge weights.
-        _hooks: for the tests and growth only (see :data:`_HOOKS`).
 
     Returns:
         A :class:`CostField` with ``dist`` (float32) and ``label`` (int32) of
@@ -414,11 +389,46 @@ def shortest_paths(
             bounds, on a masked node), limit, delta or warm start.
         MemoryError: when the search would not fit in the device's memory.
     """
-    unknown = set(_hooks) - set(_HOOKS)
-    if unknown:
-        raise TypeError(f"shortest_paths() got an unexpected keyword argument {min(unknown)!r}")
+    return _search(lattice, generators, device=device, limit=limit, warm_start=warm_start, delta=delta)
+
+
+def _search(
+    lattice: Lattice,
+    generators,
+    *,
+    device=None,
+    limit: float | None = None,
+    warm_start: CostField | None = None,
+    delta: float | None = None,
+    fifo: bool | None = None,
+    host_rounds: bool = False,
+    max_threads: int | None = None,
+    consume_warm_start: bool = False,
+    walked: np.ndarray | None = None,
+    lowered: tuple | None = None,
+) -> CostField:
+    """:func:`shortest_paths` with the choices growth and the tests make explicitly.
+
+    Args:
+        fifo: the schedule: a work queue per bucket (``True``) or generation rounds
+            (``False``); default: the work queue on single-threaded CPU devices, rounds on GPUs.
+        host_rounds: with the work queue, drive the buckets from the host, one launch each,
+            instead of in one launch (the same costs, labels and counts).
+        max_threads: threads per generation-round launch (a GPU's striding, exercised on the CPU).
+        consume_warm_start: the caller will not read ``warm_start`` again, so its costs need not
+            be kept when the search reuses their memory.
+        walked: padded node indices of the generator rows after the warm start's, from growth,
+            whose generators are the warm start's followed by nodes its walks just added on this
+            lattice: those rows are not checked again.
+        lowered: ``(padded nodes, dirs, new weights, records)`` from growth's
+            ``Lattice._lower_in_place`` on ``warm_start``'s own lattice: only these edges went
+            down since the warm start (the search's records take the new weights unless they are
+            ``records``, which hold them).
+
+    The other arguments, the result and the errors are those of :func:`shortest_paths`.
+    """
     _fifo, _host_rounds, _max_threads, _consume_warm_start, _walked, _lowered = (
-        _hooks.get(k, v) for k, v in _HOOKS.items())
+        fifo, host_rounds, max_threads, consume_warm_start, walked, lowered)
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
     trusted = _walked is not None and isinstance(warm_start, CostField)
@@ -470,7 +480,7 @@ def shortest_paths(
             old_arrays = warm_start.lattice.device_arrays(device)
             if _lowered is not None:
                 if warm_start.lattice is not lattice:
-                    raise ValueError("'_lowered' edges belong to the warm start's own lattice")
+                    raise ValueError("'lowered' edges belong to the warm start's own lattice")
                 nodes, dirs, values, held = _lowered
                 if len(nodes):
                     wp.launch(
