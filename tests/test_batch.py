@@ -316,7 +316,11 @@ def test_batch_on_a_local_cluster_of_processes(tmp_path):
     ('out = "o"\n[[job]]\npreset = "terrain"\nsizes = [65, 64]\nformats = ["raw"]\n',
      ["job 1 (terrain)", "64 x 64", "make it 65 x 65"]),
     ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 48\ntile = 16\nformats = ["npy", "r16"]\n',
-     ["writes npy or zarr only", "'r16'"]),
+     ["tiled job's raw heightmaps ('r16', 'raw') need 'range'"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 48\ntile = 16\nformats = ["npy", "png"]\n',
+     ["writes npy, zarr, r16, raw only, not 'png'"]),
+    ('out = "o"\n[[job]]\npreset = "terrain"\nsize = 48\ntile = 16\nformats = ["raw"]\nrange = [0, 1]\n',
+     ["48 x 48", "make it 33 x 33"]),
     ('out = "o"\n[[job]]\npreset = "lightning"\ntile = 64\n', ["'tile' is for"]),
     ('[[job]]\npreset = "fractal"\n', ["needs an output folder"]),
     ('out = "/proc/wdendrite-runs"\n[[job]]\npreset = "fractal"\nsize = 16\n', ["not writable"]),
@@ -749,7 +753,7 @@ def test_write_tiled_refuses_bad_tiles_and_paths_before_writing(tmp_path):
             batch.write_tiled(value, (5, 7), tile, tmp_path / "t.npy")
         with pytest.raises(exc, match=match):
             batch.dendry_array({"shape": (5, 7)}, tile=tile)
-    with pytest.raises(ValueError, match="'.npy' or '.zarr'"):
+    with pytest.raises(ValueError, match="'.npy', '.zarr', '.r16' or '.raw'"):
         batch.write_tiled(value, (5, 7), 4, tmp_path / "t.txt")
     with pytest.raises(ValueError, match="'shape'"):
         batch.write_tiled(value, (5, 7, 2), 4, tmp_path / "t.npy")

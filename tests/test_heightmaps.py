@@ -151,6 +151,63 @@ def test_raw_formats_refuse_fields_their_engines_cannot_take(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["b.r16"]
 
 
+def test_a_tiled_raw_heightmap_is_the_untiled_one_and_a_killed_run_resumes(tmp_path, monkeypatch):
+    # every tile scaled to the one range given: the levels of the whole field, bit for bit
+    out = tmp_path / "t.r16"
+    command = ["terrain", "--size", "65", "--tile", "16", "--range", "-0.25,1.5", "-o", str(out), "-o",
+               str(tmp_path / "t.raw"), "--device", "cpu", "--quiet"]
+    real, written = tiles._Target.write, []
+
+    def killed_after_six(self, window, values):
+        if len(written) == 6:
+            raise KeyboardInterrupt
+        written.append(window)
+        real(self, window, values)
+
+    monkeypatch.setattr(tiles._Target, "write", killed_after_six)
+    assert cli.main(command) == 130 and not out.exists()
+    monkeypatch.setattr(tiles._Target, "write", lambda self, w, v: written.append(w) or real(self, w, v))
+    assert cli.main(command) == 0
+    # 25 tiles, each into two files: the three whole ones and the half-written fourth are not redone
+    assert len(written) == 50 and len(set(written)) == 25
+    code, out_text, err = wd("terrain", "--size", 65, "--range", "-0.25,1.5", "-o", "whole.r16", "-o", "z.npy",
+                             "--device", "cpu", "--quiet", cwd=tmp_path)
+    assert code == 0, err
+    z = np.load(tmp_path / "z.npy").astype(np.float64)
+    want = np.floor(np.clip((z + 0.25) / 1.75, 0, 1) * TOP + 0.5).astype(np.uint16)  # (an independent scaling)
+    for name in ("t.r16", "t.raw", "whole.r16"):
+        np.testing.assert_array_equal(np.fromfile(tmp_path / name, "<u2").reshape(65, 65), want)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.r16", "t.raw", "whole.r16", "z.npy"]
+    # tiles recorded under another range are not reused
+    monkeypatch.setattr(tiles._Target, "write", killed_after_six)
+    written.clear()
+    other = [*command[:6], "0,2", *command[7:], "--force"]
+    assert cli.main(other) == 130
+    monkeypatch.setattr(tiles._Target, "write", real)
+    assert cli.main([*command[:6], "0,1", *command[7:], "--force"]) == 0
+    np.testing.assert_array_equal(np.fromfile(out, "<u2").reshape(65, 65),
+                                  np.floor(np.clip(z, 0, 1) * TOP + 0.5).astype(np.uint16))
+
+
+def test_a_tiled_raw_heightmap_needs_a_range_and_a_side_its_engine_takes(tmp_path):
+    code, out, err = wd("terrain", "--size", 48, "--tile", 16, "--range", "0,1", "-o", "t.r16", "--device", "cpu",
+                        "--quiet", cwd=tmp_path)
+    assert code == 0 and "t.r16: 48 x 48 pixels, 16-bit little-endian" in out and "grey 0 = 0, 65535 = 1" in out
+    (tmp_path / "t.r16").unlink()
+    refused(["terrain", "--size", 48, "--tile", 16, "-o", "t.r16"], tmp_path, "-o/--out 't.r16'",
+            "needs --range LO,HI")
+    refused(["terrain", "--size", 48, "--tile", 16, "--range", "0,1", "-o", "t.raw"], tmp_path, "48 x 48",
+            "make it 33 x 33")
+    refused(["terrain", "--size", 33, "--tile", 16, "--range", "1,nan", "-o", "t.raw"], tmp_path, "--range",
+            "'1,nan'")
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ValueError, match="'value_range'"):
+        tiles.write_tiled(lambda w: np.zeros(w[2:]), (8, 8), 4, tmp_path / "x.r16")
+    with pytest.raises(ValueError, match="must be square"):
+        tiles.write_tiled(lambda w: np.zeros(w[2:]), (8, 9), 4, tmp_path / "x.r16", value_range=(0, 1))
+    assert list(tmp_path.iterdir()) == []
+
+
 # --------------------------------------------------------------------------- GeoTIFF
 
 
@@ -316,3 +373,18 @@ def test_batch_jobs_write_terrain_files_with_a_shared_range(tmp_path):
     assert not any(t.complete() for t in batch.load_jobs(tmp_path / "jobs.toml")[0])
     assert batch.run_file(tmp_path / "jobs.toml", device="cpu", quiet=True) == 0
     assert levels_from_png(tmp_path / "o" / "terrain_size33_seed0.png")[1]["wdendrite:max"] == "3.0"
+
+
+def test_a_tiled_batch_job_writes_raw_heightmaps_of_its_range(tmp_path):
+    (tmp_path / "jobs.toml").write_text('out = "o"\n[[job]]\npreset = "terrain"\nsize = 33\ntile = 16\n'
+                                        'formats = ["npy", "r16", "raw"]\nrange = [0.0, 1.25]\n')
+    assert batch.run_file(tmp_path / "jobs.toml", device="cpu", quiet=True) == 0
+    stem = tmp_path / "o" / "terrain_size33_seed0"
+    z = np.load(f"{stem}.npy").astype(np.float64)
+    want = np.floor(np.clip(z / 1.25, 0, 1) * TOP + 0.5)
+    for raw in ("r16", "raw"):
+        np.testing.assert_array_equal(np.fromfile(f"{stem}.{raw}", "<u2").reshape(33, 33), want)
+    man = json.loads(open(f"{stem}.manifest.json").read())
+    assert man["writing"] == {"range": [0.0, 1.25]} and man["heightmap_range"] == [0.0, 1.25]
+    assert man["raw"] == [[f"{stem}.r16", 33, 33], [f"{stem}.raw", 33, 33]]
+    assert all(t.complete() for t in batch.load_jobs(tmp_path / "jobs.toml")[0])

@@ -61,7 +61,7 @@ _TOP_KEYS = ("out", "device", "formats", "job")
 _JOB_KEYS = ("preset", "name", "seed", "seeds", "size", "sizes", "formats", "params", "grid", "tile", "heightmap",
              "range")
 TILED_PRESETS = ("dendry", "terrain")
-_TILED_FORMATS = ("npy", "zarr")
+_TILED_FORMATS = ("npy", "zarr", "r16", "raw")
 
 
 @dataclass
@@ -230,6 +230,9 @@ def _job_tasks(job: dict, k: int, folder: Path, top_formats) -> list[Task]:
         raise UsageError(f"{where}: preset {name!r} makes a 3D dendrite, which SVG cannot draw; drop 'svg'")
     tile = _tile(job.get("tile"), name, fmts, where)
     writing = _writing(job, fmts, where)
+    if tile and {"r16", "raw"} & set(fmts) and "range" not in writing:
+        raise UsageError(f"{where}: a tiled job's raw heightmaps ('r16', 'raw') need 'range' = [LO, HI]: their "
+                         "levels are fixed before the first tile, when the field's range is not known yet")
     tasks = []
     checked = set()  # the values checked already (seeds aside)
     for size, seed, combo in itertools.product(sizes, seeds, itertools.product(*grid.values())):
@@ -337,7 +340,7 @@ def _tile(tile, name: str, fmts: list[str], where: str) -> int | None:
         raise UsageError(f"{where}: 'tile' must be an integer >= 8 pixels, but got {tile!r}")
     bad = [f for f in fmts if f not in _TILED_FORMATS]
     if bad:
-        raise UsageError(f"{where}: a tiled job writes {' or '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
+        raise UsageError(f"{where}: a tiled job writes {', '.join(_TILED_FORMATS)} only, not {bad[0]!r}")
     need_zarr([f".{f}" for f in fmts])
     return tile
 
@@ -558,7 +561,8 @@ def _workers_device_kind(client) -> str:
 
 
 def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
-    """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
+    """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest
+    (raw heightmaps' levels span ``task.writing["range"]``)."""
     from .cli import pick_device
 
     started = time.time()
@@ -568,12 +572,16 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     t0 = time.perf_counter()
     # tiles from another kind of device are not reused: CUDA's pow and exp may round differently
     kind = _workers_device_kind(client) if dev is None else str(dev).split(":")[0]
+    levels = task.writing.get("range")  # (the levels of raw heightmaps)
     made = {}
 
     def placed_all():
         rec = {"device": dev or f"{kind} (default of each worker)", "seconds": round(time.perf_counter() - t0, 4)}
         h, w = setup["shape"]
         rec["made"] = f"{h} x {w} {output} in {counted(len(tile_windows(setup['shape'], task.tile)), 'tile')}"
+        raw = [[p, h, w] for p in task.outputs if Path(p).suffix.lower() in (".r16", ".raw")]
+        if raw:  # (what it takes to read them back)
+            rec.update(heightmap_range=list(levels), raw=raw)
         made.update(_manifest(task, rec, started), tile=task.tile, output=output)
         if manifest:
             _write_manifest(task, made)
@@ -585,8 +593,8 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
              **describe(setup["shape"], output, setup["domain"])}
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                    key=tile_key(task.params, kind), placed_all=placed_all, name=output, attrs=attrs,
-                    domain=setup["domain"])
+                    key=tile_key(task.params, kind, levels), placed_all=placed_all, name=output, attrs=attrs,
+                    domain=setup["domain"], value_range=levels)
     return made
 
 

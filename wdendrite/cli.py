@@ -615,11 +615,7 @@ def main(argv=None) -> int:
         made = f": {rec['made']}" if rec["made"] else ""
         print(f"{preset.name} ({_brief(rec['params'], preset)}){made} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
-        if "heightmap_range" in rec:
-            clipped = f" ({counted(rec['clipped'], 'value')} outside, clipped)" if rec["clipped"] else ""
-            print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]) + clipped)
-        for path, h, w in rec.get("raw", []):  # (engines ask for the size: the file does not hold it)
-            print(f"{path}: {w} x {h} pixels, 16-bit little-endian, row 0 first, no header")
+        _tell_heightmaps(rec)
         return 0
     except (UsageError, ValueError, TypeError, FileExistsError) as exc:
         if size_note and f"'{preset.size_param}'" not in str(exc):
@@ -662,31 +658,50 @@ def _options_named(exc, preset, sources=None) -> str:
     return f" ({', '.join(where)})" if named else ""
 
 
+def _tell_heightmaps(rec: dict) -> None:
+    """Print what it takes to read a run's 16-bit heightmaps back: their range, and raw files' sizes."""
+    if "heightmap_range" in rec:
+        clipped = f" ({counted(rec['clipped'], 'value')} outside, clipped)" if rec.get("clipped") else ""
+        print("heightmap: grey 0 = {:.6g}, 65535 = {:.6g}".format(*rec["heightmap_range"]) + clipped)
+    for path, h, w in rec.get("raw", []):  # (engines ask for the size: the file does not hold it)
+        print(f"{path}: {w} x {h} pixels, 16-bit little-endian, row 0 first, no header")
+
+
 def _tiled(preset, values: dict, outs: list, args) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (:func:`wdendrite.tiles.write_tiled`)."""
     from .batch import Task, need_zarr, run_tiled
+    from .heightmaps import value_range
     from .tiles import _tile_records, placed_by_killed_run, tile_key
     from ._staging import NAME_BYTES as _NAME_BYTES
 
     if isinstance(args.tile, bool) or args.tile < 8:
         raise UsageError(f"--tile must be at least 8 pixels, got {args.tile}")
     if getattr(args, "heightmap", False):
-        raise UsageError("--heightmap makes .png outputs, which --tile does not write (it writes .npy or .zarr)")
-    if "range" in args:
-        raise UsageError("--range scales 16-bit heightmaps, which --tile does not write (it writes .npy or .zarr)")
+        raise UsageError("--heightmap makes .png outputs, which --tile does not write (it writes .npy, .zarr, and "
+                         "with --range .r16 and .raw)")
+    levels = value_range(args.range, "--range") if "range" in args else None
     _, full = resolve(preset, values)
     # an output a killed run of this very command renamed into place is its own, not the user's
-    key = tile_key(full, pick_device(getattr(args, "device", None)).split(":")[0])
+    key = tile_key(full, pick_device(getattr(args, "device", None)).split(":")[0], levels)
     # tiles go straight into the field's file: no picture, which would need the whole image
-    paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr"),
+    paths = check_outputs(outs, force=getattr(args, "force", False), suffixes=(".npy", ".zarr") + RAW,
                           ours=lambda p: placed_by_killed_run(p, key, outs))
+    raw = [p for p in paths if p.suffix.lower() in RAW]
+    if levels is None and raw:
+        raise UsageError(f"-o/--out {str(raw[0])!r}: a tiled raw heightmap needs --range LO,HI: its levels are fixed "
+                         "before the first tile, when the field's range is not known yet")
+    if levels is not None and not raw:
+        raise UsageError("--range scales 16-bit heightmaps; with --tile those are .r16 and .raw outputs, and this run "
+                         "writes none")
+    _check_raw(paths, (full["size"], full["size"]))
     for p in paths:  # tiles go to a hidden partial file beside it, and their records to a hidden folder
         longest = max(len(os.fsencode(q.name)) for q in _tile_records(p))
         if longest > _NAME_BYTES:
             raise UsageError(f"-o/--out {str(p)!r}: the name is {longest - _NAME_BYTES} bytes too long for the file "
                              f"the tiles are written to before the rename ({_NAME_BYTES} at most); shorten it")
     need_zarr(paths)
-    task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile)
+    task = Task(paths[0].stem, preset.name, values, [str(p) for p in paths], full, args.tile,
+                {"range": list(levels)} if levels else {})
     with progress_bar(f"{preset.name} tiles", quiet=getattr(args, "quiet", False), leave=False) as bar:
         def tick(done, total):
             bar.total, bar.n = total, done
@@ -695,6 +710,7 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
         rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False)
     print(f"{preset.name} ({_brief(full, preset)}) in {args.tile}-pixel tiles: {rec['seconds']:.3f} s on "
           f"{rec['device']} -> {', '.join(task.outputs)}")
+    _tell_heightmaps(rec)
     return 0
 
 

@@ -1,10 +1,12 @@
-"""Images written tile by tile into NPY files and Zarr groups, never whole in memory, resumably.
+"""Images written tile by tile into NPY files, raw heightmaps and Zarr groups, never whole in
+memory, resumably.
 
 :func:`write_tiled` computes an image one ``tile`` x ``tile`` window at a time (here, or as
-one Dask task per tile whose worker writes it) straight into its outputs: an NPY file whose
-space is allocated before the first tile, written with ordinary writes (a full disk is an
-error, never a signal), or a Zarr group (:func:`new_zarr_group`) that xarray opens with its
-coordinates. Each output is first a hidden partial file beside it (``.NAME.partial.SUFFIX``)
+one Dask task per tile whose worker writes it) straight into its outputs: an NPY file, or a
+raw 16-bit heightmap (``.r16``/``.raw``, each tile scaled to one range given in advance, see
+:mod:`wdendrite.heightmaps`), whose space is allocated before the first tile, written with
+ordinary writes (a full disk is an error, never a signal), or a Zarr group
+(:func:`new_zarr_group`) that xarray opens with its coordinates. Each output is first a hidden partial file beside it (``.NAME.partial.SUFFIX``)
 with a folder of tile records (``.NAME.tiles.SUFFIX``: the image's identity, one marker per
 finished tile and, once every tile is in, the identity of every output of the run), so that
 a run killed at any step resumes with the tiles it lacks, renames what it had finished, or
@@ -58,22 +60,30 @@ def tiled_array(tile_fn, shape, tile: int):
     return da.map_blocks(_block, tile_fn, chunks=chunks, dtype=np.float32, meta=np.empty((0, 0), np.float32))
 
 
-class _Target:
-    """Where finished tiles go: an NPY file (written in place with ordinary writes, so that a full
-    disk is an error and never a signal) or a Zarr array, plus one marker file per finished tile
-    so an interrupted run knows what is left."""
+RAW = (".r16", ".raw")
+"""Suffixes of raw 16-bit heightmaps, which tiles fill as levels of a range given in advance."""
 
-    def __init__(self, path: Path, marks: Path, array: str):
-        self.path, self.marks, self.array = str(path), str(marks), array  # (array: its name in a Zarr group)
-        if not self.path.lower().endswith(".zarr"):
+
+class _Target:
+    """Where finished tiles go: an NPY file or a raw heightmap (written in place with ordinary
+    writes, so that a full disk is an error and never a signal) or a Zarr array, plus one marker
+    file per finished tile so an interrupted run knows what is left. ``array``: the image's name
+    in a Zarr group; ``width``, ``levels``: a raw heightmap's width and ``(lo, hi)``."""
+
+    def __init__(self, path: Path, marks: Path, array: str, width: int, levels=None):
+        self.path, self.marks, self.array, self.levels = str(path), str(marks), array, levels
+        self.suffix = Path(self.path).suffix.lower()
+        if self.suffix == ".npy":
             self.offset, self.width = _npy_layout(path)
+        elif self.suffix in RAW:
+            self.offset, self.width = 0, width
 
     def mark(self, window) -> Path:
         return Path(self.marks) / ("%d_%d" % tuple(window[:2]))
 
     def write(self, window, values) -> None:
         r0, c0, h, w = window
-        if self.path.lower().endswith(".zarr"):
+        if self.suffix == ".zarr":
             import zarr
 
             arr = zarr.open_array(self.path, path=self.array, mode="r+")
@@ -81,8 +91,14 @@ class _Target:
         else:
             from ._staging import write_at
 
-            rows = np.ascontiguousarray(values, "<f4").reshape(h, w)
-            offset, stride = self.offset + 4 * (r0 * self.width + c0), 4 * self.width
+            if self.suffix in RAW:
+                from .heightmaps import _levels
+
+                rows = np.ascontiguousarray(_levels(values, *self.levels), "<u2").reshape(h, w)
+            else:
+                rows = np.ascontiguousarray(values, "<f4").reshape(h, w)
+            size = rows.itemsize
+            offset, stride = self.offset + size * (r0 * self.width + c0), size * self.width
             if w == self.width:  # whole rows: one piece of the file
                 rows, stride = rows.reshape(1, -1), 0
             fd = os.open(self.path, os.O_WRONLY)
@@ -132,15 +148,19 @@ def _tile_records(final: Path) -> list[Path]:
     return [final.with_name(f".{final.stem}.{what}{final.suffix}") for what in ("partial", "tiles")]
 
 
-def tile_key(params: dict, kind: str) -> str:
+def tile_key(params: dict, kind: str, value_range=None) -> str:
     """What tells one tiled image from another in its tile records: the preset's full
-    parameters and the kind of device (``cpu`` or ``cuda``) its tiles were computed on."""
-    return json.dumps({"params": params, "device": kind}, sort_keys=True)
+    parameters, the kind of device (``cpu`` or ``cuda``) its tiles were computed on and the
+    range of its raw heightmaps' levels, if any."""
+    return json.dumps({"params": params, "device": kind, **({"range": list(value_range)} if value_range else {})},
+                      sort_keys=True)
 
 
-def _image_ident(key: str, shape, tile: int, name: str) -> str:
-    """The image a folder of tile records holds tiles of (its ``image.json``; ``name``: its array's in a Zarr group)."""
-    return json.dumps({"key": key, "shape": list(shape), "tile": tile, "array": name}, sort_keys=True)
+def _image_ident(key: str, shape, tile: int, name: str, levels=None) -> str:
+    """The image a folder of tile records holds tiles of (its ``image.json``; ``name``: its array's in a
+    Zarr group; ``levels``: the range of raw heightmaps' levels, if any)."""
+    return json.dumps({"key": key, "shape": list(shape), "tile": tile, "array": name,
+                       **({"levels": list(levels)} if levels is not None else {})}, sort_keys=True)
 
 
 def _whole_image(marks: Path) -> dict | None:
@@ -206,11 +226,18 @@ def _npy_bytes(shape) -> int:
     return len(_npy_header(shape)) + 4 * shape[0] * shape[1]
 
 
+def _file_bytes(final: Path, shape) -> int | None:
+    """The size of the file a tiled output ``final`` becomes, in bytes (None: a Zarr store, sized by its chunks)."""
+    suffix = final.suffix.lower()
+    return _npy_bytes(shape) if suffix == ".npy" else 2 * shape[0] * shape[1] if suffix in RAW else None
+
+
 def _open_partial(final: Path, shape, tile: int, ident: str, state: str, described: tuple) -> tuple[Path, Path, bool]:
     """The partial file and the folder of tile markers beside ``final``, made afresh when ``state``
     (:func:`_partial_state`) is ``"new"`` (an NPY file with its whole size allocated on the disk:
     a full disk fails here, and the file is deleted; a Zarr group as :func:`new_zarr_group` makes
-    it of ``described``, ``(name, attrs, domain)``); and whether the image is ``"placed"``."""
+    it of ``described``, ``(name, attrs, domain)``; a raw heightmap with its size allocated as an
+    NPY file's); and whether the image is ``"placed"``."""
     # ".{stem}.partial{suffix}" keeps the suffix that names the format
     partial, marks = _tile_records(final)
     if state == "new":
@@ -224,8 +251,9 @@ def _open_partial(final: Path, shape, tile: int, ident: str, state: str, describ
 
             fd = os.open(partial, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
             try:
-                write_at(fd, _npy_header(shape), 0)
-                reserve(fd, _npy_bytes(shape), final)
+                if final.suffix.lower() == ".npy":
+                    write_at(fd, _npy_header(shape), 0)
+                reserve(fd, _file_bytes(final, shape), final)
             except BaseException:
                 os.close(fd)
                 partial.unlink(missing_ok=True)
@@ -290,8 +318,9 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
 
 
 def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None,
-                name: str = "field", attrs: dict | None = None, domain=None):
-    """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
+                name: str = "field", attrs: dict | None = None, domain=None, value_range=None):
+    """Compute an image tile by tile and write it to ``path`` (``.npy``, ``.zarr``, ``.r16`` or
+    ``.raw``) without holding it whole.
 
     ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
     computed once and written to all of them, and they are renamed into place one after
@@ -314,20 +343,25 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         name, attrs, domain: a ``.zarr`` output is a group (:func:`new_zarr_group`) holding the
             image as the array ``name`` (dimensions ``y``, ``x``), ``attrs`` as its attributes and,
             with ``domain`` ``((x0, y0), (x1, y1))``, the pixel centres as coordinates.
+        value_range: ``(lo, hi)``, needed by ``.r16``/``.raw`` outputs: every tile is written as
+            16-bit levels of it (:func:`wdendrite.heightmaps.save_heightmap`'s; values outside are
+            clipped). Tiles recorded under another range are not reused.
 
     Returns:
         The written path (a list of them when ``path`` is a list).
 
     Raises:
         ValueError, TypeError: a bad ``shape`` or ``tile``; an empty list of paths, one path given
-        twice, a path not ending in ``.npy`` or ``.zarr``, or a ``.npy`` path that is a folder
-        (an existing file or Zarr store at a path is replaced: the caller decides whether it may be);
+        twice, a path not ending in ``.npy``, ``.zarr``, ``.r16`` or ``.raw``, a ``.npy`` or raw path
+        that is a folder (an existing file or Zarr store at a path is replaced: the caller decides
+        whether it may be), a raw output without a ``value_range`` (or with a bad one), or of a
+        shape its engine cannot take (:func:`wdendrite.heightmaps.check_raw_shape`);
         whatever ``tile_fn`` raises; computed here, it is first tried on the image's corner
         pixels (:func:`probe_windows`), so that a setup it refuses fails before the partial files
         are made.
         FileExistsError: another process is writing one of the paths (each is locked while this
         runs, see :func:`wdendrite._staging.locked`); nothing was touched.
-        OSError: a ``.npy`` file does not fit the free space of its disk (checked before any file
+        OSError: a ``.npy`` or raw file does not fit the free space of its disk (checked before any file
         is made, then its space is allocated before its first tile: a full disk is never met
         part way), or exceeds the largest file this process may write; the message names the
         file and the space needed. The records kept so far stay: a call after space is freed resumes.
@@ -336,10 +370,21 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
     if not finals or len({f.resolve() for f in finals}) != len(finals):
         raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
+    raw = [f for f in finals if f.suffix.lower() in RAW]
+    if raw or value_range is not None:
+        from .heightmaps import check_raw_shape, value_range as checked_range
+
+        if value_range is None:
+            raise ValueError(f"'value_range' (LO, HI) is needed for the raw heightmap {str(raw[0])!r}: its levels "
+                             "must be known before the first tile")
+        value_range = checked_range(value_range, "'value_range'")
+        for final in raw:
+            check_raw_shape(shape, final.suffix.lower()[1:])
     for final in finals:
-        if final.suffix.lower() not in (".npy", ".zarr"):
-            raise ValueError(f"Expected '.npy' or '.zarr' output paths for 'path', but got {str(final)!r}")
-        if final.suffix.lower() == ".npy" and final.is_dir() and not final.is_symlink():
+        if final.suffix.lower() not in (".npy", ".zarr", *RAW):
+            raise ValueError(f"Expected '.npy', '.zarr', '.r16' or '.raw' output paths for 'path', but got "
+                             f"{str(final)!r}")
+        if final.suffix.lower() != ".zarr" and final.is_dir() and not final.is_symlink():
             raise ValueError(f"'path' {str(final)!r} is a folder, not a file: it would be replaced with its contents")
         if not final.parent.is_dir():  # (before the first tile is computed)
             raise ValueError(f"'path' {str(final)!r}: the folder {str(final.parent)!r} does not exist or is not "
@@ -352,25 +397,26 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     # (Dask workers write their tiles under the locks this process holds)
     with locked(finals), Staging() as stage:
         _write_locked(tile_fn, shape, tile, finals, stage, client=client, progress=progress, key=key,
-                      placed_all=placed_all, described=(name, attrs, domain))
+                      placed_all=placed_all, described=(name, attrs, domain), levels=value_range)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
 def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all,
-                  described: tuple) -> None:
+                  described: tuple, levels) -> None:
     """The work of :func:`write_tiled` once its outputs are locked; ``stage`` names old outputs moved aside;
-    ``described``: ``(name, attrs, domain)`` of a Zarr group."""
+    ``described``: ``(name, attrs, domain)`` of a Zarr group; ``levels``: the range of raw heightmaps."""
     from ._staging import check_space, sync_folder
     from .io import sync_to_disk
 
-    ident = _image_ident(key, shape, tile, described[0])
+    ident = _image_ident(key, shape, tile, described[0], levels)
     states = [_partial_state(final, ident, finals) for final in finals]
     # the space is counted before any file is made (a 2000000-pixel square would be a 16 TB file)
-    check_space({final: _npy_bytes(shape) for final, state in zip(finals, states)
-                 if state == "new" and final.suffix.lower() == ".npy"})
+    check_space({final: _file_bytes(final, shape) for final, state in zip(finals, states)
+                 if state == "new" and _file_bytes(final, shape) is not None})
     opened = [_open_partial(final, shape, tile, ident, state, described) for final, state in zip(finals, states)]
     # (an image a killed run had renamed into place already needs no tile)
-    targets = [_Target(partial, marks, described[0]) for partial, marks, placed in opened if not placed]
+    targets = [_Target(partial, marks, described[0], shape[1], levels) for partial, marks, placed in opened
+               if not placed]
     windows = tile_windows(shape, tile)
     todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
     done = len(windows) - len(todo)
