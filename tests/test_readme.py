@@ -125,3 +125,23 @@ def test_readme_layout_names_every_module_and_folder():
     stale = sorted(w for w in words if w.endswith(".py") and w != ".py" and w not in host
                    and not any((root / d / w).exists() for d in ("tests", "benchmarks", "scripts")))
     assert not stale, f"README's layout names files that do not exist: {stale}"
+
+
+def test_readme_terrain_files_reload_as_its_lines_say(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    commands = [ln for ln in _block("### Terrain files", "bash").splitlines() if ln.startswith("wdendrite")]
+    assert [c.split("-o ")[1].split()[0] for c in commands] == ["dem.png", "dem.r16", "dem.tif", "dem.zarr"]
+    for line in commands:
+        assert cli.main([*_command(line, "wdendrite"), "--quiet", "--device", "cpu"]) == 0, line
+    names = {}
+    exec(_block("### Terrain files", "python"), names)  # the reading lines, as written
+    z, r16, tif, ds = (names[k] for k in ("z", "r16", "tif", "ds"))
+    # one terrain (seed 0, extent 4) in every file: the float32 files equal, the 16-bit ones its
+    # levels on -1..2 (an independent scaling), the PNG's text chunks giving the elevations back
+    assert tif.dtype == np.float32 and np.array_equal(ds["elevation"].values, tif)
+    want = np.floor((tif.astype(np.float64) + 1.0) / 3.0 * 65535 + 0.5)
+    np.testing.assert_array_equal(r16, want)
+    np.testing.assert_array_equal(np.asarray(names["png"]), want)
+    assert np.abs(z - tif).max() <= 0.5 * 3.0 / 65535 * (1 + 1e-9)
+    assert ds.attrs["domain"] == [[0.0, 0.0], [4.0, 4.0]] and ds["x"].values[0] == 2.0 / 257
+    ds.close()
