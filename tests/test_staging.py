@@ -352,6 +352,19 @@ def test_a_file_size_limit_fails_a_tiled_run_in_one_line_and_a_rerun_finishes(tm
     assert np.array_equal(np.load(out / "t.npy"), np.load(tmp_path / "ref.npy")) and os.listdir(out) == ["t.npy"]
 
 
+def test_a_disk_with_no_room_at_all_fails_in_one_line_naming_the_file_and_leaves_nothing(tmp_path):
+    # the lock's process id and the NPY header had met the limit first: "[Errno 27] File too large",
+    # naming no file, and the lock file stayed
+    p = wd("terrain", "--size", 32, "--tile", 16, "-o", "t.npy", "--quiet", cwd=tmp_path, fsize=1)
+    assert p.returncode == 1 and message(p.stderr) == (
+        f"wdendrite: error: [Errno {errno.EFBIG}] could not write 't.npy': it needs 4.1 KiB, more than the largest "
+        "file this process may write (ulimit -f)")
+    p = wd("lightning", "--size", 24, "-o", "a.png", "--quiet", cwd=tmp_path, fsize=1)
+    assert p.returncode == 1 and message(p.stderr).startswith(f"wdendrite: error: [Errno {errno.EFBIG}] could not "
+                                                               "write 'a.png'")
+    assert os.listdir(tmp_path) == []
+
+
 SMALL_DISK = """
 import json, os, subprocess, sys
 DISK, OUT, RUN = sys.argv[1], sys.argv[2], sys.argv[3]
@@ -449,13 +462,36 @@ result["again"] = batch()
 # --------------------------------------------------------------------------- the fault matrix
 
 
+def under_file_limit(limit: int, work, call) -> int:
+    """Run ``call()`` in a forked child, in the folder ``work``, whose writes fail beyond ``limit``
+    bytes a file (RLIMIT_FSIZE: the kernel's EFBIG, a disk that fills up at that size, needing no
+    privilege); its exit code: 0 done, 1 an OSError (the command's own code for it), 3 anything else."""
+    pid = os.fork()
+    if pid == 0:
+        code = 3
+        try:
+            os.chdir(work)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+            result = call()
+            code = result if isinstance(result, int) else 0
+        except OSError:
+            code = 1
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    return os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1
+
+
 def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
-    """SIGKILL at every file operation of two writes, each followed by what a user does next:
+    """SIGKILL at every file operation of two writes, and a file-size limit at every size up to
+    their files', each followed by what a user does next:
 
     - ``set``: ``lightning -o a.png -o a.npy -o a.json --force`` over an older set, then any
       command on the folder (its sweep);
     - ``tiled``: ``terrain --size TILES --tile 16 -o t.npy -o t.zarr``, then the same command
-      again, and once more with ``--force`` if it refuses an output as existing.
+      again, and once more with ``--force`` if it refuses an output as existing;
+    - ``set full``, ``tiled full``: the same writes failing at the limit (exit code 1 expected),
+      then the next command and the same write without the limit.
 
     Returns ``{scenario: {"faults": kills tried, "lost": outputs missing or neither old nor new
     (tiled: not the image), "mixed": sets holding old and new files (tiled: the two files
@@ -509,6 +545,42 @@ def fault_matrix(root: Path, *, tiles: int = 32) -> dict:
         counts["lost"] += (not done) or not np.array_equal(a, np.load(ref))
         counts["mixed"] += done and not np.array_equal(a, b)
         counts["leftovers"] += len(set(os.listdir(work)) - {"t.npy", "t.zarr"})
+
+    # the disk "fills up" at each size below the largest file written: every write fails cleanly
+    limits = sorted({0, 1, 100} | {n for f in OUTS for n in (len(new[f]) - 1, len(new[f]) // 2)})
+    counts = report["set full"] = dict(faults=0, lost=0, mixed=0, leftovers=0, unclean=0)
+    for limit in limits:
+        work = root / "set"
+        shutil.rmtree(work, ignore_errors=True)
+        shutil.copytree(root / "seed1", work)
+        code = under_file_limit(limit, work, _lightning(2))
+        counts["faults"] += 1
+        counts["unclean"] += code != 1
+        _staging.sweep(work)
+        got = {n: (work / n).read_bytes() if (work / n).exists() else None for n in OUTS}
+        counts["lost"] += sum(got[n] not in (old[n], new[n]) for n in OUTS)
+        counts["mixed"] += any(got[n] == old[n] for n in OUTS) and any(got[n] == new[n] for n in OUTS)
+        counts["unclean"] += any(got[n] != old[n] for n in OUTS)  # (a failed write leaves the old set whole)
+        counts["leftovers"] += len(set(os.listdir(work)) - set(OUTS))
+        assert under_file_limit(2**40, work, _lightning(2)) == 0  # space freed: the write goes through
+        counts["lost"] += sum((work / n).read_bytes() != new[n] for n in OUTS)
+    npy_bytes = len(np.load(ref).tobytes()) + 128
+    counts = report["tiled full"] = dict(faults=0, lost=0, mixed=0, leftovers=0, unclean=0)
+    for limit in (0, 1, 128, npy_bytes // 2, npy_bytes - 1):
+        work = root / "tiled"
+        shutil.rmtree(work, ignore_errors=True)
+        work.mkdir()
+        command = ["terrain", "--size", str(tiles), "--tile", "16", "-o", str(work / "t.npy"), "-o",
+                   str(work / "t.zarr"), "--quiet", "--device", "cpu"]
+        counts["faults"] += 1
+        counts["unclean"] += under_file_limit(limit, work, lambda: cli.main(command)) != 1
+        counts["leftovers"] += len([n for n in os.listdir(work) if not n.startswith(".t.")])  # (records: kept to resume)
+        done = under_file_limit(2**40, work, lambda: cli.main(command)) == 0
+        a = np.load(work / "t.npy") if done else None
+        b = zarr.open_array(str(work / "t.zarr"), path="elevation", mode="r")[:] if done else None
+        counts["lost"] += (not done) or not np.array_equal(a, np.load(ref))
+        counts["mixed"] += done and not np.array_equal(a, b)
+        counts["leftovers"] += len(set(os.listdir(work)) - {"t.npy", "t.zarr"})
     return report
 
 
@@ -517,15 +589,17 @@ def test_kills_at_every_step_lose_mix_and_leave_nothing(tmp_path):
     for scenario, counts in report.items():
         assert counts["lost"] == counts["mixed"] == counts["leftovers"] == counts.get("refused", 0) == 0, \
             (scenario, counts)
+        assert counts.get("unclean", 0) == 0, (scenario, counts)  # (every full disk: exit 1, one line)
     assert report["set"]["faults"] >= 25 and report["tiled"]["faults"] >= 20, report
+    assert report["set full"]["faults"] >= 6 and report["tiled full"]["faults"] == 5, report
 
 
 if __name__ == "__main__":  # python tests/test_staging.py: the fault matrix as a table
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:
-        print(f"{'scenario':>9} {'faults':>7} {'lost':>5} {'mixed':>6} {'leftovers':>10} {'refused':>8} "
-              f"{'finished':>9}")
+        print(f"{'scenario':>10} {'faults':>7} {'lost':>5} {'mixed':>6} {'leftovers':>10} {'refused':>8} "
+              f"{'finished':>9} {'unclean':>8}")
         for scenario, c in fault_matrix(Path(tmp)).items():
-            print(f"{scenario:>9} {c['faults']:>7} {c['lost']:>5} {c['mixed']:>6} {c['leftovers']:>10} "
-                  f"{c.get('refused', '-'):>8} {c.get('finished', '-'):>9}")
+            print(f"{scenario:>10} {c['faults']:>7} {c['lost']:>5} {c['mixed']:>6} {c['leftovers']:>10} "
+                  f"{c.get('refused', '-'):>8} {c.get('finished', '-'):>9} {c.get('unclean', '-'):>8}")

@@ -445,8 +445,11 @@ def _take(where: Path, path: str, busy: str) -> tuple[int, Path]:
             return fd, where
         if held and _same_file(fd, where):
             if mine:  # (the process id, for the message of a second writer)
-                os.ftruncate(fd, 0)
-                write_at(fd, str(os.getpid()).encode(), 0)
+                try:
+                    os.ftruncate(fd, 0)
+                    write_at(fd, str(os.getpid()).encode(), 0)
+                except OSError:  # a full disk: the lock holds without it (the message says "another process")
+                    pass
             return fd, where
         holder = None if held else _read_text(fd)
         os.close(fd)

@@ -251,9 +251,9 @@ def _open_partial(final: Path, shape, tile: int, ident: str, state: str, describ
 
             fd = os.open(partial, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o666)
             try:
+                reserve(fd, _file_bytes(final, shape), final)  # (first: a full disk fails here, naming the file)
                 if final.suffix.lower() == ".npy":
                     write_at(fd, _npy_header(shape), 0)
-                reserve(fd, _file_bytes(final, shape), final)
             except BaseException:
                 os.close(fd)
                 partial.unlink(missing_ok=True)
