@@ -149,7 +149,7 @@ def test_each_lattice_is_searched_by_the_kernel_compiled_for_its_records(shape, 
     searches = [kern for kern in launched if kern in ks.SEARCH_KERNELS.values()]
     assert searches == [ks.SEARCH_KERNELS[k if store else 0]]
     # and each kernel is compiled for the count it is filed under
-    assert all(inspect.getclosurevars(kern.func).nonlocals["fixed_nw"] == nw for nw, kern in ks.SEARCH_KERNELS.items())
+    assert all(inspect.getclosurevars(kern.func).nonlocals["fixed_weights"] == n_weights for n_weights, kern in ks.SEARCH_KERNELS.items())
     _check_against_scipy(lat, gens, cf)
 
 
@@ -159,7 +159,7 @@ def test_records_of_another_stride_are_searched_by_the_general_kernel(monkeypatc
     import wdendrite.lattice as lattice_mod
     from wdendrite.kernels import sssp as ks
 
-    monkeypatch.setattr(lattice_mod, "record_stride", lambda nw: ks.record_stride(nw) + 2)
+    monkeypatch.setattr(lattice_mod, "record_stride", lambda n_weights: ks.record_stride(n_weights) + 2)
     lat = wd.Lattice((20, 20), 8, weights=wd.weights.Uniform(r=10, seed=4))
     assert lat.device_arrays("cpu").stride == ks.record_stride(4) + 2
     gens = np.array([[3, 4], [15, 12]])
