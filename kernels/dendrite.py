@@ -37,7 +37,7 @@ TRACE_STUCK = wp.constant(2)
 def predecessor(
     node: int,
     flat_offsets: wp.array(dtype=wp.int32),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     stride: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
@@ -75,7 +75,7 @@ def predecessor(
             src = state_at(state, stride, other)
             if src <= word:
                 if mask[nonneg(other)] != wp.uint8(0):
-                    offer = pack_cost(packed_cost(src) + edge_cost(aux, stride, hashed, lower, k), packed_label(src))
+                    offer = pack_cost(packed_cost(src) + edge_cost(records, stride, hashed, lower, k), packed_label(src))
                     if offer == word:
                         if src < word:
                             return other
@@ -100,7 +100,7 @@ def trace_kernel(
     starts: wp.array(dtype=wp.int32),
     flat_offsets: wp.array(dtype=wp.int32),
     stride: int,
-    nw: int,
+    n_weights: int,
     hashed: HashedWeights,
     mask: wp.array(dtype=wp.uint8),
     state: wp.array(dtype=wp.uint64),
@@ -110,7 +110,7 @@ def trace_kernel(
     max_steps: int,
     hops: wp.array(dtype=wp.int32),
     use_hops: int,
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     new_nodes_out: wp.array(dtype=wp.int32),
     new_pred_out: wp.array(dtype=wp.int32),
     new_count: wp.array(dtype=wp.int32),
@@ -120,7 +120,7 @@ def trace_kernel(
 ):
     """Walk from each start to a root, listing each new node with its predecessor.
 
-    The walk marks live in the records' stamp words (word ``nw + 2``, which
+    The walk marks live in the records' stamp words (word ``n_weights + 2``, which
     searches only compare with their own, newer ids): ``visit_id`` on nodes
     a walk has claimed (or the dendrite being extended already holds),
     ``root_id`` on unclaimed generators. A walk stops at a root (a new node
@@ -136,7 +136,7 @@ def trace_kernel(
     status_out[i] = TRACE_OK
     step = int(0)
     while step < max_steps:
-        seen = wp.atomic_exch(aux, stamp_index(node, stride, nw), visit_id)
+        seen = wp.atomic_exch(records, stamp_index(node, stride, n_weights), visit_id)
         if seen == visit_id:
             return
         word = state_at(state, stride, node)
@@ -153,7 +153,7 @@ def trace_kernel(
             new_pred_out[at] = -1
             status_out[i] = TRACE_UNREACHABLE
             return
-        prev = predecessor(node, flat_offsets, aux, stride, hashed, mask, state, hops, use_hops)
+        prev = predecessor(node, flat_offsets, records, stride, hashed, mask, state, hops, use_hops)
         new_pred_out[at] = prev
         if prev < 0:
             status_out[i] = TRACE_STUCK
@@ -164,6 +164,7 @@ def trace_kernel(
 
 
 @wp.kernel
-def stamp_kernel(nodes_in: wp.array(dtype=wp.int32), stride: int, nw: int, value: int, aux: wp.array(dtype=wp.int32)):
+def stamp_kernel(nodes_in: wp.array(dtype=wp.int32), stride: int, n_weights: int, value: int,
+                 records: wp.array(dtype=wp.int32)):
     """Set the record stamp of each listed padded node to ``value``."""
-    aux[stamp_index(nodes_in[wp.tid()], stride, nw)] = value
+    records[stamp_index(nodes_in[wp.tid()], stride, n_weights)] = value

@@ -21,12 +21,12 @@ border and masked-out nodes hold the packed word 0, which no candidate can
 undercut, so they are never entered and need no test.
 
 Each padded node owns a record of ``stride`` int32 words (an even number) in
-the lattice's ``aux`` array, so relaxing an edge touches one cache line per
+the lattice's ``records`` array, so relaxing an edge touches one cache line per
 neighbour: words 0-1 hold the node's packed state (read through ``state``, a
 ``uint64`` view of the same memory, at ``state[p * stride / 2]``), words
-``2 .. nw + 1`` the float32 bits of its ``nw`` stored edge weights (direction
-``k`` at word ``2 + k``; ``nw`` is 0 when weights are recomputed from their
-hash), then its queue stamp (word ``nw + 2``). A lattice's records hold the
+``2 .. n_weights + 1`` the float32 bits of its ``n_weights`` stored edge weights (direction
+``k`` at word ``2 + k``; ``n_weights`` is 0 when weights are recomputed from their
+hash), then its queue stamp (word ``n_weights + 2``). A lattice's records hold the
 state of one search at a time; searches on a lattice take turns.
 
 Frontiers are flat ``int32`` node lists with their lengths kept in a small
@@ -68,9 +68,9 @@ def state_at(state: wp.array(dtype=wp.uint64), stride: int, node: int) -> wp.uin
 
 
 @wp.func
-def stamp_index(node: int, stride: int, nw: int) -> int:
-    """Index in ``aux`` of padded node ``node``'s queue stamp (the record word after its ``nw`` weights)."""
-    return nonneg(node * stride + nw + 2)
+def stamp_index(node: int, stride: int, n_weights: int) -> int:
+    """Index in ``records`` of padded node ``node``'s queue stamp (the record word after its ``n_weights`` weights)."""
+    return nonneg(node * stride + n_weights + 2)
 
 
 @wp.func
@@ -108,10 +108,10 @@ def hashed_weight(hashed: HashedWeights, plain: bool, node: int, coords: wp.vec3
 
 
 @wp.func
-def edge_cost(aux: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
+def edge_cost(records: wp.array(dtype=wp.int32), stride: int, hashed: HashedWeights, lower: int, k: int) -> float:
     """Weight of the padded lattice's edge ``lower <-> lower + flat_offsets[k]``."""
     if hashed.use == 0:
-        return wp.cast(aux[nonneg(lower * stride + WEIGHT0 + k)], wp.float32)
+        return wp.cast(records[nonneg(lower * stride + WEIGHT0 + k)], wp.float32)
     padded = hashed.shape3 + hashed.pad3 + hashed.pad3
     coords = node_coords(lower, padded) - hashed.pad3
     return hashed_weight(hashed, is_plain(hashed.params), node_index(coords, hashed.shape3), coords, k)
@@ -142,9 +142,9 @@ def push_far(
     cost: float,
     far_id: int,
     generation: int,
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     stride: int,
-    nw: int,
+    n_weights: int,
     far_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_slot: int,
@@ -159,10 +159,10 @@ def push_far(
     near a second time). A compare-and-swap loop makes the test and the
     change one step. Callers with no near list pass ``generation = -far_id``.
     """
-    word = stamp_index(node, stride, nw)
-    stamp = aux[word]
+    word = stamp_index(node, stride, n_weights)
+    stamp = records[word]
     while stamp != -far_id and stamp != generation:
-        seen = wp.atomic_cas(aux, word, stamp, -far_id)
+        seen = wp.atomic_cas(records, word, stamp, -far_id)
         if seen == stamp:
             far_out[nonneg(wp.atomic_add(counts, far_slot, 1))] = node
             stamp = -far_id
@@ -175,15 +175,15 @@ def push_far(
 def push_near(
     node: int,
     generation: int,
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     stride: int,
-    nw: int,
+    n_weights: int,
     near_out: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     near_slot: int,
 ):
     """Add ``node`` to the near list of ``generation`` once (the list is a ring of its capacity)."""
-    if wp.atomic_exch(aux, stamp_index(node, stride, nw), generation) != generation:
+    if wp.atomic_exch(records, stamp_index(node, stride, n_weights), generation) != generation:
         at = wp.atomic_add(counts, near_slot, 1)
         if at >= near_out.shape[0]:
             at = at % near_out.shape[0]  # only a work queue wraps: no division on the common path
@@ -246,11 +246,11 @@ def seed_kernel(
     nodes_in: wp.array(dtype=wp.int32),
     labels_in: wp.array(dtype=wp.int32),
     stride: int,
-    nw: int,
+    n_weights: int,
     far_id: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
@@ -260,7 +260,7 @@ def seed_kernel(
     node = nodes_in[i]
     word = pack_cost(0.0, labels_in[i])
     if word < state_min(state, stride, node, word):
-        push_far(node, 0.0, far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+        push_far(node, 0.0, far_id, -far_id, records, stride, n_weights, far_out, counts, far_slot, far_min)
 
 
 @wp.func
@@ -270,9 +270,9 @@ def queue_ends(
     far_id: int,
     far_slot: int,
     stride: int,
-    nw: int,
+    n_weights: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
@@ -284,7 +284,7 @@ def queue_ends(
             n = other
         word = state_at(state, stride, n)
         if word != UNREACHED:
-            push_far(n, packed_cost(word), far_id, -far_id, aux, stride, nw, far_out, counts, far_slot, far_min)
+            push_far(n, packed_cost(word), far_id, -far_id, records, stride, n_weights, far_out, counts, far_slot, far_min)
 
 
 @wp.kernel
@@ -293,16 +293,16 @@ def mark_lowered_kernel(
     mask: wp.array(dtype=wp.uint8),
     old_aux: wp.array(dtype=wp.int32),
     stride: int,
-    nw: int,
+    n_weights: int,
     far_id: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
 ):
-    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``aux`` (warm start).
+    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``records`` (warm start).
 
     Both record arrays have the same layout (the same lattice shape and connectivity).
     """
@@ -313,8 +313,8 @@ def mark_lowered_kernel(
     while k < flat_offsets.shape[0]:
         e = node * stride + WEIGHT0 + k
         other = node + flat_offsets[k]
-        if wp.cast(aux[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
-            queue_ends(node, other, far_id, far_slot, stride, nw, state, aux, counts, far_min, far_out)
+        if wp.cast(records[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
+            queue_ends(node, other, far_id, far_slot, stride, n_weights, state, records, counts, far_min, far_out)
         k += 1
 
 
@@ -327,11 +327,11 @@ def mark_listed_lowered_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
     mask: wp.array(dtype=wp.uint8),
     stride: int,
-    nw: int,
+    n_weights: int,
     far_id: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
@@ -346,10 +346,10 @@ def mark_listed_lowered_kernel(
     node = nodes[i]
     k = dirs[i]
     if write != 0:
-        aux[node * stride + WEIGHT0 + k] = wp.cast(values[i], wp.int32)
+        records[node * stride + WEIGHT0 + k] = wp.cast(values[i], wp.int32)
     other = node + flat_offsets[k]
     if mask[node] != wp.uint8(0) and mask[other] != wp.uint8(0):
-        queue_ends(node, other, far_id, far_slot, stride, nw, state, aux, counts, far_min, far_out)
+        queue_ends(node, other, far_id, far_slot, stride, n_weights, state, records, counts, far_min, far_out)
 
 
 @wp.func
@@ -362,11 +362,11 @@ def relax_edge(
     generation: int,
     far_id: int,
     stride: int,
-    nw: int,
+    n_weights: int,
     near_slot: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -382,9 +382,9 @@ def relax_edge(
         if candidate < state_at(state, stride, other):
             if candidate < state_min(state, stride, other, candidate):
                 if new_cost < threshold:
-                    push_near(other, generation, aux, stride, nw, near_out, counts, near_slot)
+                    push_near(other, generation, records, stride, n_weights, near_out, counts, near_slot)
                 else:
-                    push_far(other, new_cost, far_id, generation, aux, stride, nw, far_out, counts, far_slot,
+                    push_far(other, new_cost, far_id, generation, records, stride, n_weights, far_out, counts, far_slot,
                              far_min)
 
 
@@ -397,7 +397,7 @@ def relax_node(
     stored: bool,
     plain: bool,
     stride: int,
-    nw: int,
+    n_weights: int,
     far_id: int,
     threshold: float,
     limit: float,
@@ -405,7 +405,7 @@ def relax_node(
     near_slot: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -437,8 +437,8 @@ def relax_node(
             w_fwd = float(0.0)
             w_bwd = float(0.0)
             if stored or hashed.use == 0:
-                w_fwd = wp.cast(aux[nonneg(node * stride + WEIGHT0 + k)], wp.float32)
-                w_bwd = wp.cast(aux[nonneg((node - step) * stride + WEIGHT0 + k)], wp.float32)
+                w_fwd = wp.cast(records[nonneg(node * stride + WEIGHT0 + k)], wp.float32)
+                w_bwd = wp.cast(records[nonneg((node - step) * stride + WEIGHT0 + k)], wp.float32)
             else:
                 # only for neighbours that could improve: border nodes have no weights to compute
                 if state_at(state, stride, node + step) != wp.uint64(0):
@@ -446,10 +446,10 @@ def relax_node(
                 if state_at(state, stride, node - step) != wp.uint64(0):
                     back = c - hashed.offsets[k]
                     w_bwd = hashed_weight(hashed, plain, node_index(back, hashed.shape3), back, k)
-            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
-            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, nw,
-                       near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+            relax_edge(node + step, cost + w_fwd, label, threshold, limit, generation, far_id, stride, n_weights,
+                       near_slot, far_slot, state, records, counts, far_min, near_out, far_out)
+            relax_edge(node - step, cost + w_bwd, label, threshold, limit, generation, far_id, stride, n_weights,
+                       near_slot, far_slot, state, records, counts, far_min, near_out, far_out)
 
 
 @wp.kernel
@@ -457,7 +457,7 @@ def relax_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
     hashed: HashedWeights,
     stride: int,
-    nw: int,
+    n_weights: int,
     far_id: int,
     near_in: wp.array(dtype=wp.int32),
     in_slot: int,
@@ -469,7 +469,7 @@ def relax_kernel(
     near_slot: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -484,7 +484,7 @@ def relax_kernel(
     may be queued again once it has been taken out. A neighbour whose
     packed state drops is queued in the next near list when its cost is below
     ``threshold`` and in the far pile otherwise; costs above ``limit`` are
-    never written. Record word ``p * stride + 2 + k`` of ``aux`` holds the
+    never written. Record word ``p * stride + 2 + k`` of ``records`` holds the
     weight of the edge ``p <-> p + flat_offsets[k]``, unless ``hashed.use``
     asks for weights recomputed from their hash.
     """
@@ -499,9 +499,9 @@ def relax_kernel(
         if at >= capacity:
             at = at % capacity
         if fifo != 0:
-            aux[stamp_index(node, stride, nw)] = 0  # out of the work queue: it may be queued again
-        relax_node(node, flat_offsets, directions, hashed, False, plain, stride, nw, far_id, threshold, limit,
-                   generation, near_slot, far_slot, state, aux, counts, far_min, near_out, far_out)
+            records[stamp_index(node, stride, n_weights)] = 0  # out of the work queue: it may be queued again
+        relax_node(node, flat_offsets, directions, hashed, False, plain, stride, n_weights, far_id, threshold, limit,
+                   generation, near_slot, far_slot, state, records, counts, far_min, near_out, far_out)
         i += threads
 
 
@@ -514,11 +514,11 @@ def split_far_kernel(
     threshold: float,
     generation: int,
     stride: int,
-    nw: int,
+    n_weights: int,
     near_slot: int,
     far_slot: int,
     state: wp.array(dtype=wp.uint64),
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
     counts: wp.array(dtype=wp.int32),
     far_min: wp.array(dtype=float),
     near_out: wp.array(dtype=wp.int32),
@@ -536,7 +536,7 @@ def split_far_kernel(
         cost = packed_cost(state_at(state, stride, node))
         if cost < threshold:
             if cost >= previous_threshold:
-                push_near(node, generation, aux, stride, nw, near_out, counts, near_slot)
+                push_near(node, generation, records, stride, n_weights, near_out, counts, near_slot)
         else:
             far_out[nonneg(wp.atomic_add(counts, far_slot, 1))] = node
             wp.atomic_min(far_min, 0, cost)
@@ -568,17 +568,17 @@ SEARCH_DIRECTIONS = (2, 3, 4, 13)
 """Edge directions (stored weights per record) of the lattices: connectivity 4, 6, 8 and 26."""
 
 
-def record_stride(nw: int) -> int:
-    """int32 words per node record with ``nw`` stored weights: a 64-bit state, the
+def record_stride(n_weights: int) -> int:
+    """int32 words per node record with ``n_weights`` stored weights: a 64-bit state, the
     weights and a stamp, rounded up to an even count so that states stay aligned."""
-    return (nw + 4) // 2 * 2
+    return (n_weights + 4) // 2 * 2
 
 
-def _one_launch_search(fixed_nw: int) -> wp.Kernel:
-    """The one-thread search kernel, for records of ``fixed_nw`` stored weights
+def _one_launch_search(fixed_weights: int) -> wp.Kernel:
+    """The one-thread search kernel, for records of ``fixed_weights`` stored weights
     known when it compiles (one of :data:`SEARCH_DIRECTIONS`, with the stride
-    :func:`record_stride` gives), or, with ``fixed_nw = 0``, for any records,
-    laid out as the launch's ``stride`` and ``nw`` say (hashed weights, or any
+    :func:`record_stride` gives), or, with ``fixed_weights = 0``, for any records,
+    laid out as the launch's ``stride`` and ``n_weights`` say (hashed weights, or any
     other layout).
 
     Known at compile time, the record stride and the number of directions let
@@ -587,14 +587,14 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
     run-time values (512^2, 8-connected, on the CPU), 0.83x with the arrays'
     dense views as well (see :mod:`~wdendrite.kernels.indexing`).
     """
-    stored = fixed_nw > 0
+    stored = fixed_weights > 0
 
     @wp.kernel
     def search_kernel(
         flat_offsets: wp.array(dtype=wp.int32),
         hashed: HashedWeights,
         stride: int,
-        nw: int,
+        n_weights: int,
         far_id: int,
         queue: wp.array(dtype=wp.int32),
         far_pile: wp.array(dtype=wp.int32),
@@ -602,7 +602,7 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
         delta: wp.float64,
         generation: int,
         state: wp.array(dtype=wp.uint64),
-        aux: wp.array(dtype=wp.int32),
+        records: wp.array(dtype=wp.int32),
         counts: wp.array(dtype=wp.int32),
         far_min: wp.array(dtype=float),
         stats: wp.array(dtype=wp.int64),
@@ -619,20 +619,20 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
         orders are those of the host's schedule, so costs, labels and the counts
         are the same. ``stats`` receives the buckets emptied and the nodes relaxed.
         A kernel compiled for a fixed count of stored weights ignores ``stride`` and
-        ``nw`` and uses its own constants. Every array must be contiguous: the kernel
+        ``n_weights`` and uses its own constants. Every array must be contiguous: the kernel
         reads them through views that assume so (:func:`dense_i32`).
         """
         flat_offsets = dense_i32(flat_offsets)
         queue = dense_i32(queue)
         far_pile = dense_i32(far_pile)
         state = dense_u64(state)
-        aux = dense_i32(aux)
+        records = dense_i32(records)
         capacity = queue.shape[0]
         directions = flat_offsets.shape[0]
         if wp.static(stored):
-            stride = wp.static(record_stride(fixed_nw))
-            nw = wp.static(fixed_nw)
-            directions = wp.static(fixed_nw)
+            stride = wp.static(record_stride(fixed_weights))
+            n_weights = wp.static(fixed_weights)
+            directions = wp.static(fixed_weights)
         plain = is_plain(hashed.params)
         threshold = float(-wp.inf)
         rounds = wp.int64(0)
@@ -646,9 +646,9 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
                     at += 1
                     if at >= capacity:
                         at = 0
-                    aux[stamp_index(node, stride, nw)] = 0  # out of the work queue: it may be queued again
-                    relax_node(node, flat_offsets, directions, hashed, wp.static(stored), plain, stride, nw, far_id,
-                               threshold, limit, generation, 0, 2, state, aux, counts, far_min, queue, far_pile)
+                    records[stamp_index(node, stride, n_weights)] = 0  # out of the work queue: it may be queued again
+                    relax_node(node, flat_offsets, directions, hashed, wp.static(stored), plain, stride, n_weights, far_id,
+                               threshold, limit, generation, 0, 2, state, records, counts, far_min, queue, far_pile)
                     i += 1
                 relaxed += wp.int64(counts[0])
                 counts[0] = 0
@@ -667,7 +667,7 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
                     cost = packed_cost(state_at(state, stride, node))
                     if cost < threshold:
                         if cost >= previous:
-                            push_near(node, generation, aux, stride, nw, queue, counts, 0)
+                            push_near(node, generation, records, stride, n_weights, queue, counts, 0)
                     else:
                         far_pile[nonneg(kept)] = node
                         kept += 1
@@ -679,7 +679,7 @@ def _one_launch_search(fixed_nw: int) -> wp.Kernel:
     return search_kernel
 
 
-SEARCH_KERNELS = {nw: _one_launch_search(nw) for nw in (0,) + SEARCH_DIRECTIONS}
+SEARCH_KERNELS = {n_weights: _one_launch_search(n_weights) for n_weights in (0,) + SEARCH_DIRECTIONS}
 """The one-launch search kernels by stored weights per record (0: any records, for hashed weights)."""
 
 
@@ -709,7 +709,7 @@ def fill_records_kernel(
     offsets: wp.array(dtype=wp.vec3i),
     lengths: wp.array(dtype=float),
     stride: int,
-    aux: wp.array(dtype=wp.int32),
+    records: wp.array(dtype=wp.int32),
 ):
     """Write the weights of every usable padded node's record from a distribution.
 
@@ -784,22 +784,22 @@ def fill_records_kernel(
             else:
                 src = nearest_edge_source(c, o, shape)
                 w = weight_of_edge(params, plain, shape, node_index(src, shape), src, k, o, lengths[k])
-            aux[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
+            records[p * stride + WEIGHT0 + k] = wp.cast(w, wp.int32)
         k += 1
 
 
 @wp.kernel
-def clear_records_kernel(stride: int, nw: int, with_state: int, chunk: int, aux: wp.array(dtype=wp.int32)):
+def clear_records_kernel(stride: int, n_weights: int, with_state: int, chunk: int, records: wp.array(dtype=wp.int32)):
     """Zero every record's stamp (before the stamp ids would wrap), and with ``with_state``
     its state words too (records copied from another device); ``chunk`` records per thread."""
     start = wp.tid() * chunk
-    stop = wp.min(start + chunk, aux.shape[0] / stride)
+    stop = wp.min(start + chunk, records.shape[0] / stride)
     p = int(start)
     while p < stop:
         if with_state != 0:
-            aux[p * stride] = 0
-            aux[p * stride + 1] = 0
-        aux[stamp_index(p, stride, nw)] = 0
+            records[p * stride] = 0
+            records[p * stride + 1] = 0
+        records[stamp_index(p, stride, n_weights)] = 0
         p += 1
 
 

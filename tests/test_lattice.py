@@ -122,8 +122,8 @@ def test_a_lattice_too_large_for_int32_records_is_told_the_largest_that_fits(sha
     with pytest.raises(ValueError) as info:
         wd.Lattice(shape, conn, weights=w, store_weights=stored)
     side = int(re.search(r"has (\d+) nodes a side", str(info.value)).group(1))
-    nw = len(half_offsets(len(shape), conn)) if stored else 0
-    assert record_words((side,) * len(shape), nw) < 2**31 <= record_words((side + 1,) * len(shape), nw)
+    n_weights = len(half_offsets(len(shape), conn)) if stored else 0
+    assert record_words((side,) * len(shape), n_weights) < 2**31 <= record_words((side + 1,) * len(shape), n_weights)
     assert ("store_weights=False" in str(info.value)) == stored
 
 
@@ -170,11 +170,11 @@ def test_records_copied_for_another_device_search_the_same(shape, conn):
     wd.shortest_paths(lat, gens[:1])
     host = lat.device_arrays("cpu")
     copy = lat._copied_arrays(wp.get_device("cpu"))
-    rec_h = host.aux.numpy().reshape(-1, host.stride)
-    rec_c = copy.aux.numpy().reshape(-1, copy.stride)
-    weights = slice(2, 2 + host.nw)
+    rec_h = host.records.numpy().reshape(-1, host.stride)
+    rec_c = copy.records.numpy().reshape(-1, copy.stride)
+    weights = slice(2, 2 + host.n_weights)
     np.testing.assert_array_equal(rec_c[:, weights], rec_h[:, weights])
-    assert not rec_c[:, :2].any() and not rec_c[:, 2 + host.nw:].any()
+    assert not rec_c[:, :2].any() and not rec_c[:, 2 + host.n_weights:].any()
     lat._device_arrays["cpu"] = copy
     again = wd.shortest_paths(lat, gens)
     assert again.dist.tobytes() == ref.dist.tobytes() and again.label.tobytes() == ref.label.tobytes()
@@ -254,7 +254,7 @@ def test_records_filled_from_a_distribution_equal_its_samples(shape, conn, usabl
         lat = wd.Lattice(shape, conn, weights=dist, mask=mask)
         arrays = lat.device_arrays("cpu")
         assert (arrays.usable is not None) == (usable_share < 0.25)
-        got = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, len(lat.offsets))
+        got = _record_weights(arrays.records, arrays.padded_shape, arrays.stride, len(lat.offsets))
         want = fill_outside(dist.sample(shape, lat.lengths, offsets=lat.offsets), lat.offsets)
         usable = np.ones(shape, bool) if mask is None else mask
         padded = np.pad(usable, 1)  # (False outside: edges leaving the lattice are caught by ~inside below)

@@ -106,11 +106,11 @@ def test_a_limit_between_two_float32_values_keeps_no_cost_above_it(schedule):
     c = float(np.sort(ref.ravel())[ref.size // 2])  # a cost some nodes have
     limit = c - 2.0**-30  # (float32 holds no number between c - 2**-30 and c for such a c)
     assert np.float32(limit) == c and (ref == c).any()
-    hooks = {"one launch": {}, "host rounds": {"_host_rounds": True}, "generations": {"_fifo": False}}[schedule]
-    cf = wd.shortest_paths(lat, gens, limit=limit, device="cpu", **hooks)
+    hooks = {"one launch": {}, "host rounds": {"host_rounds": True}, "generations": {"fifo": False}}[schedule]
+    cf = _search(lat, gens, limit=limit, device="cpu", **hooks)
     _check_against_scipy(lat, gens, cf, limit=limit)
     assert np.array_equal(np.isfinite(cf.dist), ref <= limit) and np.all(cf.label[ref == c] == -1)
-    warm = wd.shortest_paths(lat, np.vstack([gens, [[5, 6]]]), limit=limit, warm_start=cf, device="cpu", **hooks)
+    warm = _search(lat, np.vstack([gens, [[5, 6]]]), limit=limit, warm_start=cf, device="cpu", **hooks)
     assert not np.any(np.isfinite(warm.dist) & (warm.dist > limit))
     with pytest.raises(ValueError, match="limit"):  # (a trace reads the states of its endpoints alone)
         wd.trace(cf, np.argwhere(ref == c)[:1])
@@ -172,7 +172,7 @@ def test_each_lattice_is_searched_by_the_kernel_compiled_for_its_records(shape, 
     searches = [kern for kern in launched if kern in ks.SEARCH_KERNELS.values()]
     assert searches == [ks.SEARCH_KERNELS[k if store else 0]]
     # and each kernel is compiled for the count it is filed under
-    assert all(inspect.getclosurevars(kern.func).nonlocals["fixed_nw"] == nw for nw, kern in ks.SEARCH_KERNELS.items())
+    assert all(inspect.getclosurevars(kern.func).nonlocals["fixed_weights"] == n_weights for n_weights, kern in ks.SEARCH_KERNELS.items())
     _check_against_scipy(lat, gens, cf)
 
 
@@ -182,7 +182,7 @@ def test_records_of_another_stride_are_searched_by_the_general_kernel(monkeypatc
     import wdendrite.lattice as lattice_mod
     from wdendrite.kernels import sssp as ks
 
-    monkeypatch.setattr(lattice_mod, "record_stride", lambda nw: ks.record_stride(nw) + 2)
+    monkeypatch.setattr(lattice_mod, "record_stride", lambda n_weights: ks.record_stride(n_weights) + 2)
     lat = wd.Lattice((20, 20), 8, weights=wd.weights.Uniform(r=10, seed=4))
     assert lat.device_arrays("cpu").stride == ks.record_stride(4) + 2
     gens = np.array([[3, 4], [15, 12]])

@@ -440,8 +440,8 @@ def _trace(costfield: CostField, endpoints, *, extend: Dendrite | None = None, g
             for nodes, mark in marks:
                 if len(nodes):
                     wp.launch(_kd.stamp_kernel, dim=len(nodes), inputs=[wp.array(nodes, dtype=wp.int32),
-                                                                        arrays.stride, arrays.nw, mark],
-                              outputs=[arrays.aux])
+                                                                        arrays.stride, arrays.n_weights, mark],
+                              outputs=[arrays.records])
             room = max(1, lattice.num_usable)
             new_nodes = wp.empty(room, dtype=wp.int32)
             new_pred = wp.empty(room, dtype=wp.int32)
@@ -452,10 +452,10 @@ def _trace(costfield: CostField, endpoints, *, extend: Dendrite | None = None, g
             wp.launch(
                 _kd.trace_kernel,
                 dim=len(starts),
-                inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.nw,
+                inputs=[wp.array(starts, dtype=wp.int32), arrays.flat_offsets, arrays.stride, arrays.n_weights,
                         arrays.hashed, arrays.mask, arrays.state, root_id, visit_id, int(claim_zero), size,
                         wp.zeros(1, dtype=wp.int32) if hops is None else hops, int(hops is not None)],
-                outputs=[arrays.aux, new_nodes, new_pred, new_count, status, new_cost, new_label],
+                outputs=[arrays.records, new_nodes, new_pred, new_count, status, new_cost, new_label],
             )
             n_new = int(new_count.numpy()[0])
             listed = new_nodes[:n_new].numpy()

@@ -231,12 +231,12 @@ def _check_start(start, lattice: Lattice, n_gens: int, device, iterations: int) 
     return dataclasses.replace(start, cost=_path_costs(lattice, start, "start", device))
 
 
-def _field_costs(cf: CostField, padded: np.ndarray) -> np.ndarray:
-    """float32 costs of padded nodes in ``cf``, read from the records that hold it."""
-    arrays = cf.lattice.device_arrays(cf.device)
+def _field_costs(costs: CostField, padded: np.ndarray) -> np.ndarray:
+    """float32 costs of padded nodes in ``costs``, read from the records that hold it."""
+    arrays = costs.lattice.device_arrays(costs.device)
     with arrays.stamps.lock:
-        load_state(cf, arrays)
-        return read_states(arrays, padded, cf.limit)[0]
+        load_state(costs, arrays)
+        return read_states(arrays, padded, costs.limit)[0]
 
 
 def _rebase_costs(den: Dendrite, first: int, field_cost_of) -> Dendrite:
@@ -268,15 +268,15 @@ def _rebase_costs(den: Dendrite, first: int, field_cost_of) -> Dendrite:
     return dataclasses.replace(den, cost=cost)
 
 
-def _band_endpoints(cf: CostField, m: int, d: float, r: float, rng, within, min_spacing):
+def _band_endpoints(costs: CostField, m: int, d: float, r: float, rng, within, min_spacing):
     """Up to ``m`` endpoints in the cost band, fewer when the band (inside ``within``,
     ``min_spacing`` apart) cannot hold that many; None when it holds none.
 
-    ``cf`` holds costs from the dendrite (its nodes cost 0). The band never reaches below
+    ``costs`` holds costs from the dendrite (its nodes cost 0). The band never reaches below
     cost 0, so it never offers the dendrite's own nodes: an endpoint there would add no path.
     """
-    lattice = cf.lattice
-    cand, why = _endpoints._band_candidates(cf, lattice.shape, lattice.mask, max(d - r, 0.0), d + r, within)
+    lattice = costs.lattice
+    cand, why = _endpoints._band_candidates(costs, lattice.shape, lattice.mask, max(d - r, 0.0), d + r, within)
     if len(cand) == 0:
         return None
     # in random order, each candidate kept unless a kept one lies within min_spacing: as many as fit
@@ -378,12 +378,12 @@ def grow(
     lat = base_lat
     if start is not None and not new_generators:
         lat = lower_dendrite_weights(base_lat, start, params.cheap)
-    # cf: the costs walks follow (from the dendrite with new generators; from the first generators
+    # walked_costs: the costs walks follow (from the dendrite with new generators; from the first generators
     # over the lattice with cheap former paths, searched whole: a walk may start far from them).
-    # sf: with cheap former paths, the costs from the dendrite, where endpoints are drawn (thesis
-    # Fig 3.15: "successively smaller path cost from the structure"); with new generators, cf itself
-    cf: CostField | None = None
-    sf: CostField | None = None
+    # band_costs: with cheap former paths, the costs from the dendrite, where endpoints are drawn (thesis
+    # Fig 3.15: "successively smaller path cost from the structure"); with new generators, walked_costs itself
+    walked_costs: CostField | None = None
+    band_costs: CostField | None = None
     grew = False
     bar = None
     if progress is True:  # (made just before the loop whose end closes it)
@@ -392,33 +392,34 @@ def grow(
         bar = tqdm(total=len(plan), desc="growing", unit="iteration")
     try:
         for it, (m, d) in enumerate(plan):
-            if cf is None:
+            if walked_costs is None:
                 structure = gens if den is None else np.concatenate([gens, den.nodes])
                 if new_generators:
-                    cf = sf = shortest_paths(lat, structure, limit=d + r, device=device)
+                    walked_costs = band_costs = shortest_paths(lat, structure, limit=d + r, device=device)
                 else:
-                    cf = shortest_paths(lat, gens, device=device)
+                    walked_costs = shortest_paths(lat, gens, device=device)
                     if den is not None and len(den):
                         # walks lead to the generators: a start node they cannot reach would leave its
                         # surroundings' endpoints without a way down
-                        far = ~np.isfinite(_field_costs(cf, den._padded))
+                        far = ~np.isfinite(_field_costs(walked_costs, den._padded))
                         if far.any():
                             row = int(np.argmax(far))
                             raise ValueError(
                                 f"'start' row {row} = {tuple(den.nodes[row].tolist())} cannot be reached from any of "
                                 "the 'generators' on this lattice; cheap former paths trace every branch to them "
                                 "(new generators, cheap = 0, grow from 'start' itself)")
-                    sf = cf if den is None else shortest_paths(base_lat, structure, limit=d + r, device=device)
-            ep = _band_endpoints(sf, m, d, r, rng, within, params.min_spacing)
+                    band_costs = (walked_costs if den is None
+                                  else shortest_paths(base_lat, structure, limit=d + r, device=device))
+            ep = _band_endpoints(band_costs, m, d, r, rng, within, params.min_spacing)
             if ep is not None:
                 grew = True
                 first = 0 if den is None else len(den)
                 # (new branches take the label of the node they join: the first generators' rows)
-                den = _trace(cf, ep, extend=den, generation=first_generation + it, drawn=True)
+                den = _trace(walked_costs, ep, extend=den, generation=first_generation + it, drawn=True)
                 if first:
                     # before the next search reuses the records that hold this field
                     den = _rebase_costs(den, first, (lambda rows: np.float32(0.0)) if new_generators
-                                        else (lambda rows: _field_costs(cf, den._padded[rows])))
+                                        else (lambda rows: _field_costs(walked_costs, den._padded[rows])))
                 if it + 1 < len(plan):
                     # the next band lies below the next limit: nothing beyond it is searched
                     limit = plan[it + 1][1] + r
@@ -433,14 +434,15 @@ def grow(
                             lat = lower_dendrite_weights(lat, den, params.cheap, rows=new_rows)
                         else:
                             dirs, lower = _dendrite_edges(lat, den, new_rows)  # (traced: all lattice edges)
-                            lowered = lat._lower_in_place(dirs, lower, params.cheap, cf.device)
-                        cf = _search(lat, gens, warm_start=cf, consume_warm_start=sf is not cf, lowered=lowered)
+                            lowered = lat._lower_in_place(dirs, lower, params.cheap, walked_costs.device)
+                        walked_costs = _search(lat, gens, warm_start=walked_costs, lowered=lowered,
+                                               consume_warm_start=band_costs is not walked_costs)
                     # the costs from the dendrite: its new nodes (the rows this iteration's walks added)
                     # join the generators
-                    sf = _search(base_lat, structure, limit=limit, warm_start=sf, consume_warm_start=True,
-                                 walked=den._padded[first:])
+                    band_costs = _search(base_lat, structure, limit=limit, warm_start=band_costs,
+                                         consume_warm_start=True, walked=den._padded[first:])
                     if new_generators:
-                        cf = sf
+                        walked_costs = band_costs
             if bar is not None:
                 bar.update(1)
             elif callable(progress):

@@ -157,17 +157,17 @@ class LatticeArrays:
     """Half-offsets as ``wp.vec3i`` ``(dz, dy, dx)``, shape (K,)."""
     flat_offsets: wp.array
     """int32 flat index step of each half-offset in the padded lattice, shape (K,)."""
-    aux: wp.array
+    records: wp.array
     """int32 node records, shape (P * stride,): record ``p`` holds the packed search
-    state (words 0-1), the float32 bits of the ``nw`` stored weights (word ``2 + k``: the
+    state (words 0-1), the float32 bits of the ``n_weights`` stored weights (word ``2 + k``: the
     edge ``p <-> p + flat_offsets[k]``), then the search stamp (see
     :mod:`wdendrite.kernels.sssp`)."""
     state: wp.array
-    """uint64 view of ``aux``, shape (P * stride / 2,): node ``p``'s packed state is
+    """uint64 view of ``records``, shape (P * stride / 2,): node ``p``'s packed state is
     ``state[p * stride / 2]``."""
     stride: int
-    """Words per record: ``nw + 3`` rounded up to an even number."""
-    nw: int
+    """Words per record: ``n_weights + 3`` rounded up to an even number."""
+    n_weights: int
     """Stored weights per record: K, or 0 when weights are recomputed in kernels."""
     mask: wp.array
     """uint8 usable-node flags of the padded lattice, shape (P,) (0 on the border)."""
@@ -205,18 +205,18 @@ class LatticeArrays:
         record's stamp is cleared and numbering starts again.
         """
         if not self.stamps.room(max(count, 2**24)):
-            clear_records(self.aux, self.stride, self.nw, with_state=False)
+            clear_records(self.records, self.stride, self.n_weights, with_state=False)
             self.stamps.last = 0
         first = self.stamps.last + 1
         self.stamps.last += count
         return first
 
 
-def _record_weights(aux: wp.array, padded: tuple, stride: int, nw: int) -> np.ndarray:
-    """Writable ``(K, *shape)`` float32 view of the weights in host records ``aux``."""
-    records = aux.numpy().view(np.float32).reshape(tuple(padded) + (stride,))
-    inner = records[1:-1, 1:-1, 1:-1] if padded[0] > 1 else records[0, 1:-1, 1:-1]
-    return np.moveaxis(inner[..., _ks.WEIGHT0 : _ks.WEIGHT0 + nw], -1, 0)
+def _record_weights(records: wp.array, padded: tuple, stride: int, n_weights: int) -> np.ndarray:
+    """Writable ``(K, *shape)`` float32 view of the weights in the host's node ``records``."""
+    words = records.numpy().view(np.float32).reshape(tuple(padded) + (stride,))
+    inner = words[1:-1, 1:-1, 1:-1] if padded[0] > 1 else words[0, 1:-1, 1:-1]
+    return np.moveaxis(inner[..., _ks.WEIGHT0 : _ks.WEIGHT0 + n_weights], -1, 0)
 
 
 def pass_chunk(device) -> int:
@@ -230,16 +230,16 @@ def pass_threads(count: int, chunk: int) -> int:
     return max(1, -(-count // chunk))
 
 
-def clear_records(aux: wp.array, stride: int, nw: int, *, with_state: bool) -> None:
+def clear_records(records: wp.array, stride: int, n_weights: int, *, with_state: bool) -> None:
     """Zero every record's queue stamp, and with ``with_state`` its search state too."""
-    chunk = pass_chunk(aux.device)
-    wp.launch(_ks.clear_records_kernel, dim=pass_threads(aux.shape[0] // stride, chunk),
-              inputs=[stride, nw, int(with_state), chunk], outputs=[aux], device=aux.device)
+    chunk = pass_chunk(records.device)
+    wp.launch(_ks.clear_records_kernel, dim=pass_threads(records.shape[0] // stride, chunk),
+              inputs=[stride, n_weights, int(with_state), chunk], outputs=[records], device=records.device)
 
 
-def record_words(shape: tuple, nw: int) -> int:
-    """int32 words of the padded node records of a lattice of ``shape`` with ``nw`` stored weights."""
-    return int(np.prod([n + 2 for n in shape])) * record_stride(nw)
+def record_words(shape: tuple, n_weights: int) -> int:
+    """int32 words of the padded node records of a lattice of ``shape`` with ``n_weights`` stored weights."""
+    return int(np.prod([n + 2 for n in shape])) * record_stride(n_weights)
 
 
 class _Stamps:
@@ -361,14 +361,14 @@ class Lattice:
                 shape_note=f" (K = {k}: one plane per undirected edge direction, connectivity {self.connectivity} / 2, "
                            "in the order of Lattice.offsets)")
             _check_weight_values(source, self.offsets, self.mask, raw=np.asarray(weights))
-        nw = len(self.offsets) if self._stored else 0
-        words = record_words(self.shape, nw)
+        n_weights = len(self.offsets) if self._stored else 0
+        words = record_words(self.shape, n_weights)
         if words >= 2**31:
             # the largest side of a square (cube) lattice whose records fit, for the message
-            side = int(((2**31 - 1) // record_stride(nw)) ** (1 / self.ndim)) - 2
-            while record_words((side + 1,) * self.ndim, nw) < 2**31:
+            side = int(((2**31 - 1) // record_stride(n_weights)) ** (1 / self.ndim)) - 2
+            while record_words((side + 1,) * self.ndim, n_weights) < 2**31:
                 side += 1
-            while record_words((side,) * self.ndim, nw) >= 2**31:
+            while record_words((side,) * self.ndim, n_weights) >= 2**31:
                 side -= 1
             raise ValueError(
                 f"'shape' {self.shape} with connectivity {self.connectivity} needs {words} words of node records, "
@@ -388,7 +388,7 @@ class Lattice:
             if source is not None or self.mask is None:
                 # complete records: ``weights`` is a view of them (a masked distribution
                 # fills usable nodes only, so its ``weights`` are computed on access)
-                self._weights = _record_weights(arrays.aux, arrays.padded_shape, arrays.stride, len(self.offsets))
+                self._weights = _record_weights(arrays.records, arrays.padded_shape, arrays.stride, len(self.offsets))
                 self._weights.flags.writeable = False
 
     @property
@@ -505,14 +505,14 @@ class Lattice:
         """Arrays on ``device`` whose records copy the host records, search state and stamps cleared."""
         host = self._device_arrays["cpu"]
         with host.stamps.lock:
-            aux = _memory.empty(host.aux.shape[0], wp.int32, device)
-            wp.copy(aux, host.aux)
-        clear_records(aux, host.stride, host.nw, with_state=True)
-        return self._make_arrays(device, None, aux=aux)
+            records = _memory.empty(host.records.shape[0], wp.int32, device)
+            wp.copy(records, host.records)
+        clear_records(records, host.stride, host.n_weights, with_state=True)
+        return self._make_arrays(device, None, records=records)
 
-    def _make_arrays(self, device, weights: np.ndarray | None, aux: wp.array | None = None) -> LatticeArrays:
+    def _make_arrays(self, device, weights: np.ndarray | None, records: wp.array | None = None) -> LatticeArrays:
         """Padded arrays on ``device``, with records built from ``weights`` ((K, *shape) float32
-        on the host), taken from ``aux`` (already filled), filled from the distribution
+        on the host), taken from ``records`` (already filled), filled from the distribution
         (stored weights), or without weights (unstored)."""
         pad3 = (0, 1, 1) if self.ndim == 2 else (1, 1, 1)
         shape3 = (1,) * (3 - self.ndim) + self.shape
@@ -527,7 +527,7 @@ class Lattice:
         hashed.shape3, hashed.pad3 = wp.vec3i(*shape3), wp.vec3i(*pad3)
         hashed.offsets = offsets
         hashed.lengths = lengths
-        nw = len(self.offsets) if self.stores_weights else 0
+        n_weights = len(self.offsets) if self.stores_weights else 0
         hashed.use = 0 if self.stores_weights else 1
         if self.distribution is not None:
             hashed.params = self.distribution.kernel_params(self.shape, device)
@@ -541,16 +541,16 @@ class Lattice:
         # (read as bool, the 0/1 bytes are searched about 10x faster than as uint8)
         usable = wp.array(np.flatnonzero(mask.ravel().view(bool)).astype(np.int32), dtype=wp.int32,
                           device=device) if sparse else None
-        stride = record_stride(nw)
-        if aux is None:
+        stride = record_stride(n_weights)
+        if records is None:
             # node-major records: a node's state, weights and stamp share its cache line;
             # state 0 blocks border and masked nodes until a search marks the usable ones.
             # Zero pages cost nothing until touched, so a sparse lattice (few usable nodes
             # in its box, as refinement makes) pays for the records it uses only.
-            aux = _memory.zeros(int(np.prod(padded)) * stride, wp.int32, device, huge=not sparse)
+            records = _memory.zeros(int(np.prod(padded)) * stride, wp.int32, device, huge=not sparse)
             if weights is not None:  # host records (other devices copy them)
-                view = _record_weights(aux, padded, stride, nw)
-                for k in range(nw):  # a plane per direction: 0.75x the time of one strided copy
+                view = _record_weights(records, padded, stride, n_weights)
+                for k in range(n_weights):  # a plane per direction: 0.75x the time of one strided copy
                     view[k] = weights[k]
                 fill_outside(view, self.offsets)
             elif self.stores_weights:
@@ -558,17 +558,17 @@ class Lattice:
                 wp.launch(_ks.fill_records_kernel, dim=usable.shape[0] if sparse else mask.size,
                           inputs=[listed, int(sparse), mask_wp, hashed.params, hashed.shape3, hashed.pad3, offsets,
                                   lengths, stride],
-                          outputs=[aux], device=device)
+                          outputs=[records], device=device)
         return LatticeArrays(
             shape3=wp.vec3i(*shape3),
             pad3=wp.vec3i(*pad3),
             padded_shape=padded,
             offsets=offsets,
             flat_offsets=wp.array(flat, dtype=wp.int32, device=device),
-            aux=aux,
-            state=wp.array(ptr=aux.ptr, dtype=wp.uint64, shape=(aux.shape[0] // 2,), device=device),
+            records=records,
+            state=wp.array(ptr=records.ptr, dtype=wp.uint64, shape=(records.shape[0] // 2,), device=device),
             stride=stride,
-            nw=nw,
+            n_weights=n_weights,
             mask=mask_wp,
             usable=usable,
             hashed=hashed,

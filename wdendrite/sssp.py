@@ -100,7 +100,7 @@ class CostField:
     def device(self):
         """The Warp device holding the arrays."""
         f = self._fields
-        return f.dist.device if f.dist is not None else f.arrays.aux.device
+        return f.dist.device if f.dist is not None else f.arrays.records.device
 
     @property
     def dist_array(self) -> wp.array:
@@ -171,7 +171,7 @@ def _unpack(costfield: CostField) -> None:
     if owner is None or owner() is not costfield:
         raise RuntimeError("internal error: a cost field's records were reused before its costs were unpacked")
     lattice = costfield.lattice
-    device = arrays.aux.device
+    device = arrays.records.device
     dist = _memory.empty(lattice.shape, float, device)
     label = _memory.empty(lattice.shape, wp.int32, device)
     if arrays.usable is not None:
@@ -187,7 +187,7 @@ def _records_pass(arrays, lattice: Lattice, limit: float, *, dist=None, label=No
     """Launch :func:`~wdendrite.kernels.sssp.records_pass_kernel` over the usable nodes:
     unpack into flat ``dist`` / ``label``, or list the nodes with cost in ``band = (low, high)``
     into ``nodes`` (``count`` of them). Unused outputs get a one-element stand-in."""
-    device = arrays.aux.device
+    device = arrays.records.device
     with wp.ScopedDevice(device):
         spare_f, spare_i = wp.empty(1, dtype=float), wp.empty(1, dtype=wp.int32)
         listed = arrays.usable is not None
@@ -463,7 +463,7 @@ def _search(
         chunk = pass_chunk(device)
         size = arrays.mask.shape[0]
         far_id = arrays.fresh_ids(1)
-        fr, launches = _scratch(arrays, lattice, device)
+        frontier, launches = _scratch(arrays, lattice, device)
         if warm_start is None:
             release_records(arrays)
             if arrays.usable is not None:
@@ -488,15 +488,15 @@ def _search(
                         dim=len(nodes),
                         inputs=[wp.array(nodes, dtype=wp.int32), wp.array(dirs, dtype=wp.int32),
                                 wp.array(values, dtype=float), int(arrays is not held), arrays.flat_offsets, arrays.mask,
-                                arrays.stride, arrays.nw, far_id, 2],
-                        outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                                arrays.stride, arrays.n_weights, far_id, 2],
+                        outputs=[arrays.state, arrays.records, frontier.counts, frontier.far_min, frontier.lists[2]],
                     )
-            elif lattice.stores_weights and old_arrays.aux is not arrays.aux:
+            elif lattice.stores_weights and old_arrays.records is not arrays.records:
                 wp.launch(
                     _k.mark_lowered_kernel,
                     dim=size,
-                    inputs=[arrays.flat_offsets, arrays.mask, old_arrays.aux, arrays.stride, arrays.nw, far_id, 2],
-                    outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                    inputs=[arrays.flat_offsets, arrays.mask, old_arrays.records, arrays.stride, arrays.n_weights, far_id, 2],
+                    outputs=[arrays.state, arrays.records, frontier.counts, frontier.far_min, frontier.lists[2]],
                 )
         if len(new_rows):
             flat = _walked.astype(np.int32) if trusted else lattice.padded_indices(gens[new_rows])
@@ -504,13 +504,13 @@ def _search(
                 _k.seed_kernel,
                 dim=len(flat),
                 inputs=[wp.array(flat, dtype=wp.int32), wp.array(new_rows.astype(np.int32), dtype=wp.int32),
-                        arrays.stride, arrays.nw, far_id, 2],
-                outputs=[arrays.state, arrays.aux, fr.counts, fr.far_min, fr.lists[2]],
+                        arrays.stride, arrays.n_weights, far_id, 2],
+                outputs=[arrays.state, arrays.records, frontier.counts, frontier.far_min, frontier.lists[2]],
             )
         fifo = device.is_cpu if _fifo is None else bool(_fifo)
-        fr.max_threads = _max_threads
+        frontier.max_threads = _max_threads
         launches.begin(kernel_limit(limit_f), fifo, far_id, one_launch=fifo and not _host_rounds)
-        rounds, relaxed = _run(arrays, fr, launches, delta_f)
+        rounds, relaxed = _run(arrays, frontier, launches, delta_f)
         result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
     return result
@@ -530,7 +530,7 @@ def load_state(costfield: CostField, arrays) -> None:
         return
     dist, label = costfield.dist_array, costfield.label_array  # from the records that hold it, if any
     release_records(arrays)
-    device = arrays.aux.device
+    device = arrays.records.device
     chunk = pass_chunk(device)
     n = costfield.lattice.num_nodes
     wp.launch(
@@ -561,7 +561,7 @@ def read_states(arrays, nodes: np.ndarray, limit: float) -> tuple[np.ndarray, np
     ``dist``/``label`` would give them (inf and -1 when unreached or above ``limit``);
     the caller holds the records' lock and the records hold the wanted cost field."""
     count = len(nodes)
-    device = arrays.aux.device
+    device = arrays.records.device
     cost = wp.empty(max(count, 1), dtype=float, device=device)
     label = wp.empty(max(count, 1), dtype=wp.int32, device=device)
     if count:
@@ -577,7 +577,7 @@ def band_nodes(costfield: CostField, low: float, high: float) -> np.ndarray:
     ``low < c < high``, read from the records (no ``dist`` array is made)."""
     lattice = costfield.lattice
     arrays = lattice.device_arrays(costfield.device)
-    device = arrays.aux.device
+    device = arrays.records.device
     with wp.ScopedDevice(device), arrays.stamps.lock:
         load_state(costfield, arrays)
         # the list's room (every usable node) is kept for the next band when small: growth asks for
@@ -609,8 +609,8 @@ def _scratch(arrays, lattice: Lattice, device) -> tuple[_Frontiers, "_Launches"]
     their lock): made by the first search, emptied and reused by the next ones (kept only
     for lattices whose lists fit :attr:`LatticeArrays.SCRATCH_LIMIT`)."""
     def make():
-        fr = _Frontiers(arrays.mask.shape[0], device, capacity=lattice.num_usable)
-        return fr, _Launches(arrays, fr)
+        frontier = _Frontiers(arrays.mask.shape[0], device, capacity=lattice.num_usable)
+        return frontier, _Launches(arrays, frontier)
 
     kept = arrays.kept("search", make, 16 * max(1, lattice.num_usable))
     kept[0].reset()
@@ -658,9 +658,9 @@ class _Launches:
     give them their own limit and search id (:meth:`begin`).
     """
 
-    def __init__(self, arrays, fr: _Frontiers):
+    def __init__(self, arrays, frontier: _Frontiers):
         # the records keep this object: a weak reference back keeps them freed by reference counting
-        self._arrays, self._fr = weakref.ref(arrays), fr
+        self._arrays, self._fr = weakref.ref(arrays), frontier
         self._relax: dict[tuple[bool, int, int], _Recorded] = {}
         self._split: dict[tuple[int, int], _Recorded] = {}
         self._search = 0
@@ -678,32 +678,32 @@ class _Launches:
         per bucket. (A narrower ``delta`` saves relaxations but, measured with this
         launch, no time: see :func:`_default_delta`.)
         """
-        fr, a = self._fr, self._arrays()
+        frontier, a = self._fr, self._arrays()
         # stored weights of a known count in records of the usual stride have a kernel compiled
         # for that layout; other records (hashed weights) the general one, which reads the layout
-        fixed = a.hashed.use == 0 and a.nw in _k.SEARCH_KERNELS and a.stride == _k.record_stride(a.nw)
-        kernel = _k.SEARCH_KERNELS[a.nw if fixed else 0]
+        fixed = a.hashed.use == 0 and a.n_weights in _k.SEARCH_KERNELS and a.stride == _k.record_stride(a.n_weights)
+        kernel = _k.SEARCH_KERNELS[a.n_weights if fixed else 0]
         wp.launch(
             kernel,
             dim=1,
-            inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[0], fr.lists[2], self._limit,
+            inputs=[a.flat_offsets, a.hashed, a.stride, a.n_weights, self._far_id, frontier.lists[0], frontier.lists[2], self._limit,
                     delta, generation],
-            outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.stats],
+            outputs=[a.state, a.records, frontier.counts, frontier.far_min, frontier.stats],
         )
-        rounds, relaxed = (int(v) for v in fr.stats.numpy())
+        rounds, relaxed = (int(v) for v in frontier.stats.numpy())
         return rounds, relaxed
 
     def relax(self, near: int, far: int, threads: int, threshold: float, generation: int) -> None:
         rec = self._relax.get((self.fifo, near, far))
         if rec is None:
-            fr, a = self._fr, self._arrays()
+            frontier, a = self._fr, self._arrays()
             nxt = near if self.fifo else 1 - near
             rec = self._relax[(self.fifo, near, far)] = _Recorded(wp.launch(
                 _k.relax_kernel,
                 dim=threads,
-                inputs=[a.flat_offsets, a.hashed, a.stride, a.nw, self._far_id, fr.lists[near], near, threads,
+                inputs=[a.flat_offsets, a.hashed, a.stride, a.n_weights, self._far_id, frontier.lists[near], near, threads,
                         int(self.fifo), threshold, self._limit, generation, nxt, 2 + far],
-                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[nxt], fr.lists[2 + far]],
+                outputs=[a.state, a.records, frontier.counts, frontier.far_min, frontier.lists[nxt], frontier.lists[2 + far]],
                 record_cmd=True,
             ), self._search)
         if rec.search != self._search:  # recorded by an earlier search
@@ -714,13 +714,13 @@ class _Launches:
     def split(self, near: int, far: int, threads: int, previous: float, threshold: float, generation: int) -> None:
         rec = self._split.get((near, far))
         if rec is None:
-            fr, a, other = self._fr, self._arrays(), 1 - far
+            frontier, a, other = self._fr, self._arrays(), 1 - far
             rec = self._split[(near, far)] = _Recorded(wp.launch(
                 _k.split_far_kernel,
                 dim=threads,
-                inputs=[fr.lists[2 + far], 2 + far, threads, previous, threshold, generation,
-                        a.stride, a.nw, near, 2 + other],
-                outputs=[a.state, a.aux, fr.counts, fr.far_min, fr.lists[near], fr.lists[2 + other]],
+                inputs=[frontier.lists[2 + far], 2 + far, threads, previous, threshold, generation,
+                        a.stride, a.n_weights, near, 2 + other],
+                outputs=[a.state, a.records, frontier.counts, frontier.far_min, frontier.lists[near], frontier.lists[2 + other]],
                 record_cmd=True,
             ), self._search)
         rec.launch(threads, previous_threshold=previous, threshold=threshold, generation=generation)
@@ -740,7 +740,7 @@ def _next_threshold(threshold: float, far_min: float, delta: float) -> float:
     return float(t)
 
 
-def _run(arrays, fr: _Frontiers, launches: _Launches, delta: float) -> tuple[int, int]:
+def _run(arrays, frontier: _Frontiers, launches: _Launches, delta: float) -> tuple[int, int]:
     """Drive near-far rounds until both the near list and the far pile are empty.
 
     With ``fifo`` (single-threaded devices), one launch empties the near list
@@ -762,33 +762,33 @@ def _run(arrays, fr: _Frontiers, launches: _Launches, delta: float) -> tuple[int
 
     rounds = relaxed = 0
     while True:
-        counts = fr.read()
+        counts = frontier.read()
         n_near = int(counts[near])
         if n_near:
             generation = queue_generation if fifo else arrays.stamps.next()
             if fifo:
                 launches.relax(near, far, 1, threshold, generation)
-                relaxed += int(fr.read()[near])
-                fr.set_count(near, 0)
+                relaxed += int(frontier.read()[near])
+                frontier.set_count(near, 0)
             else:
-                fr.set_count(1 - near, 0)
-                launches.relax(near, far, fr.threads(n_near), threshold, generation)
+                frontier.set_count(1 - near, 0)
+                launches.relax(near, far, frontier.threads(n_near), threshold, generation)
                 relaxed += n_near
-                fr.set_count(near, 0)
+                frontier.set_count(near, 0)
                 near = 1 - near
             rounds += 1
             continue
         n_far = int(counts[2 + far])
         if n_far == 0:
             return rounds, relaxed
-        far_min = fr.far_minimum()
+        far_min = frontier.far_minimum()
         if not math.isfinite(far_min):
             return rounds, relaxed
         previous = threshold
         threshold = _next_threshold(threshold, far_min, delta)
-        fr.reset_far_min()
+        frontier.reset_far_min()
         generation = queue_generation if fifo else arrays.stamps.next()
-        fr.set_count(3 - far, 0)
-        launches.split(near, far, fr.threads(n_far), previous, threshold, generation)
-        fr.set_count(2 + far, 0)
+        frontier.set_count(3 - far, 0)
+        launches.split(near, far, frontier.threads(n_far), previous, threshold, generation)
+        frontier.set_count(2 + far, 0)
         far = 1 - far
