@@ -49,6 +49,21 @@ def pixel_centres(n, lo, hi):
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
+_WRITE = tiles._Target.write
+
+
+def tile_writes(monkeypatch, written: list, interrupted_after: int | None = None) -> None:
+    """Tile writes append their windows to ``written``; the one after ``interrupted_after`` of them
+    raises KeyboardInterrupt instead (as Ctrl-C there would)."""
+    def write(self, window, values):
+        if len(written) == interrupted_after:
+            raise KeyboardInterrupt
+        written.append(window)
+        _WRITE(self, window, values)
+
+    monkeypatch.setattr(tiles._Target, "write", write)
+
+
 # --------------------------------------------------------------------------- PNG heightmaps
 
 
@@ -156,17 +171,10 @@ def test_a_tiled_raw_heightmap_is_the_untiled_one_and_a_killed_run_resumes(tmp_p
     out = tmp_path / "t.r16"
     command = ["terrain", "--size", "65", "--tile", "16", "--range", "-0.25,1.5", "-o", str(out), "-o",
                str(tmp_path / "t.raw"), "--device", "cpu", "--quiet"]
-    real, written = tiles._Target.write, []
-
-    def killed_after_six(self, window, values):
-        if len(written) == 6:
-            raise KeyboardInterrupt
-        written.append(window)
-        real(self, window, values)
-
-    monkeypatch.setattr(tiles._Target, "write", killed_after_six)
+    written = []
+    tile_writes(monkeypatch, written, interrupted_after=6)
     assert cli.main(command) == 130 and not out.exists()
-    monkeypatch.setattr(tiles._Target, "write", lambda self, w, v: written.append(w) or real(self, w, v))
+    tile_writes(monkeypatch, written)
     assert cli.main(command) == 0
     # 25 tiles, each into two files: the three whole ones and the half-written fourth are not redone
     assert len(written) == 50 and len(set(written)) == 25
@@ -179,11 +187,10 @@ def test_a_tiled_raw_heightmap_is_the_untiled_one_and_a_killed_run_resumes(tmp_p
         np.testing.assert_array_equal(np.fromfile(tmp_path / name, "<u2").reshape(65, 65), want)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.r16", "t.raw", "whole.r16", "z.npy"]
     # tiles recorded under another range are not reused
-    monkeypatch.setattr(tiles._Target, "write", killed_after_six)
     written.clear()
-    other = [*command[:6], "0,2", *command[7:], "--force"]
-    assert cli.main(other) == 130
-    monkeypatch.setattr(tiles._Target, "write", real)
+    tile_writes(monkeypatch, written, interrupted_after=6)
+    assert cli.main([*command[:6], "0,2", *command[7:], "--force"]) == 130
+    tile_writes(monkeypatch, [])
     assert cli.main([*command[:6], "0,1", *command[7:], "--force"]) == 0
     np.testing.assert_array_equal(np.fromfile(out, "<u2").reshape(65, 65),
                                   np.floor(np.clip(z, 0, 1) * TOP + 0.5).astype(np.uint16))
@@ -303,17 +310,10 @@ def test_a_killed_tiled_zarr_run_resumes_into_the_same_group(tmp_path, monkeypat
     xr = pytest.importorskip("xarray")
     out = tmp_path / "t.zarr"
     command = ["terrain", "--size", 40, "--tile", 16, "-o", str(out), "--device", "cpu", "--quiet"]
-    real, written = tiles._Target.write, []
-
-    def killed_after_four(self, window, values):
-        if len(written) == 4:
-            raise KeyboardInterrupt
-        written.append(window)
-        real(self, window, values)
-
-    monkeypatch.setattr(tiles._Target, "write", killed_after_four)
+    written = []
+    tile_writes(monkeypatch, written, interrupted_after=4)
     assert cli.main(list(map(str, command))) == 130 and not out.exists()
-    monkeypatch.setattr(tiles._Target, "write", lambda self, w, v: written.append(w) or real(self, w, v))
+    tile_writes(monkeypatch, written)
     assert cli.main(list(map(str, command))) == 0
     assert len(written) == 9 and len(set(written)) == 9  # the five tiles left, none twice
     fresh = tmp_path / "fresh"
