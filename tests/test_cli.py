@@ -224,10 +224,10 @@ def test_edit_counts_lie_between_brute_force_searches_with_and_without_swaps():
 
 
 @pytest.mark.parametrize("preset, listed", [
-    ("lightning", ".png, .npy, .npz, .json, .svg"),
-    ("terrain", ".png, .npy"),
-    ("tree", ".png, .npy, .obj, .ply, .stl, .glb, .npz, .json"),
-    ("rock", ".png, .npy, .obj, .ply, .stl, .glb"),
+    ("lightning", ".png, .npy, .tif, .r16, .raw, .npz, .json, .svg"),
+    ("terrain", ".png, .npy, .tif, .r16, .raw"),
+    ("tree", ".png, .npy, .tif, .r16, .raw, .obj, .ply, .stl, .glb, .npz, .json"),
+    ("rock", ".png, .npy, .tif, .r16, .raw, .obj, .ply, .stl, .glb"),
 ])
 def test_an_unknown_suffix_lists_only_what_the_preset_writes(preset, listed, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
