@@ -1697,7 +1697,7 @@ def test_threads_in_bands_of_rows_give_one_threads_bytes(output, mode, monkeypat
         one = dendry((37, 35), window=window, workers=1, **kw)
         launches.clear()
         many = dendry((37, 35), window=window, workers=3, **kw)
-        assert launches.count("image_kernel") == 6  # (3 threads, 2 bands each)
+        assert launches.count("image_kernel") == 12  # (3 threads, 4 bands each)
         assert many.dtype == one.dtype and np.array_equal(many.view(np.uint32), one.view(np.uint32)), window
 
 

@@ -15,7 +15,11 @@ from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 
 import numpy as np
 
-__all__ = ["cores", "each", "row_bands", "workers"]
+__all__ = ["BAND_PIXELS", "cores", "each", "image_bands", "row_bands", "workers"]
+
+BAND_PIXELS = 1 << 16
+"""Fewest pixels in a band of rows given a thread of its own: below it starting the thread and
+the band's own set-up cost about what its pixels take off the others."""
 
 
 def cores() -> int:
@@ -59,6 +63,13 @@ def row_bands(rows: int, pieces: int, *, least: int = 1) -> list[tuple[int, int]
     count = max(1, min(int(pieces), rows // max(1, int(least))))
     edges = [rows * k // count for k in range(count + 1)]
     return [(a, b) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def image_bands(shape, pieces: int, *, least: int | None = None) -> list[tuple[int, int]]:
+    """:func:`row_bands` of an (H, W, ...) image: at most ``pieces`` bands, each of at least
+    ``least`` pixels (default :data:`BAND_PIXELS`)."""
+    h, w = int(shape[0]), max(1, int(shape[1]))
+    return row_bands(h, pieces, least=-(-(BAND_PIXELS if least is None else least) // w))
 
 
 def each(fn, items, threads: int) -> list:

@@ -505,7 +505,8 @@ def _dendry_tile(window, *, setup: dict, output: str, device):
     from .cli import pick_device
     from .dendry import dendry
 
-    return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)))
+    # one thread a tile: the tiles are what runs in parallel (threads here, Dask's workers there)
+    return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)), workers=1)
 
 
 def _tiled_setup(task: Task):
@@ -599,6 +600,33 @@ def _tile_into(window, tile_fn, targets) -> tuple:
         if not target.mark(window).exists():
             target.write(window, values)
     return window
+
+
+def _tiles_here(todo: list, tile_fn, targets, workers: int):
+    """:func:`_tile_into` of each window of ``todo``, in order, the tiles computed by ``workers``
+    threads a few tiles ahead while this thread writes them one after another; yields each window
+    once written. A failing tile stops the writes there (tiles after it are not written); leaving
+    early cancels the tiles not started and waits for those running."""
+    if workers <= 1:
+        yield from (_tile_into(w, tile_fn, targets) for w in todo)
+        return
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="wdendrite-tile")
+    ahead, windows = deque(), iter(todo)
+    try:
+        for w in itertools.islice(windows, 2 * workers):  # (a few tiles in memory, not the image)
+            ahead.append((w, pool.submit(tile_fn, w)))
+        while ahead:
+            w, computed = ahead.popleft()
+            values = computed.result()
+            following = next(windows, None)
+            if following is not None:
+                ahead.append((following, pool.submit(tile_fn, following)))
+            yield _tile_into(w, lambda _: values, targets)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _tile_records(final: Path) -> list[Path]:
@@ -710,7 +738,8 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
     return sorted({(r, c, 1, 1) for r in (0, h - 1) for c in (0, w - 1)})
 
 
-def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None):
+def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None,
+                workers: int | None = 1):
     """Compute an image tile by tile and write it to ``path`` (``.npy`` or ``.zarr``) without holding it whole.
 
     ``path`` may be a list of files (say one ``.npy`` and one ``.zarr``): each tile is
@@ -731,6 +760,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         key: names the image (e.g. its parameters): tiles recorded under another key are not reused.
         placed_all: called with no arguments once every file has its final name, before the
             tile records and any old stores moved aside are deleted.
+        workers: without a ``client``, threads that compute tiles at once (``tile_fn`` must then
+            be safe to call from several threads) while this thread writes them in order; None:
+            every core. The files do not depend on it.
 
     Returns:
         The written path (a list of them when ``path`` is a list).
@@ -750,6 +782,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         file and the space needed. The records kept so far stay: a call after space is freed resumes.
     """
     shape, tile = _tiling(shape, tile)
+    from ._parallel import workers as _workers
+
+    workers = _workers(workers)
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
     if not finals or len({f.resolve() for f in finals}) != len(finals):
         raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
@@ -769,11 +804,12 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     # (Dask workers write their tiles under the locks this process holds)
     with locked(finals), Staging() as stage:
         _write_locked(tile_fn, shape, tile, finals, stage, client=client, progress=progress, key=key,
-                      placed_all=placed_all)
+                      placed_all=placed_all, workers=workers)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
-def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all) -> None:
+def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all,
+                  workers: int = 1) -> None:
     """The work of :func:`write_tiled` once its outputs are locked; ``stage`` names old outputs moved aside."""
     from ._staging import check_space, sync_folder
     from .io import sync_to_disk
@@ -790,7 +826,7 @@ def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, pro
     todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
     done = len(windows) - len(todo)
     if client is None:
-        finished = (_tile_into(w, tile_fn, targets) for w in todo)
+        finished = _tiles_here(todo, tile_fn, targets, workers)
     else:
         from distributed import as_completed
 
@@ -863,8 +899,10 @@ def _workers_device_kind(client) -> str:
     return next(iter(kinds.values()), "cpu")
 
 
-def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
-    """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest."""
+def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True,
+              workers: int | None = None) -> dict:
+    """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest;
+    without a ``client``, ``workers`` threads compute tiles at once (None: every core)."""
     from .cli import pick_device
 
     started = time.time()
@@ -886,7 +924,7 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
 
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
-                    key=tile_key(task.params, kind), placed_all=placed_all)
+                    key=tile_key(task.params, kind), placed_all=placed_all, workers=workers)
     return made
 
 

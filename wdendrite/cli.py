@@ -280,8 +280,10 @@ class _Ticker:
 
 
 def run_preset(name: str, values: dict, outputs, *, device: str | None = None, force: bool = False,
-               quiet: bool = True, heightmap: bool = False) -> dict:
+               quiet: bool = True, heightmap: bool = False, workers: int | None = None) -> dict:
     """Run preset ``name`` with parameter ``values`` (already typed) and write ``outputs``.
+
+    ``workers``: CPU threads of a preset that takes them (``dendry``, ``terrain``; None: every core).
 
     Everything is validated before the preset runs: parameter names and values, the
     output suffixes and folders, the device. The outputs are locked while it runs
@@ -307,6 +309,8 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
                              f"write {_listed(_formats(preset))}")
     dev = pick_device(device)
     kwargs, full = resolve(preset, values)
+    if takes_workers(preset):  # (not a parameter of the result: its bytes do not depend on it)
+        kwargs["workers"] = workers
     from ._staging import locked
 
     with locked(paths), _Ticker(f"{name}: making", quiet) as bar:  # (a second run writing them stops at once)
@@ -376,6 +380,10 @@ def _add_common(p, preset) -> None:
                        help="compute the field in N x N tiles (N at least 8) straight into .npy (or .zarr) "
                             "outputs, never the whole image in memory; a killed run resumes (default: whole "
                             "image) [pixels]")
+    if takes_workers(preset):
+        g.add_argument("--workers", type=int, default=argparse.SUPPRESS, metavar="N",
+                       help="CPU threads (default: every core this process may use; more are capped at that); "
+                            "the output does not depend on it")
     g.add_argument("--config", metavar="FILE.toml", default=argparse.SUPPRESS,
                    help="TOML file whose keys are this preset's parameters (options given here override it)")
     g.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite existing outputs")
@@ -510,11 +518,12 @@ def main(argv=None) -> int:
 
         for folder in dict.fromkeys(Path(o).parent for o in outs):
             sweep(folder)  # what killed runs left there: renames completed, temporary files deleted
+        workers = _workers(args)
         if "tile" in args:
-            return _tiled(preset, values, outs, args)
+            return _tiled(preset, values, outs, args, workers)
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
                          force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
-                         heightmap=getattr(args, "heightmap", False))
+                         heightmap=getattr(args, "heightmap", False), workers=workers)
         made = f": {rec['made']}" if rec["made"] else ""
         print(f"{preset.name} ({_brief(rec['params'], preset)}){made} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
@@ -562,7 +571,30 @@ def _options_named(exc, preset, sources=None) -> str:
     return f" ({', '.join(where)})" if named else ""
 
 
-def _tiled(preset, values: dict, outs: list, args) -> int:
+def takes_workers(preset) -> bool:
+    """Whether ``preset``'s function takes ``workers`` (CPU threads), which ``--workers`` sets."""
+    import inspect
+
+    return "workers" in inspect.signature(preset.func).parameters
+
+
+def _workers(args) -> int | None:
+    """``--workers`` checked before any work (None when not given: every core); more than the
+    cores this process may use are capped at them, with a line on stderr saying so."""
+    if "workers" not in args:
+        return None
+    from ._parallel import cores
+
+    if args.workers < 1:
+        raise UsageError(f"--workers must be a positive integer, but got {args.workers}")
+    if args.workers > cores():
+        print(f"wdendrite: --workers {args.workers} is more than the {cores()} cores this process may use: "
+              f"using {cores()}", file=sys.stderr)
+        return cores()
+    return args.workers
+
+
+def _tiled(preset, values: dict, outs: list, args, workers: int | None = None) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (see :func:`wdendrite.batch.write_tiled`)."""
     from .batch import Task, _tile_records, need_zarr, placed_by_killed_run, run_tiled, tile_key
     from ._staging import NAME_BYTES as _NAME_BYTES
@@ -589,7 +621,7 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
             bar.total, bar.n = total, done
             bar.refresh()
 
-        rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False)
+        rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False, workers=workers)
     print(f"{preset.name} ({_brief(full, preset)}) in {args.tile}-pixel tiles: {rec['seconds']:.3f} s on "
           f"{rec['device']} -> {', '.join(task.outputs)}")
     return 0

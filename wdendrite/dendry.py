@@ -763,11 +763,10 @@ def _launch_chunks(count: int, slots: _Slots, device):
     return nslots, [(first, min(step, count - first)) for first in range(0, count, step)]
 
 
-_BAND_PIXELS = 1 << 16
-"""Fewest pixels in a band of :func:`dendry`'s threads: below it a thread's start and its band's
-own cells cost more than the pixels it takes off the others."""
+_BAND_PIXELS = _parallel.BAND_PIXELS
+"""Fewest pixels in a band of :func:`dendry`'s threads (a band builds its own cells)."""
 
-_BANDS_PER_WORKER = 2
+_BANDS_PER_WORKER = 4
 """Bands per thread: a thread whose core another process takes meanwhile leaves its later
 bands to the others (measured in BENCHMARKS.md, "Every core")."""
 
@@ -777,7 +776,7 @@ def _bands(h: int, w: int, workers: int, device) -> list[tuple[int, int]]:
     threads evaluate: one band on CUDA or for one thread."""
     if workers <= 1 or _cuda_like(device):
         return [(0, h)]
-    return _parallel.row_bands(h, workers * _BANDS_PER_WORKER, least=-(-_BAND_PIXELS // w))
+    return _parallel.image_bands((h, w), workers * _BANDS_PER_WORKER, least=_BAND_PIXELS)
 
 
 def _query_cells(params: DendryParams, output: str, u_first, u_last) -> tuple[tuple[int, int], ...]:
