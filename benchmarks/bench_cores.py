@@ -9,8 +9,8 @@ Two parts:
   wall time for the same CPU time. A second probe counts how far a pure-Python loop in
   the main thread gets while another thread's launch runs (against the same loop alone).
 - ``commands``: whole processes, as a user runs them: ``wdendrite dendry --size N`` and
-  ``wdendrite terrain --size N`` (pictures, ``.png``) and ``terrain`` writing only the
-  elevation (``.npy``), each with ``--workers 1`` and ``--workers W`` in turns, repeated.
+  ``wdendrite terrain --size N`` (pictures, ``.png``), ``terrain`` writing only the
+  elevation (``.npy``), whole and in tiles of N / 8 (``--tile``), each with ``--workers 1`` and ``--workers W`` in turns, repeated.
   For each run: the wall seconds of the process, its CPU seconds (user + system, from
   the kernel's accounting of the finished child), and the compute seconds the command
   prints (``in X s``: the model and its picture, without Python's and Warp's start and
@@ -127,15 +127,18 @@ def _command(args: list[str], cwd: Path) -> tuple[float, float, float, str]:
     if p.returncode != 0:
         raise RuntimeError(f"wdendrite {' '.join(args)} failed:\n{p.stderr[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    found = re.search(r" in ([0-9.]+) s ", p.stdout)
+    found = re.search(r"(?: in|tiles:) ([0-9.]+) s ", p.stdout)
     return wall, cpu, float(found.group(1)) if found else float("nan"), p.stdout
 
 
 def _commands(size: int, workers: int, repeat: int) -> None:
+    tile = max(8, size // 8)
     cases = {
         f"dendry --size {size} -o d.png": ["dendry", "--size", str(size), "-o", "d.png"],
         f"terrain --size {size} -o t.png": ["terrain", "--size", str(size), "-o", "t.png"],
         f"terrain --size {size} -o t.npy": ["terrain", "--size", str(size), "-o", "t.npy"],
+        f"terrain --size {size} --tile {tile} -o u.npy": ["terrain", "--size", str(size), "--tile", str(tile), "-o",
+                                                             "u.npy"],
     }
     tmp = Path(tempfile.mkdtemp(prefix="bench-cores-"))
     try:

@@ -50,3 +50,19 @@ def test_cores_counts_the_processs_affinity():
     assert _parallel.cores() >= 1
     assert _parallel.workers(None) == _parallel.cores()
     assert _parallel.workers(1) == 1
+
+
+def test_each_starts_no_piece_after_a_failure():
+    import time
+
+    started = []
+
+    def piece(k):
+        started.append(k)
+        if k == 0:
+            raise ValueError("first")
+        time.sleep(0.2)
+
+    with pytest.raises(ValueError, match="first"):
+        _parallel.each(piece, range(20), 2)
+    assert len(started) < 10  # (all 20 would take 2 s on the other thread)

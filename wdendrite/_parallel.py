@@ -77,17 +77,18 @@ def each(fn, items, threads: int) -> list:
 
     One thread (or one item) runs in the calling thread. The first exception raised by a
     piece (in the order of ``items``, among those that failed) is raised once every piece
-    started has ended; pieces not yet started are cancelled.
+    started has ended; pieces not yet started are cancelled (also when this thread is interrupted).
     """
     items = list(items)
     threads = min(int(threads), len(items))
     if threads <= 1:
         return [fn(item) for item in items]
-    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="wdendrite") as pool:
+    pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="wdendrite")
+    try:
         futures = [pool.submit(fn, item) for item in items]
         wait(futures, return_when=FIRST_EXCEPTION)
-        for f in futures:
-            f.cancel()  # (no-op for those running or done)
+    finally:  # (after a failure, or an interrupt of this thread: the pieces not started never start)
+        pool.shutdown(wait=True, cancel_futures=True)
     for f in futures:
         if not f.cancelled() and f.exception() is not None:
             raise f.exception()
