@@ -792,3 +792,40 @@ def test_tile_windows_name_a_bad_tile_and_write_tiled_a_missing_folder_before_an
                                          "exist"):
         batch.write_tiled(lambda w: calls.append(w) or _ramp(w), (10, 13), 4, missing)
     assert calls == [] and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".zarr"])
+def test_tiles_of_several_threads_are_written_in_order_and_a_failure_stops_the_writes_there(tmp_path, suffix,
+                                                                                           monkeypatch):
+    if suffix == ".zarr":
+        pytest.importorskip("zarr")
+    import threading
+
+    from wdendrite import _parallel
+
+    monkeypatch.setattr(_parallel, "cores", lambda: 3)
+
+    shape, tile = (29, 27), 6
+    windows = batch.tile_windows(shape, tile)
+    failing = windows[11]
+    threads, written = set(), []
+
+    def tiles(window, fail=True):
+        if window[2:] != (1, 1):
+            threads.add(threading.get_ident())
+        if fail and window == failing:
+            raise RuntimeError("tile failed")
+        return _ramp(window)
+
+    out = tmp_path / f"t{suffix}"
+    with pytest.raises(RuntimeError, match="tile failed"):
+        batch.write_tiled(tiles, shape, tile, out, workers=3, progress=lambda done, total: written.append(done))
+    assert len(threads) == 3 and written == list(range(1, 12))  # the tiles before the failing one, in order
+    again = []
+    batch.write_tiled(lambda w: w[2:] == (1, 1) or again.append(w) or tiles(w, fail=False), shape, tile, out,
+                      workers=3)
+    assert sorted(again) == sorted(windows[11:])  # a resumed run computes only the tiles not written
+    got = np.load(out) if suffix == ".npy" else __import__("zarr").open_array(str(out), path="field", mode="r")[:]
+    assert np.array_equal(got, _ramp((0, 0, *shape)))
+    with pytest.raises(ValueError, match=r"'workers' >= 1 \(or None: every core\), but got 0"):
+        batch.write_tiled(_ramp, shape, tile, tmp_path / "u.npy", workers=0)

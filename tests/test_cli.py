@@ -896,3 +896,71 @@ def test_a_tiled_command_killed_while_clearing_its_records_finishes_when_run_aga
     assert np.array_equal(np.load(a), first) and np.array_equal(np.load(b), first)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy"]
     assert cli.main(command) == 2  # (complete and cleared: existing outputs, as for any run)
+
+
+@pytest.fixture
+def small_bands(monkeypatch):
+    """Three cores and bands of a few rows, so that small images split among threads."""
+    import importlib
+
+    from wdendrite import _parallel
+
+    monkeypatch.setattr(_parallel, "cores", lambda: 3)
+    monkeypatch.setattr(_parallel, "BAND_PIXELS", 64)
+    monkeypatch.setattr(importlib.import_module("wdendrite.dendry"), "_BAND_PIXELS", 64)
+
+
+@pytest.mark.parametrize("preset", ["dendry", "terrain"])
+def test_workers_change_no_byte_of_the_outputs(preset, tmp_path, monkeypatch, small_bands):
+    import threading
+
+    from wdendrite import _parallel
+
+    monkeypatch.chdir(tmp_path)
+    threads = set()
+    real = _parallel.each
+    monkeypatch.setattr(_parallel, "each", lambda fn, items, n: real(
+        lambda item: threads.add(threading.get_ident()) or fn(item), items, n))
+    for n in (1, 3):
+        threads.clear()
+        assert cli.main([preset, "--size", "48", "--levels", "3", "--workers", str(n), "-o", f"{n}.png",
+                         "-o", f"{n}.npy", "--quiet", "--device", "cpu"]) == 0
+        assert len(threads) == n
+    for suffix in ("png", "npy"):
+        assert (tmp_path / f"1.{suffix}").read_bytes() == (tmp_path / f"3.{suffix}").read_bytes()
+
+
+def test_tiles_computed_on_several_threads_make_the_same_file(tmp_path, monkeypatch, small_bands):
+    import threading
+
+    from wdendrite import batch
+
+    monkeypatch.chdir(tmp_path)
+    threads = set()
+    real = batch._dendry_tile
+
+    def tile(window, **kw):
+        if window[2:] != (1, 1):  # (not the corner pixels checked first, in this thread)
+            threads.add(threading.get_ident())
+        return real(window, **kw)
+
+    monkeypatch.setattr(batch, "_dendry_tile", tile)
+    for n in (1, 3):
+        threads.clear()
+        assert cli.main(["terrain", "--size", "45", "--tile", "8", "--workers", str(n), "-o", f"{n}.npy", "--quiet",
+                         "--device", "cpu"]) == 0
+        assert len(threads) == n
+    assert (tmp_path / "1.npy").read_bytes() == (tmp_path / "3.npy").read_bytes()
+
+
+def test_workers_are_checked_and_capped_at_the_cores(tmp_path, monkeypatch, capsys):
+    from wdendrite import _parallel
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(_parallel, "cores", lambda: 2)
+    assert cli.main(["dendry", "--size", "16", "--workers", "0", "-o", "a.npy", "--quiet"]) == 2
+    assert "--workers must be a positive integer, but got 0" in capsys.readouterr().err
+    assert not (tmp_path / "a.npy").exists()
+    assert cli.main(["terrain", "--size", "16", "--workers", "9", "-o", "a.npy", "--quiet"]) == 0
+    assert "--workers 9 is more than the 2 cores this process may use: using 2" in capsys.readouterr().err
+    bad(["fractal", "--workers", "2"], tmp_path, "--workers")  # (a preset without threads has no such option)

@@ -1357,3 +1357,40 @@ def test_the_gpus_per_pixel_branches_give_the_cpus_values(output, monkeypatch):
     assert calls == [7, 7, 7]
     for a, b in zip(got, ref):
         assert np.array_equal(a, b, equal_nan=True)
+
+
+@pytest.mark.parametrize("mode", ["auto", "cached", "pixel"])
+@pytest.mark.parametrize("output", ["distance", "elevation", "level"])
+def test_threads_in_bands_of_rows_give_one_threads_bytes(output, mode, monkeypatch, launches):
+    # bands of a few rows, each a window evaluated by its own thread, against one thread over the whole
+    wdd = importlib.import_module("wdendrite.dendry")
+    monkeypatch.setattr(wdd._parallel, "cores", lambda: 3)
+    monkeypatch.setattr(wdd, "_BAND_PIXELS", 40)
+    p = DendryParams(levels=3, eps=0.25, delta=0.2, beta=0.5, noise=0.05, seed=3)
+    kw = dict(domain=((0.1, 0.2), (2.1, 2.2)), params=p, control=CTL, output=output, mode=mode, device="cpu")
+    for window in (None, (5, 3, 29, 31)):
+        one = dendry((37, 35), window=window, workers=1, **kw)
+        launches.clear()
+        many = dendry((37, 35), window=window, workers=3, **kw)
+        assert launches.count("image_kernel") == 12  # (3 threads, 4 bands each)
+        assert many.dtype == one.dtype and np.array_equal(many.view(np.uint32), one.view(np.uint32)), window
+
+
+@pytest.mark.parametrize("workers, error, match", [
+    (0, ValueError, r"'workers' >= 1 .*, but got 0"), (-2, ValueError, r"'workers' >= 1 .*, but got -2"),
+    (1.5, TypeError, r"integer >= 1 .* for 'workers', but got 1.5"), (True, TypeError, "'workers', but got True"),
+    ("2", TypeError, r"'workers', but got '2'"),
+])
+def test_bad_workers_raise_before_any_kernel(workers, error, match, launches):
+    with pytest.raises(error, match=match):
+        dendry((16, 16), domain=DOMAIN, params=DendryParams(), control=CTL, workers=workers)
+    assert launches == []
+
+
+def test_more_workers_than_cores_are_capped_with_a_warning(monkeypatch):
+    wdd = importlib.import_module("wdendrite.dendry")
+    monkeypatch.setattr(wdd._parallel, "cores", lambda: 2)
+    kw = dict(domain=DOMAIN, params=DendryParams(levels=2), control=CTL)
+    with pytest.warns(UserWarning, match=r"'workers' = 5 is more than the 2 cores this process may use: using 2"):
+        capped = dendry((16, 16), workers=5, **kw)
+    assert np.array_equal(capped, dendry((16, 16), workers=1, **kw))

@@ -405,10 +405,26 @@ def test_relief_equals_numpy_shading_with_and_without_rivers(device):
         np.testing.assert_allclose(wd.render.relief(zz, spacing, device=device), _numpy_relief(zz, spacing), atol=2e-6)
 
 
+def test_relief_in_bands_of_rows_equals_one_band(monkeypatch, launches):
+    # bands a few rows high, each shaded from one more row on either side, against one launch
+    from wdendrite import _parallel, hydrology
+
+    z = hydrology.fbm_terrain((53, 41), seed=2)
+    area = hydrology.flow_accumulation(z, filled=True)
+    one = wd.render.relief(z, 0.05, area, device="cpu", workers=1)
+    monkeypatch.setattr(_parallel, "cores", lambda: 4)
+    monkeypatch.setattr(_parallel, "BAND_PIXELS", 41 * 3)
+    launches.clear()
+    many = wd.render.relief(z, 0.05, area, device="cpu", workers=4)
+    assert launches.count("relief_kernel") == 4
+    assert np.array_equal(many, one)
+
+
 @pytest.mark.parametrize("kw, match", [
     (dict(z=np.zeros((1, 5))), r"2D \(H >= 2, W >= 2\) array for 'z'"), (dict(z=np.full((4, 4), np.nan)), "'z'"),
     (dict(spacing=0.0), "'spacing'"),
     (dict(area=np.ones((4, 5))), "'area'"), (dict(area=np.zeros((4, 4))), "'area'"), (dict(device="cuda:7"), "'device'"),
+    (dict(workers=0), r"'workers' >= 1"), (dict(workers=2.0), "'workers'"),
 ])
 def test_relief_refuses_bad_input_before_any_kernel(kw, match, launches):
     args = dict(z=np.random.default_rng(0).random((4, 4)), spacing=1.0) | kw
@@ -591,11 +607,26 @@ def test_dendry_lines_draw_each_level_at_its_own_width(device):
     np.testing.assert_allclose(thin, line(1.0), atol=1e-6)  # one width for all: the whole tree at that width
 
 
+def test_dendry_lines_on_several_threads_equal_one(monkeypatch):
+    from wdendrite import _parallel
+
+    one = wd.render.dendry_lines((72, 72), params=_TREE, device="cpu", workers=1, **_BOWL)
+    monkeypatch.setattr(_parallel, "cores", lambda: 3)
+    monkeypatch.setattr(_parallel, "BAND_PIXELS", 72 * 5)
+    bands = []
+    real = _parallel.each
+    monkeypatch.setattr(_parallel, "each", lambda fn, items, threads: bands.append(len(items)) or real(fn, items, threads))
+    many = wd.render.dendry_lines((72, 72), params=_TREE, device="cpu", workers=3, **_BOWL)
+    assert bands.count(3) == 3  # each level's coverage in 3 bands (Dendry's own bands: its tests)
+    assert np.array_equal(many, one)
+
+
 @pytest.mark.parametrize("kw, exc, match", [
     (dict(widths=[1.0, 2.0]), ValueError, r"one width per level \(3\), but got \[1.0, 2.0\]"),
     (dict(widths=[1.0, 0.0, 1.0]), ValueError, r"'widths\[1\]'"),
     (dict(distance=np.zeros((5, 5))), ValueError, r"'distance' has shape \(5, 5\), but 'shape' is \(16, 16\)"),
     (dict(params=None), TypeError, "DendryParams for 'params'"),
+    (dict(workers=-1), ValueError, r"'workers' >= 1 \(or None: every core\), but got -1"),
 ])
 def test_dendry_lines_refuse_bad_input_before_any_kernel(kw, exc, match, launches):
     with pytest.raises(exc, match=match):

@@ -17,7 +17,7 @@ from typing import Literal
 
 import numpy as np
 
-from . import _checks
+from . import _checks, _parallel
 from .dendry import DendryParams, coordinate_limit
 from .render import dendry_lines, relief, strokes, unit_range
 
@@ -182,7 +182,8 @@ TERRAIN = DendryParams.terrain()
 
 def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
            output: Literal["distance", "elevation", "level"] = "distance", extent: float = 4.0,
-           control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0) -> Made:
+           control: Control = "perlin", frequency: float = 1.0, drained: bool = False, seed: int = 0,
+           workers: int | None = None) -> Made:
     """Dendry (Gaillard et al. 2019): the distance to an implicit branching tree, its level, or an elevation.
 
     The picture of the distance draws the tree's branches dark on paper, antialiased, each level
@@ -198,15 +199,17 @@ def dendry(size: int = 512, *, params: DendryParams = TERRAIN,
         frequency: noise features per control unit (perlin, ridged).
         drained: fill the control's interior minima so water reaches the border.
         seed: seed of the tree and of the noise control.
+        workers: CPU threads (None: every core); the result does not depend on it.
     """
+    workers = _parallel.workers(workers)
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
                          seed=seed, output=output)
     from .dendry import dendry as _dendry
 
-    z = _dendry(**setup, output=output)
+    z = _dendry(**setup, output=output, workers=workers)
 
     def lines() -> np.ndarray:  # (the other levels are evaluated only for a picture)
-        return _grey(1.0 - dendry_lines(**setup, distance=z))
+        return _grey(1.0 - dendry_lines(**setup, distance=z, workers=workers))
 
     return Made(lines if output == "distance" else _grey(unit_range(z)), parts={"field": z}, quantity=output,
                 domain=setup["domain"])
@@ -217,7 +220,8 @@ def _grey(value: np.ndarray) -> np.ndarray:
 
 
 def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 4.0, control: Control = "perlin",
-            frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0) -> Made:
+            frequency: float = 1.0, drained: bool = True, rivers: bool = True, seed: int = 0,
+            workers: int | None = None) -> Made:
     """A Dendry terrain (paper Table 1 setup): shaded relief, with its drainage network drawn in blue.
 
     Args:
@@ -228,15 +232,18 @@ def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 
         drained: fill the control's interior minima so water reaches the border.
         rivers: draw the D8 drainage network (cells draining more than 0.1 % of the image).
         seed: seed of the tree, the terrain noise and the noise control.
+        workers: CPU threads for the elevation and the shading (None: every core); the drainage
+            is one thread (its fill and flow cross any split). The result does not depend on it.
     """
     from . import hydrology
     from .dendry import dendry as _dendry
 
     rivers = _checks.flag("rivers", rivers)
+    workers = _parallel.workers(workers)
     _checks.integer("size", size, low=2)  # (the shaded relief takes slopes between pixels)
     setup = dendry_setup(size, params, extent=extent, control=control, frequency=frequency, drained=drained,
                          seed=seed, output="elevation")
-    z = _dendry(**setup, output="elevation")
+    z = _dendry(**setup, output="elevation", workers=workers)
     parts = {"elevation": z}
 
     def picture() -> np.ndarray:
@@ -245,7 +252,7 @@ def terrain(size: int = 512, *, params: DendryParams = TERRAIN, extent: float = 
         if rivers:
             area = hydrology.flow_accumulation(z, filled=True)
             parts["drainage"] = area
-        return relief(z, extent / size, area)
+        return relief(z, extent / size, area, workers=workers)
 
     return Made(picture, parts=parts, quantity="elevation", domain=setup["domain"])
 

@@ -26,7 +26,7 @@ __all__ = ["Param", "Preset", "UsageError", "all_presets", "nearest", "parse_con
 ALIASES = {"elm_tree": "tree", "staghorn_coral": "coral", "lichen_on_rock": "lichen"}
 """Command names of presets whose function names are long."""
 
-RESERVED = ("device", "progress", "out", "force", "quiet", "config", "heightmap", "range", "help")
+RESERVED = ("device", "progress", "out", "force", "quiet", "config", "heightmap", "range", "help", "workers")
 """Parameter names the command's own options use; presets' parameters of these names keep their defaults."""
 
 SIZE_NAMES = ("shape", "size", "cell", "height")

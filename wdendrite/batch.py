@@ -513,7 +513,8 @@ def _dendry_tile(window, *, setup: dict, output: str, device):
     from .cli import pick_device
     from .dendry import dendry
 
-    return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)))
+    # one thread a tile: the tiles are what runs in parallel (threads here, Dask's workers there)
+    return dendry(**setup, output=output, window=window, device=pick_device(worker_device(device)), workers=1)
 
 
 def _tiled_setup(task: Task):
@@ -560,9 +561,11 @@ def _workers_device_kind(client) -> str:
     return next(iter(kinds.values()), "cpu")
 
 
-def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True) -> dict:
+def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: bool = True,
+              workers: int | None = None) -> dict:
     """Run a tiled Dendry task: every output written tile by tile, then (``manifest``) the manifest
-    (raw heightmaps' levels span ``task.writing["range"]``)."""
+    (raw heightmaps' levels span ``task.writing["range"]``); without a ``client``, ``workers``
+    threads compute tiles at once (None: every core)."""
     from .cli import pick_device
 
     started = time.time()
@@ -594,7 +597,7 @@ def run_tiled(task: Task, device=None, *, client=None, progress=None, manifest: 
     with _claimed(task) if manifest else contextlib.nullcontext():
         write_tiled(fn, setup["shape"], task.tile, list(task.outputs), client=client, progress=progress,
                     key=tile_key(task.params, kind, levels), placed_all=placed_all, name=output, attrs=attrs,
-                    domain=setup["domain"], value_range=levels)
+                    domain=setup["domain"], value_range=levels, workers=workers)
     return made
 
 

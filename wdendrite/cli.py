@@ -314,8 +314,10 @@ class _Ticker:
 
 
 def run_preset(name: str, values: dict, outputs, *, device: str | None = None, force: bool = False,
-               quiet: bool = True, heightmap: bool = False, value_range=None) -> dict:
+               quiet: bool = True, heightmap: bool = False, value_range=None, workers: int | None = None) -> dict:
     """Run preset ``name`` with parameter ``values`` (already typed) and write ``outputs``.
+
+    ``workers``: CPU threads of a preset that takes them (``dendry``, ``terrain``; None: every core).
 
     Everything is validated before the preset runs: parameter names and values, the
     output suffixes and folders, the device, ``value_range`` (``(lo, hi)`` of the 16-bit
@@ -353,6 +355,8 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
     if preset.func.__module__ == "wdendrite._models" and preset.name in ("dendry", "terrain"):
         size = kwargs.get("size", preset.params["size"].default)
         _check_raw(paths, (size, size))  # (their field is size x size: known before they run)
+    if takes_workers(preset):  # (not a parameter of the result: its bytes do not depend on it)
+        kwargs["workers"] = workers
     from ._staging import locked
 
     with locked(paths), _Ticker(f"{name}: making", quiet) as bar:  # (a second run writing them stops at once)
@@ -453,6 +457,10 @@ def _add_common(p, preset) -> None:
                        help="compute the field in N x N tiles (N at least 8) straight into .npy (or .zarr) "
                             "outputs, never the whole image in memory; a killed run resumes (default: whole "
                             "image) [pixels]")
+    if takes_workers(preset):
+        g.add_argument("--workers", type=int, default=argparse.SUPPRESS, metavar="N",
+                       help="CPU threads (default: every core this process may use; more are capped at that); "
+                            "the output does not depend on it")
     g.add_argument("--config", metavar="FILE.toml", default=argparse.SUPPRESS,
                    help="TOML file whose keys are this preset's parameters (options given here override it)")
     g.add_argument("--force", action="store_true", default=argparse.SUPPRESS, help="overwrite existing outputs")
@@ -602,8 +610,9 @@ def main(argv=None) -> int:
 
         for folder in dict.fromkeys(Path(o).parent for o in outs):
             sweep(folder)  # what killed runs left there: renames completed, temporary files deleted
+        workers = _workers(args)
         if "tile" in args:
-            return _tiled(preset, values, outs, args)
+            return _tiled(preset, values, outs, args, workers)
         value_range = None
         if "range" in args:
             from .heightmaps import value_range as _range
@@ -611,7 +620,7 @@ def main(argv=None) -> int:
             value_range = _range(args.range, "--range")
         rec = run_preset(preset.name, values, outs, device=getattr(args, "device", None),
                          force=getattr(args, "force", False), quiet=getattr(args, "quiet", False),
-                         heightmap=getattr(args, "heightmap", False), value_range=value_range)
+                         heightmap=getattr(args, "heightmap", False), value_range=value_range, workers=workers)
         made = f": {rec['made']}" if rec["made"] else ""
         print(f"{preset.name} ({_brief(rec['params'], preset)}){made} in {rec['seconds']:.3f} s on {rec['device']} "
               f"-> {', '.join(rec['outputs'])}")
@@ -667,7 +676,30 @@ def _tell_heightmaps(rec: dict) -> None:
         print(f"{path}: {w} x {h} pixels, 16-bit little-endian, row 0 first, no header")
 
 
-def _tiled(preset, values: dict, outs: list, args) -> int:
+def takes_workers(preset) -> bool:
+    """Whether ``preset``'s function takes ``workers`` (CPU threads), which ``--workers`` sets."""
+    import inspect
+
+    return "workers" in inspect.signature(preset.func).parameters
+
+
+def _workers(args) -> int | None:
+    """``--workers`` checked before any work (None when not given: every core); more than the
+    cores this process may use are capped at them, with a line on stderr saying so."""
+    if "workers" not in args:
+        return None
+    from ._parallel import cores
+
+    if args.workers < 1:
+        raise UsageError(f"--workers must be a positive integer, but got {args.workers}")
+    if args.workers > cores():
+        print(f"wdendrite: --workers {args.workers} is more than the {cores()} cores this process may use: "
+              f"using {cores()}", file=sys.stderr)
+        return cores()
+    return args.workers
+
+
+def _tiled(preset, values: dict, outs: list, args, workers: int | None = None) -> int:
     """``dendry``/``terrain`` with ``--tile``: the field written tile by tile (:func:`wdendrite.tiles.write_tiled`)."""
     from .batch import Task, need_zarr, run_tiled
     from .heightmaps import value_range
@@ -707,7 +739,7 @@ def _tiled(preset, values: dict, outs: list, args) -> int:
             bar.total, bar.n = total, done
             bar.refresh()
 
-        rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False)
+        rec = run_tiled(task, getattr(args, "device", None), progress=tick, manifest=False, workers=workers)
     print(f"{preset.name} ({_brief(full, preset)}) in {args.tile}-pixel tiles: {rec['seconds']:.3f} s on "
           f"{rec['device']} -> {', '.join(task.outputs)}")
     _tell_heightmaps(rec)

@@ -42,6 +42,7 @@ from typing import Literal
 import numpy as np
 import warp as wp
 
+from . import _parallel
 from ._checks import device as _device, finite, fits_in_memory, flag, integer, lattice_shape, seed32, stop_if_checking
 from .control import Control, flood, perlin, plane, radial, rectangle
 from .kernels import dendry as _kd
@@ -734,6 +735,22 @@ def _launch_chunks(count: int, slots: _Slots, device):
     return nslots, [(first, min(step, count - first)) for first in range(0, count, step)]
 
 
+_BAND_PIXELS = _parallel.BAND_PIXELS
+"""Fewest pixels in a band of :func:`dendry`'s threads (a band builds its own cells)."""
+
+_BANDS_PER_WORKER = 4
+"""Bands per thread: a thread whose core another process takes meanwhile leaves its later
+bands to the others (measured in BENCHMARKS.md, "Every core")."""
+
+
+def _bands(h: int, w: int, workers: int, device) -> list[tuple[int, int]]:
+    """Rows ``(first, stop)`` of the bands of an (h, w) window that :func:`dendry`'s ``workers``
+    threads evaluate: one band on CUDA or for one thread."""
+    if workers <= 1 or _cuda_like(device):
+        return [(0, h)]
+    return _parallel.image_bands((h, w), workers * _BANDS_PER_WORKER, least=_BAND_PIXELS)
+
+
 def _query_cells(params: DendryParams, output: str, u_first, u_last) -> tuple[tuple[int, int], ...]:
     """Level-n cells ``qlo``, ``qhi`` and primitive cells ``plo``, ``phi`` (x, y) spanning every
     query between grid points ``u_first`` and ``u_last``, with spare cells against rounding."""
@@ -890,6 +907,7 @@ def dendry(
     control_domain=None,
     device=None,
     as_warp: bool = False,
+    workers: int | None = None,
 ) -> np.ndarray | wp.array:
     """Evaluate Dendry on the pixels of an image (or of a window of it).
 
@@ -914,13 +932,16 @@ def dendry(
         device: Warp device (default: Warp's default device).
         as_warp: return the image as the ``wp.array`` on ``device`` that the kernels wrote (no
             copy to the host: for pipelines that continue on a GPU).
+        workers: CPU threads that evaluate the window at once, in bands of rows (each a window
+            of its own, so the values do not depend on it); None: every core the process may
+            use; more are capped at that with a warning. Ignored on CUDA (one launch fills the GPU).
 
     Returns:
         (h, w) float32 array (the window's size): a NumPy array, or with ``as_warp`` a
         ``wp.array2d(dtype=float)`` on ``device``.
 
     Raises:
-        ValueError, TypeError: for a bad shape, domain, window, output, mode or params,
+        ValueError, TypeError: for a bad shape, domain, window, output, mode, params or workers,
             before any kernel runs; also when the pixels evaluated reach coordinates where the
             finest cells (level ``levels``, or ``levels + primitive_steps`` for elevation)
             have ``|x| * resolution * 2^(level - 1) >= 2^22``: float32 key points and int32
@@ -933,6 +954,7 @@ def dendry(
     domain, control_domain = _check_common(params, control, domain, control_domain)
     _check_output_mode(output, mode)
     as_warp = flag("as_warp", as_warp)
+    workers = _parallel.workers(workers)
     _check_elevation_control(control, output, control_domain)
     r0, c0, h, w = _window(window, shape)
     (x0, y0), (x1, y1) = domain
@@ -960,22 +982,13 @@ def dendry(
     step = wp.vec2((domain[1][0] - domain[0][0]) / shape[1] * res, (domain[1][1] - domain[0][1]) / shape[0] * res)
     out = wp.zeros((h, w), dtype=float, device=device)
     code = _OUTPUTS[output]
-    origin = wp.vec2i(r0, c0)
 
-    def launch(slots, cached, nslots, first, size):
-        if cached == 0 and not _cuda_like(device):  # the per-pixel kernel compiled for the CPU's caches
-            wp.launch(_kp.image_kernel, dim=size,
-                      inputs=[s, ctl, code, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
-                      outputs=[out, slots.overflow], device=device)
-            return
-        wp.launch(_kd.image_kernel, dim=size,
-                  inputs=[s, ctl, code, cached, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
-                  outputs=[out, slots.overflow], device=device)
-
-    plan = None
-    if mode != "pixel":
-        u_first = (x0[0] + (c0 + 0.5) * step[0], x0[1] + (r0 + 0.5) * step[1])
-        u_last = (x0[0] + (c0 + w - 0.5) * step[0], x0[1] + (r0 + h - 0.5) * step[1])
+    def plan_of(band):  # the cached plan of rows band[0]..band[1] - 1 of the window, or None: per pixel
+        if mode == "pixel":
+            return None
+        b0, b1 = band
+        u_first = (x0[0] + (c0 + 0.5) * step[0], x0[1] + (r0 + b0 + 0.5) * step[1])
+        u_last = (x0[0] + (c0 + w - 0.5) * step[0], x0[1] + (r0 + b1 - 0.5) * step[1])
         try:
             plan = _host_plan(params, output, u_first, u_last)
         except _TooManyCells as exc:
@@ -983,15 +996,46 @@ def dendry(
                 raise ValueError(
                     f"mode='cached' would build {exc.args[0]} cells for {h * w} pixels over {what}, beyond the "
                     "kernels' int32 indices: use mode='auto' or 'pixel' (the same values)") from None
-        # "auto": the per-pixel mode where the window's cells would outnumber what its pixels
+            return None
+        # "auto": the per-pixel mode where the band's cells would outnumber what its pixels
         # build on their own (a few pixels spread over a large domain)
-        if mode == "auto" and plan is not None and not _cached_pays(params, output, plan, h * w):
-            plan = None
-    if plan is not None:
-        _run_cached(s, ctl, params, output, plan, device, lambda slots: launch(slots, 1, 1, 0, h * w))
-    else:
-        _run_pixels(params, output, h * w, device,
-                    lambda slots, nslots, first, size: launch(slots, 0, nslots, first, size))
+        if mode == "auto" and not _cached_pays(params, output, plan, (b1 - b0) * w):
+            return None
+        return plan
+
+    bands = _bands(h, w, workers, device)
+    if mode == "cached" and len(bands) > 1:
+        plan_of((0, h))  # (refuses a window whose cells pass int32 indices, whatever its bands)
+    plans = [plan_of(b) for b in bands]
+    if len(bands) > 1:  # the kernel modules the bands use are loaded here, not by several threads at once
+        per_pixel = any(p is None for p in plans)
+        if per_pixel and not _cuda_like(device):
+            wp.load_module(_kp, device=device)
+        if any(p is not None for p in plans) or (per_pixel and _cuda_like(device)):
+            wp.load_module(_kd, device=device)
+
+    def band(k: int) -> None:  # rows bands[k] of the window, into the same rows of ``out``
+        b0, b1 = bands[k]
+        view, size = out[b0:b1], (b1 - b0) * w
+        origin = wp.vec2i(r0 + b0, c0)
+
+        def launch(slots, cached, nslots, first, count):
+            if cached == 0 and not _cuda_like(device):  # the per-pixel kernel compiled for the CPU's caches
+                wp.launch(_kp.image_kernel, dim=count,
+                          inputs=[s, ctl, code, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
+                          outputs=[view, slots.overflow], device=device)
+                return
+            wp.launch(_kd.image_kernel, dim=count,
+                      inputs=[s, ctl, code, cached, slots.cap, nslots, first, origin, w, x0, step, *slots.arrays()],
+                      outputs=[view, slots.overflow], device=device)
+
+        if plans[k] is not None:
+            _run_cached(s, ctl, params, output, plans[k], device, lambda slots: launch(slots, 1, 1, 0, size))
+        else:
+            _run_pixels(params, output, size, device,
+                        lambda slots, nslots, first, count: launch(slots, 0, nslots, first, count))
+
+    _parallel.each(band, range(len(bands)), workers)
     return out if as_warp else out.numpy()
 
 

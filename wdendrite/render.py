@@ -36,7 +36,7 @@ from typing import Callable, Literal, Sequence
 import numpy as np
 import warp as wp
 
-from . import _checks
+from . import _checks, _parallel
 from .dendrite import Dendrite
 from .kernels import render as _k
 from .lattice import Lattice
@@ -785,7 +785,7 @@ def unit_range(a: np.ndarray) -> np.ndarray:
     return np.where(ok, (a - lo) / (hi - lo) if hi > lo else 0.0, 0.0)
 
 
-def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
+def relief(z, spacing: float, area=None, *, device=None, workers: int | None = None) -> np.ndarray:
     """Hillshade (light from the north-west) over a green-brown-white elevation tint, rivers in blue.
 
     Slopes are central differences (one-sided on the border), as ``numpy.gradient``; the tint
@@ -798,6 +798,8 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
             (:func:`wdendrite.hydrology.flow_accumulation`): blue where more than 0.1 % of the
             image drains through a cell, full at 2 %.
         device: Warp device of the shading kernel (default: Warp's default device).
+        workers: CPU threads that shade bands of rows at once (None: every core); on CUDA one
+            launch. The picture does not depend on it.
 
     Returns:
         (H, W, 3) float32 picture in [0, 1].
@@ -805,27 +807,37 @@ def relief(z, spacing: float, area=None, *, device=None) -> np.ndarray:
     Raises:
         ValueError, TypeError: ``z`` not a finite 2D real array of at least 2 x 2, ``spacing``
             not positive, ``area`` not positive and finite or not of ``z``'s shape, an absent
-            device.
+            device, bad ``workers``.
     """
     z = _checks.finite_array("z", z, "2D (H >= 2, W >= 2)", lambda s: len(s) == 2 and min(s) >= 2, dtype=np.float64)
     spacing = _checks.positive("spacing", spacing)
     if area is not None:
         area = _checks.float_array("area", area, z.shape, positive=True)
     device = _checks.device(device)
+    workers = _parallel.workers(workers)
     span = float(z.max() - z.min())
     t = unit_range(z).astype(np.float32)
     # slopes are gain x differences of t; beyond 1e18 the light sees vertical walls either way (and
     # float32 squares of such slopes stay finite)
     gain = min(span / spacing, 1e18)
-    light = np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])
-    with wp.ScopedDevice(device):
-        out = wp.empty(z.shape, dtype=wp.vec3)
-        wp.launch(_k.relief_kernel, dim=z.shape,
-                  inputs=[wp.array(t, dtype=float), gain, wp.vec3(*light),
-                          wp.array(area if area is not None else np.ones((0, 0), np.float32), dtype=float),
+    light = wp.vec3(*(np.array([-1.0, -1.0, 1.5]) / np.linalg.norm([-1.0, -1.0, 1.5])))
+    h = z.shape[0]
+    out = np.empty((*z.shape, 3), np.float32)
+
+    def shade(band) -> None:  # rows band[0]..band[1] - 1, from them and one more row on either side
+        lo, hi = max(band[0] - 1, 0), min(band[1] + 1, h)  # (central differences reach one row)
+        rows = wp.empty((hi - lo, z.shape[1]), dtype=wp.vec3, device=device)
+        wp.launch(_k.relief_kernel, dim=rows.shape,
+                  inputs=[wp.array(t[lo:hi], dtype=float, device=device), gain, light,
+                          wp.array(area[lo:hi] if area is not None else np.ones((0, 0), np.float32), dtype=float,
+                                   device=device),
                           0.001 * z.size, wp.vec3(0.12, 0.3, 0.85)],
-                  outputs=[out])
-        return out.numpy()
+                  outputs=[rows], device=device)
+        out[band[0] : band[1]] = rows.numpy()[band[0] - lo : band[1] - lo]
+
+    bands = [(0, h)] if device.is_cuda else _parallel.image_bands(z.shape, workers)
+    _parallel.each(shade, bands, workers)
+    return out
 
 
 DENDRY_WIDENING = 1.4
@@ -840,7 +852,8 @@ def _dendry_widths(params, pixel: float) -> list[float]:
     return [fine * DENDRY_WIDENING ** (params.levels - k) for k in range(1, params.levels + 1)]
 
 
-def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=None, device=None) -> np.ndarray:
+def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=None, device=None,
+                 workers: int | None = None) -> np.ndarray:
     """A Dendry tree drawn as antialiased lines, each level at its own width (a Lichtenberg figure, rivers).
 
     The tree grows level by level, each level adding branches to the coarser ones, so the distance
@@ -855,14 +868,16 @@ def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=N
             its cell wide, within [1, 1.5] pixels, each coarser level :data:`DENDRY_WIDENING` wider).
         distance: the ``(H, W)`` distance to the whole tree when it is already computed (saves one
             evaluation of the finest level).
+        workers: CPU threads (None: every core), as :func:`wdendrite.dendry` takes them; the
+            coverage is computed in bands of rows by as many threads. The values do not depend on it.
 
     Returns:
         ``(H, W)`` float32 coverage: 1 on a branch, 0 away from every branch (draw ink on paper
         as ``1 - value``, or light with :func:`colorize`).
 
     Raises:
-        ValueError: what :func:`wdendrite.dendry` refuses; ``widths`` not one positive width per
-            level; a ``distance`` of another shape (before any evaluation).
+        ValueError, TypeError: what :func:`wdendrite.dendry` refuses; ``widths`` not one positive width per
+            level; a ``distance`` of another shape; bad ``workers`` (before any evaluation).
     """
     import dataclasses
 
@@ -879,13 +894,20 @@ def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=N
     widths = [_width_number(f"widths[{i}]", w) for i, w in enumerate(widths)]
     if distance is not None and np.shape(distance) != tuple(shape):
         raise ValueError(f"'distance' has shape {np.shape(distance)}, but 'shape' is {tuple(shape)}")
+    workers = _parallel.workers(workers)
     cover = np.zeros(tuple(shape), np.float32)
+    bands = _parallel.image_bands(cover.shape, workers)
     for k, width in enumerate(widths, 1):
         if k == params.levels and distance is not None:
             d = np.asarray(distance)
         else:  # the tree of levels 1..k (per-level tuples cut alike)
             cut = {n: getattr(params, n)[:k] for n in ("eps", "delta") if isinstance(getattr(params, n), tuple)}
             d = dendry(shape, domain=domain, params=dataclasses.replace(params, levels=k, **cut), control=control,
-                       output="distance", device=device)
-        np.maximum(cover, coverage(d / pixel, width), out=cover)  # (+inf: no branch in reach, no cover)
+                       output="distance", device=device, workers=workers)
+
+        def cover_band(band, d=d, width=width):  # (+inf: no branch in reach, no cover)
+            rows = slice(*band)
+            np.maximum(cover[rows], coverage(d[rows] / pixel, width), out=cover[rows])
+
+        _parallel.each(cover_band, bands, workers)  # (NumPy's and SciPy's loops run without the interpreter lock)
     return cover

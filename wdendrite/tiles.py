@@ -16,6 +16,7 @@ writes them (:func:`wdendrite._staging.locked`).
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from pathlib import Path
@@ -141,6 +142,33 @@ def _tile_into(window, tile_fn, targets) -> tuple:
         if not target.mark(window).exists():
             target.write(window, values)
     return window
+
+
+def _tiles_here(todo: list, tile_fn, targets, workers: int):
+    """:func:`_tile_into` of each window of ``todo``, in order, the tiles computed by ``workers``
+    threads a few tiles ahead while this thread writes them one after another; yields each window
+    once written. A failing tile stops the writes there (tiles after it are not written); leaving
+    early cancels the tiles not started and waits for those running."""
+    if workers <= 1:
+        yield from (_tile_into(w, tile_fn, targets) for w in todo)
+        return
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="wdendrite-tile")
+    ahead, windows = deque(), iter(todo)
+    try:
+        for w in itertools.islice(windows, 2 * workers):  # (a few tiles in memory, not the image)
+            ahead.append((w, pool.submit(tile_fn, w)))
+        while ahead:
+            w, computed = ahead.popleft()
+            values = computed.result()
+            following = next(windows, None)
+            if following is not None:
+                ahead.append((following, pool.submit(tile_fn, following)))
+            yield _tile_into(w, lambda _: values, targets)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _tile_records(final: Path) -> list[Path]:
@@ -318,7 +346,8 @@ def probe_windows(shape) -> list[tuple[int, int, int, int]]:
 
 
 def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, key: str = "", placed_all=None,
-                name: str = "field", attrs: dict | None = None, domain=None, value_range=None):
+                name: str = "field", attrs: dict | None = None, domain=None, value_range=None,
+                workers: int | None = 1):
     """Compute an image tile by tile and write it to ``path`` (``.npy``, ``.zarr``, ``.r16`` or
     ``.raw``) without holding it whole.
 
@@ -346,6 +375,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         value_range: ``(lo, hi)``, needed by ``.r16``/``.raw`` outputs: every tile is written as
             16-bit levels of it (:func:`wdendrite.heightmaps.save_heightmap`'s; values outside are
             clipped). Tiles recorded under another range are not reused.
+        workers: without a ``client``, threads that compute tiles at once (``tile_fn`` must then
+            be safe to call from several threads) while this thread writes them in order; None:
+            every core. The files do not depend on it.
 
     Returns:
         The written path (a list of them when ``path`` is a list).
@@ -367,6 +399,9 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
         file and the space needed. The records kept so far stay: a call after space is freed resumes.
     """
     shape, tile = _tiling(shape, tile)
+    from ._parallel import workers as _workers
+
+    workers = _workers(workers)
     finals = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
     if not finals or len({f.resolve() for f in finals}) != len(finals):
         raise ValueError(f"Expected one or more distinct output paths for 'path', but got {path!r}")
@@ -397,12 +432,12 @@ def write_tiled(tile_fn, shape, tile: int, path, *, client=None, progress=None, 
     # (Dask workers write their tiles under the locks this process holds)
     with locked(finals), Staging() as stage:
         _write_locked(tile_fn, shape, tile, finals, stage, client=client, progress=progress, key=key,
-                      placed_all=placed_all, described=(name, attrs, domain), levels=value_range)
+                      placed_all=placed_all, described=(name, attrs, domain), levels=value_range, workers=workers)
     return finals if isinstance(path, (list, tuple)) else finals[0]
 
 
 def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, progress, key: str, placed_all,
-                  described: tuple, levels) -> None:
+                  described: tuple, levels, workers: int = 1) -> None:
     """The work of :func:`write_tiled` once its outputs are locked; ``stage`` names old outputs moved aside;
     ``described``: ``(name, attrs, domain)`` of a Zarr group; ``levels``: the range of raw heightmaps."""
     from ._staging import check_space, sync_folder
@@ -421,7 +456,7 @@ def _write_locked(tile_fn, shape, tile: int, finals: list, stage, *, client, pro
     todo = [w for w in windows if not all(t.mark(w).exists() for t in targets)]
     done = len(windows) - len(todo)
     if client is None:
-        finished = (_tile_into(w, tile_fn, targets) for w in todo)
+        finished = _tiles_here(todo, tile_fn, targets, workers)
     else:
         from distributed import as_completed
 
