@@ -18,7 +18,10 @@ lichen, moss, letters, terrains), also on the command line: ``wdendrite --help``
 Modules: lattice, weights, sssp (searches), endpoints, dendrite (trace), growth (fractal growth),
 refine, render, figure (labelled panels), skeleton (smooth centre lines), geometry (meshes), preview
 (ray-cast pictures), dendry, control, hydrology, io, presets, batch (``import wdendrite.batch``: job
-files, tiled writing, Dask). Kernels run on the CPU or CUDA: ``device=``.
+files, tiled writing, Dask). Kernels run on the CPU or CUDA: ``device=``. Warp compiles each kernel
+module on its first use and caches it; ``wd.load_kernels()`` (``wdendrite warmup``) compiles them all
+up front. ``import wdendrite`` itself imports neither Warp nor NumPy: each name loads its module
+when first used.
 """
 
 
@@ -50,13 +53,49 @@ def _find_source_kernels() -> None:
 
 _find_source_kernels()
 
-from . import control, endpoints, figure, geometry, hydrology, io, presets, preview, render, skeleton, weights  # noqa: E402
-from .dendrite import Dendrite, trace
-from .dendry import DendryParams, default_control, dendry, dendry_points
-from .growth import FractalParams, grow
-from .lattice import Lattice
-from .refine import refine
-from .sssp import CostField, shortest_paths
+import sys as _sys  # noqa: E402
+import types as _types  # noqa: E402
+
+_NAMES = {
+    "CostField": "sssp", "Dendrite": "dendrite", "DendryParams": "dendry", "FractalParams": "growth",
+    "Lattice": "lattice", "default_control": "dendry", "dendry": "dendry", "dendry_points": "dendry",
+    "grow": "growth", "load_kernels": "warmup", "refine": "refine", "shortest_paths": "sssp", "trace": "dendrite",
+}
+"""Public names and the module each comes from: imported when first asked for (``wd.Lattice``), so
+``import wdendrite`` does not import Warp, and a command or a script loads only what it uses."""
+
+_MODULES = ("batch", "control", "dendrite", "endpoints", "figure", "geometry", "growth", "hydrology", "io",
+            "lattice", "lightning", "presets", "preview", "refine", "render", "skeleton", "sssp", "warmup", "weights")
+"""Submodules reachable as attributes (``wd.render``), imported when first asked for."""
+
+
+def __getattr__(name: str):
+    import importlib
+
+    if name in _NAMES:
+        value = getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+    elif name in _MODULES:
+        value = importlib.import_module(f"{__name__}.{name}")
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *__all__, *_MODULES})
+
+
+class _Package(_types.ModuleType):
+    """The package's module type: importing the submodule ``wdendrite.dendry`` binds the package's
+    name ``dendry`` to it, but the public ``wd.dendry`` is that module's function."""
+
+    def __setattr__(self, name, value):
+        if name == "dendry" and isinstance(value, _types.ModuleType):
+            value = value.dendry
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package
 
 
 def _installed_version() -> str:
@@ -70,19 +109,6 @@ def _installed_version() -> str:
 
 
 __version__ = _installed_version()
-
-
-def _document_fields() -> None:
-    """Show each public dataclass's field docstrings in ``help()`` (see ``_spec.document_fields``)."""
-    import importlib
-
-    from . import _spec
-
-    for part in ("dendry", "growth", "hydrology", "lightning", "presets", "render", "sssp", "weights"):
-        _spec.document_fields(importlib.import_module(f"{__name__}.{part}"))  # (wdendrite.dendry is also a function)
-
-
-_document_fields()
 
 __all__ = [
     "CostField",
@@ -100,6 +126,7 @@ __all__ = [
     "grow",
     "hydrology",
     "io",
+    "load_kernels",
     "presets",
     "preview",
     "refine",

@@ -889,3 +889,8 @@ def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=N
                        output="distance", device=device)
         np.maximum(cover, coverage(d / pixel, width), out=cover)  # (+inf: no branch in reach, no cover)
     return cover
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

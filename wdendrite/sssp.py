@@ -771,3 +771,8 @@ def _run(arrays, fr: _Frontiers, launches: _Launches, delta: float) -> tuple[int
         launches.split(near, far, fr.threads(n_far), previous, threshold, generation)
         fr.set_count(2 + far, 0)
         far = 1 - far
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means
