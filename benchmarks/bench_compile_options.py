@@ -11,8 +11,8 @@ script measures
   around ``wp.load_module``; the first module also builds Warp's precompiled header, so the
   modules load in a fixed order and that cost falls on the same one each time);
 - *run*: three workloads, each in a fresh process whose cache the compile step filled:
-  ``sssp`` (``shortest_paths`` on a 1024^2 8-connected lattice), ``fractal`` (the ``fractal``
-  model at size 384: growth, backtracking, strokes) and ``terrain`` (a 512^2 Dendry elevation,
+  ``sssp`` (``shortest_paths`` on a 2048^2 8-connected lattice), ``fractal`` (the ``fractal``
+  model at size 768: growth, backtracking, strokes) and ``terrain`` (a 1024^2 Dendry elevation,
   the paper's Table 1 setup), the least of three calls after a warm-up call.
 
 Variants run in turns, ``--repeat`` times (default 3 compiles, 5 runs); the median and range
@@ -67,13 +67,13 @@ import wdendrite as wd
 from wdendrite._models import TABLE1, dendry_setup, fractal
 work, quick = sys.argv[2], sys.argv[3] == "1"
 if work == "sssp":
-    n = 256 if quick else 1024
+    n = 256 if quick else 2048
     lat = wd.Lattice((n, n), connectivity=8, weights=wd.weights.Uniform(r=10, seed=1))
     call = lambda: wd.shortest_paths(lat, [[n // 2, n // 2]])
 elif work == "fractal":
-    call = lambda: fractal(128 if quick else 384).image
+    call = lambda: fractal(128 if quick else 768).image
 else:
-    setup = dendry_setup(128 if quick else 512, TABLE1, extent=4.0, control="perlin", frequency=1.0, drained=True,
+    setup = dendry_setup(128 if quick else 1024, TABLE1, extent=4.0, control="perlin", frequency=1.0, drained=True,
                          seed=0, output="elevation")
     call = lambda: wd.dendry(**setup, output="elevation")
 call()
@@ -107,9 +107,13 @@ def main():
     ap.add_argument("--repeat", type=int, default=3, help="compiles per variant (default 3)")
     ap.add_argument("--runs", type=int, default=5, help="runs per variant and workload (default 5)")
     ap.add_argument("--quick", action="store_true", help="small workloads")
+    ap.add_argument("--workloads", default=",".join(WORKLOADS), help=f"comma-separated subset of {WORKLOADS}")
     args = ap.parse_args()
     if args.repeat < 1 or args.runs < 1:
         ap.error(f"--repeat and --runs must be at least 1, got {args.repeat} and {args.runs}")
+    workloads = args.workloads.split(",")
+    if not workloads or not set(workloads) <= set(WORKLOADS):
+        ap.error(f"--workloads: expected names from {WORKLOADS}, got {args.workloads!r}")
     variants = {}
     for v in args.variant or ["project={}",
                               "warp-defaults=" + json.dumps({"*": {"cpu_compiler_flags": WARP_DEFAULT_FLAGS,
@@ -136,9 +140,9 @@ def main():
                 if name in caches:
                     shutil.rmtree(caches[name], ignore_errors=True)
                 caches[name] = cache
-        runs = {(name, w): [] for name in variants for w in WORKLOADS}
+        runs = {(name, w): [] for name in variants for w in workloads}
         for _ in range(args.runs):
-            for w in WORKLOADS:
+            for w in workloads:
                 for name, o in variants.items():
                     out = child(_RUN, json.dumps(o), w, "1" if args.quick else "0", cache=caches[name])
                     runs[name, w].append(next(float(ln.split()[1]) for ln in out.splitlines()
@@ -156,7 +160,7 @@ def main():
         print(f"\nRun seconds (least of 3 calls per process; median (range) of {args.runs} processes):")
         print("| workload | " + " | ".join(variants) + " |")
         print("| --- |" + " ---: |" * len(variants))
-        for w in WORKLOADS:
+        for w in workloads:
             print(f"| {w} | " + " | ".join(shown(runs[name, w]) for name in variants) + " |")
         print(f"# done {now()}  load average {' / '.join(f'{x:.1f}' for x in os.getloadavg())}")
     finally:

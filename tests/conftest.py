@@ -11,6 +11,16 @@ wp.init()
 DEVICES = [str(d) for d in wp.get_devices()]
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _kernels_compiled():
+    """Every kernel module compiled for the CPU (or loaded from Warp's cache) before the first test,
+    as many at a time as there are CPUs: with an empty cache, the tests would otherwise compile
+    them one after another as they first use each."""
+    from wdendrite.warmup import load_kernels
+
+    load_kernels("cpu", progress=False)
+
+
 @pytest.fixture(params=DEVICES)
 def device(request):
     """Every available Warp device: the CPU always, CUDA devices where present."""

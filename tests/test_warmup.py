@@ -91,6 +91,14 @@ def test_after_warmup_a_new_process_compiles_nothing(tmp_path):
     assert {"sssp", "dendrite", "dendry", "render"} <= used
 
 
+def test_a_command_loads_only_the_kernel_modules_it_uses(tmp_path):
+    # what a new user's first command compiles: the fractal needs no Dendry, the terrain no search
+    fractal = {name for name, _ in _loads(["fractal", "--size", "24", "-o", "f.png", "--quiet"], tmp_path)}
+    terrain = {name for name, _ in _loads(["terrain", "--size", "16", "-o", "t.png", "--quiet"], tmp_path)}
+    assert {"sssp", "dendrite"} <= fractal and not fractal & {"dendry", "dendry_pixels", "noise", "hydrology"}
+    assert "dendry" in terrain and not terrain & {"sssp", "dendrite", "weights", "dendry_pixels"}
+
+
 def test_warmup_command_prints_each_module(tmp_path):
     p = subprocess.run([sys.executable, "-m", "wdendrite.cli", "warmup", "--device", "cpu", "--quiet"],
                        cwd=tmp_path, capture_output=True, text=True)
