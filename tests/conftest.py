@@ -11,11 +11,13 @@ wp.init()
 DEVICES = [str(d) for d in wp.get_devices()]
 
 
-@pytest.fixture(scope="session", autouse=True)
-def _kernels_compiled():
+def pytest_configure(config):
     """Every kernel module compiled for the CPU (or loaded from Warp's cache) before the first test,
     as many at a time as there are CPUs: with an empty cache, the tests would otherwise compile
-    them one after another as they first use each."""
+    them one after another as they first use each, and with ``-n`` every worker would compile each
+    for itself (the workers start after this, in the process that runs them)."""
+    if hasattr(config, "workerinput"):  # a pytest-xdist worker: its controller compiled them
+        return
     from wdendrite.warmup import load_kernels
 
     load_kernels("cpu", progress=False)

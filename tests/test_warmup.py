@@ -79,7 +79,8 @@ def _loads(args, cwd) -> list:
 def test_after_warmup_a_new_process_compiles_nothing(tmp_path):
     # whatever the kernel cache held before, the command compiles what it lacked; then commands in
     # new processes using that cache load every module they use from it (same module hashes)
-    first = _loads(["warmup", "--device", "cpu", "--quiet", "--workers", "2"], tmp_path)
+    # (one module at a time: the child's switch of Warp's log level is not meant for threads)
+    first = _loads(["warmup", "--device", "cpu", "--quiet", "--workers", "1"], tmp_path)
     assert {name for name, _ in first} == _modules_with_kernels()
     used = set()
     for args in (["fractal", "--size", "24", "-o", "f.png", "--quiet"],
@@ -144,9 +145,14 @@ def test_the_names_load_their_modules_when_asked_for():
         wd.no_such_name  # noqa: B018
 
 
-def test_the_dendry_function_wins_over_its_module_whatever_imports_first():
-    code = ("import wdendrite.dendry\nimport wdendrite as wd\nfrom wdendrite import dendry\n"
-            "assert callable(wd.dendry) and dendry is wd.dendry\nprint('ok')")
+@pytest.mark.parametrize("name", ["dendry", "refine"])
+@pytest.mark.parametrize("first", ["module", "name"])
+def test_a_function_named_as_its_module_wins_whatever_imports_first(name, first):
+    steps = [f"import wdendrite.{name}", f"from wdendrite import {name} as early"]
+    code = "\n".join(["import wdendrite as wd", *(steps if first == "module" else steps[::-1]),
+                      f"from wdendrite import {name} as late",
+                      f"assert callable(wd.{name}) and late is wd.{name} and early is late",
+                      f"assert wd.{name}.__module__ == 'wdendrite.{name}'", "print('ok')"])
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert p.returncode == 0 and p.stdout.strip() == "ok", p.stderr
 

@@ -86,12 +86,12 @@ def __dir__():
 
 
 class _Package(_types.ModuleType):
-    """The package's module type: importing the submodule ``wdendrite.dendry`` binds the package's
-    name ``dendry`` to it, but the public ``wd.dendry`` is that module's function."""
+    """The package's module type: importing the submodule ``wdendrite.dendry`` (or ``.refine``)
+    binds the package's name ``dendry`` to it, but the public ``wd.dendry`` is that module's function."""
 
     def __setattr__(self, name, value):
-        if name == "dendry" and isinstance(value, _types.ModuleType):
-            value = value.dendry
+        if _NAMES.get(name) == name and isinstance(value, _types.ModuleType):
+            value = getattr(value, name)
         super().__setattr__(name, value)
 
 
