@@ -46,3 +46,20 @@ def launches(monkeypatch):
     monkeypatch.setattr(wp, "launch", recording)
     monkeypatch.setattr(wp.Launch, "launch", recorded)
     return seen
+
+
+@pytest.fixture
+def python_sigint():
+    """Python's own Ctrl-C handler (``KeyboardInterrupt``) installed for the test, which sends a real
+    SIGINT to its own process; pytest-xdist's workers ignore SIGINT otherwise. Skips where the test
+    does not run in the main thread, the only one a signal handler runs in."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("a real SIGINT is handled only in the main thread, and this test runs in another")
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
