@@ -52,7 +52,11 @@ from .indexing import dense_i32, dense_u64, nonneg
 from .lattice import in_bounds, node_coords, node_index, padded_index
 from .weights import REFINED, WeightParams, cell_of, is_plain, refined_blocked, refined_key, refined_value, weight_of_edge
 
-wp.set_module_options({**OPTIONS, "optimization_level": 3})
+# Warp's own CPU flags (its raised inlining thresholds: with LLVM's defaults the fractal's growth ran
+# 1.45x slower), and loops of more than 12 trips left rolled: the 13 directions of relax_node, which
+# unrolled tripled this module's compile time for no run-time gain measured (BENCHMARKS.md,
+# "Start-up and kernel compilation")
+wp.set_module_options({**OPTIONS, "optimization_level": 3, "cpu_compiler_flags": None, "max_unroll": 12})
 
 UNREACHED = wp.constant(wp.uint64(0xFFFFFFFFFFFFFFFF))
 """Packed state of a node no path has reached."""
@@ -417,9 +421,10 @@ def relax_node(
     the test of ``hashed.use``, so that the code of hashed weights goes.
 
     The loop over directions has a constant trip count (13, the most
-    half-offsets a lattice has) so that it unrolls, with a test skipping
-    the directions a lattice lacks: about 10 % faster per relaxed node on
-    the CPU than a loop over ``flat_offsets.shape[0]``.
+    half-offsets a lattice has), with a test skipping the directions a
+    lattice lacks. The module leaves it rolled (``max_unroll`` 12): unrolled
+    in each of the kernels that inline this function it tripled the module's
+    compile time, for no run-time gain measured since.
     """
     word = state_at(state, stride, node)
     cost = packed_cost(word)

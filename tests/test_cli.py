@@ -842,15 +842,10 @@ def test_a_tiled_command_killed_between_its_renames_finishes_when_run_again(tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npy", "b.npy", "fresh"]
 
 
-def test_a_ctrl_c_during_the_renames_waits_for_them_to_end(tmp_path, monkeypatch):
+def test_a_ctrl_c_during_the_renames_waits_for_them_to_end(tmp_path, monkeypatch, python_sigint):
     # a SIGINT right after the first rename had left one new output beside two old ones and
     # deleted the old file's kept copy
     import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        pytest.skip("a real SIGINT would stop this runner: it is held only in the main thread under Python's handler")
 
     outs = [str(tmp_path / n) for n in ("a.png", "a.npz", "a.npy")]
     assert cli.main(["fractal", "--size", "24", "--seed", "1", *sum((["-o", p] for p in outs), []), "--quiet"]) == 0

@@ -628,15 +628,11 @@ def test_an_error_about_another_file_is_not_blamed_on_the_output(tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def test_a_held_ctrl_c_is_not_lost_to_the_blocks_own_error():
+def test_a_held_ctrl_c_is_not_lost_to_the_blocks_own_error(python_sigint):
     import signal
-    import threading
 
     from wdendrite.io import interrupts_held
 
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        pytest.skip("a real SIGINT would stop this runner: it is held only in the main thread under Python's handler")
     with pytest.raises(KeyboardInterrupt) as info:
         with interrupts_held():
             os.kill(os.getpid(), signal.SIGINT)

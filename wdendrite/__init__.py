@@ -20,7 +20,10 @@ refine, render, figure (labelled panels), skeleton (smooth centre lines), geomet
 (ray-cast pictures), dendry, control, hydrology, io, heightmaps (terrain files: 16-bit heightmaps
 that carry their range, raw .r16/.raw, GeoTIFF), presets, batch (``import wdendrite.batch``: job
 files, Dask) and tiles (``import wdendrite.tiles``: images written tile by tile, resumably).
-Kernels run on the CPU or CUDA: ``device=``.
+Kernels run on the CPU or CUDA: ``device=``. Warp compiles each kernel module on its first use
+and caches it; ``wd.load_kernels()`` (``wdendrite warmup``) compiles them all up front.
+``import wdendrite`` itself imports neither Warp nor NumPy: each name loads its module when first
+used.
 """
 
 
@@ -52,14 +55,50 @@ def _find_source_kernels() -> None:
 
 _find_source_kernels()
 
-from . import (control, endpoints, figure, geometry, heightmaps, hydrology, io, presets, preview, render,  # noqa: E402
-               skeleton, weights)
-from .dendrite import Dendrite, trace
-from .dendry import DendryParams, default_control, dendry, dendry_points
-from .growth import FractalParams, grow
-from .lattice import Lattice
-from .refine import refine
-from .sssp import CostField, shortest_paths
+import sys as _sys  # noqa: E402
+import types as _types  # noqa: E402
+
+_NAMES = {
+    "CostField": "sssp", "Dendrite": "dendrite", "DendryParams": "dendry", "FractalParams": "growth",
+    "Lattice": "lattice", "default_control": "dendry", "dendry": "dendry", "dendry_points": "dendry",
+    "grow": "growth", "load_kernels": "warmup", "refine": "refine", "shortest_paths": "sssp", "trace": "dendrite",
+}
+"""Public names and the module each comes from: imported when first asked for (``wd.Lattice``), so
+``import wdendrite`` does not import Warp, and a command or a script loads only what it uses."""
+
+_MODULES = ("batch", "control", "dendrite", "endpoints", "figure", "geometry", "growth", "heightmaps", "hydrology",
+            "io", "lattice", "lightning", "presets", "preview", "refine", "render", "skeleton", "sssp", "tiles",
+            "warmup", "weights")
+"""Submodules reachable as attributes (``wd.render``), imported when first asked for."""
+
+
+def __getattr__(name: str):
+    import importlib
+
+    if name in _NAMES:
+        value = getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+    elif name in _MODULES:
+        value = importlib.import_module(f"{__name__}.{name}")
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *__all__, *_MODULES})
+
+
+class _Package(_types.ModuleType):
+    """The package's module type: importing the submodule ``wdendrite.dendry`` (or ``.refine``)
+    binds the package's name ``dendry`` to it, but the public ``wd.dendry`` is that module's function."""
+
+    def __setattr__(self, name, value):
+        if _NAMES.get(name) == name and isinstance(value, _types.ModuleType):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package
 
 
 def _installed_version() -> str:
@@ -73,19 +112,6 @@ def _installed_version() -> str:
 
 
 __version__ = _installed_version()
-
-
-def _document_fields() -> None:
-    """Show each public dataclass's field docstrings in ``help()`` (see ``_spec.document_fields``)."""
-    import importlib
-
-    from . import _spec
-
-    for part in ("dendry", "growth", "hydrology", "lightning", "presets", "render", "sssp", "weights"):
-        _spec.document_fields(importlib.import_module(f"{__name__}.{part}"))  # (wdendrite.dendry is also a function)
-
-
-_document_fields()
 
 __all__ = [
     "CostField",
@@ -104,6 +130,7 @@ __all__ = [
     "heightmaps",
     "hydrology",
     "io",
+    "load_kernels",
     "presets",
     "preview",
     "refine",

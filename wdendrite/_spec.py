@@ -394,7 +394,10 @@ def document_fields(module) -> None:
     each public dataclass defined in ``module``, after its first paragraph: ``help()`` and
     IPython's ``?`` show class docstrings, not those literals. Only the classes' own lines are
     parsed (``inspect.getsource`` of a class parses its whole module each time: 0.15 s an import,
-    against about 0.01 s)."""
+    against about 0.01 s). ``module``: a module or the name of an imported one (a module calls
+    ``document_fields(__name__)`` as its last line, so whoever imports it first sees the sections)."""
+    if isinstance(module, str):
+        module = sys.modules[module]
     try:
         source = inspect.getsource(module).splitlines()
     except (OSError, TypeError):
@@ -539,6 +542,49 @@ def canonical_name(name):
     if not isinstance(name, str):
         return name
     return ALIASES.get(name.replace("-", "_"), name.replace("_", "-"))
+
+
+def preset_summaries() -> dict[str, str] | None:
+    """Every preset's command name and one-line summary, as :func:`all_presets` gives them, read from
+    the source of :mod:`wdendrite.presets` and the command's own models without importing them (nor
+    Warp), for ``wdendrite --help``; None when a source is unavailable or holds a preset this reading
+    cannot see (then only :func:`all_presets` knows)."""
+    import ast
+
+    def functions(filename):
+        tree = ast.parse((Path(__file__).with_name(filename)).read_text(encoding="utf-8"))
+        return tree, {n.name: n for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+
+    def summary(node) -> str:
+        doc = _terminal_text(ast.get_docstring(node) or node.name)
+        return " ".join(doc.split("\n\n")[0].split()).replace("%", "%%")
+
+    try:
+        tree, defs = functions("presets.py")
+        names = next(ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+                     and any(getattr(t, "id", None) == "__all__" for t in n.targets))
+        found = {}
+        imported = {a.asname or a.name: n.module for n in tree.body if isinstance(n, ast.ImportFrom)
+                    and n.level == 1 and n.module for a in n.names}
+        for fname in names:
+            node = defs.get(fname)
+            if node is None and fname in imported:  # (a name a sibling module defines)
+                node = functions(f"{imported[fname]}.py")[1].get(fname)
+            if node is None:  # (a name bound otherwise: an alias, a wrapped function)
+                return None
+            if isinstance(node, ast.FunctionDef):
+                found[ALIASES.get(fname, fname.replace("_", "-"))] = summary(node)
+        tree, defs = functions("_models.py")
+        models = next(n.value for n in tree.body if isinstance(n, ast.Assign)
+                      and any(getattr(t, "id", None) == "MODELS" for t in n.targets))
+        for key, value in zip(models.keys, models.values):
+            name, node = ast.literal_eval(key), defs.get(getattr(value, "id", None))
+            if not isinstance(node, ast.FunctionDef):
+                return None
+            found.setdefault(name, summary(node))
+    except (OSError, SyntaxError, ValueError, StopIteration, AttributeError):
+        return None
+    return dict(sorted(found.items()))
 
 
 def all_presets() -> dict[str, Preset]:

@@ -21,12 +21,10 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from ._models import MODELS, dendry_setup, relief, unit_range  # dendry_setup for batch jobs; relief and unit_range kept importable from here
-from ._spec import (ALIASES, UsageError, all_presets, canonical_name, counted, nearest, parse_config, progress_bar,
-                    resolve)
+from ._spec import (ALIASES, UsageError, all_presets, canonical_name, counted, nearest, parse_config, preset_summaries,
+                    progress_bar, resolve)
 
 __all__ = ["MODELS", "UsageError", "build_parser", "dendry_setup", "main", "pick_device", "relief", "run_preset",
            "unit_range", "write_outputs"]
@@ -35,6 +33,18 @@ PICTURE, FIELD, SVG = (".png",), (".npy",), (".svg",)
 MESH, DENDRITE = (".obj", ".ply", ".stl", ".glb"), (".npz", ".json")
 RAW, GEOTIFF = (".r16", ".raw"), (".tif", ".tiff")  # terrain files (wdendrite.heightmaps)
 SUFFIXES = PICTURE + FIELD + MESH + DENDRITE + SVG + RAW + GEOTIFF
+
+if TYPE_CHECKING:  # (NumPy is imported where a result is handled: --help and --version need none of it)
+    import numpy as np
+
+
+def __getattr__(name: str):
+    # the models, NumPy and Warp are imported when a preset runs, not for --help or --version
+    if name in ("MODELS", "dendry_setup", "relief", "unit_range"):  # (dendry_setup for batch jobs; the others
+        from . import _models                                        # kept importable from here)
+
+        return getattr(_models, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # --------------------------------------------------------------------------- devices and outputs
@@ -174,6 +184,8 @@ def write_outputs(result, paths, *, force: bool, heightmap: bool = False, preset
 def _save_npy(path, array: np.ndarray) -> None:
     """``np.save`` to exactly ``path`` (given a name, NumPy appends ``.npy`` unless it ends so, as
     ``f.NPY`` does not)."""
+    import numpy as np
+
     with open(path, "wb") as f:
         np.save(f, array)
 
@@ -188,6 +200,8 @@ def _heightmap(field, value_range=None, option: str = "--heightmap") -> tuple[fl
     """``(lo, hi, clipped)``: the values grey 0 and 65535 stand for in heightmaps of ``field``
     (``value_range``, else its finite minimum and maximum) and how many finite values lie outside
     them; a field with NaN, or without a finite value and a range, is refused naming ``option``."""
+    import numpy as np
+
     from . import heightmaps
 
     try:
@@ -202,6 +216,8 @@ def _heightmap(field, value_range=None, option: str = "--heightmap") -> tuple[fl
 
 def _grid(result) -> dict:
     """``{"quantity", "domain"}`` of a result's field, as terrain files record them."""
+    import numpy as np
+
     quantity = getattr(result, "quantity", None)
     parts = getattr(result, "parts", {}) or {}
     if quantity is None:
@@ -222,6 +238,8 @@ def _write_one(io, result, path: Path, suf: str, heightmap: bool, preset: str, v
     elif suf == ".png":
         io.save_png(path, _picture(result), overwrite=True)
     elif suf == ".npy":
+        import numpy as np
+
         field = np.asarray(_field(result, preset), np.float32)
         io.atomic_write(path, lambda tmp: _save_npy(tmp, field), overwrite=True)
     elif suf in MESH:
@@ -260,12 +278,18 @@ def _makes_no(preset: str, what: str, meshes: bool) -> UsageError:
 
 
 def _picture(result) -> np.ndarray:
+    import numpy as np
+
+    from ._models import unit_range
+
     if isinstance(result, np.ndarray):
         return unit_range(result)
     return result.image
 
 
 def _field(result, preset: str) -> np.ndarray:
+    import numpy as np
+
     if isinstance(result, np.ndarray):
         return result
     parts = getattr(result, "parts", {}) or {}
@@ -503,8 +527,12 @@ options of every preset:
 exit codes: 0 success, 2 bad usage or input (nothing written), 1 unexpected failure"""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full parser: one subparser per preset, plus ``batch``."""
+def build_parser(*, listing: bool = False) -> argparse.ArgumentParser:
+    """The full parser: one subparser per preset, plus ``batch`` and ``warmup``. With ``listing``, the
+    presets' subparsers only name them (with their summaries, read from the sources, so that
+    ``wdendrite --help`` and ``--version`` import neither the presets nor Warp): enough to print the
+    command's help or version, or to refuse a command line that names no preset."""
+    summaries = preset_summaries() if listing else None
     p = _Parser(prog="wdendrite", formatter_class=argparse.RawDescriptionHelpFormatter,
                 description="Dendritic shapes grown with NVIDIA Warp kernels.\n\n"
                             "Run 'wdendrite PRESET --help' for a preset's parameters, defaults and units.\n"
@@ -514,9 +542,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p.add_argument("--version", action="version", version=f"wdendrite {__version__}")
     sub = p.add_subparsers(dest="command", metavar="PRESET", required=True, parser_class=_Parser)
-    for name, preset in all_presets().items():
+    for name, preset in (summaries or all_presets()).items():
         # a preset named after its model (tree) also answers to its function's name (elm-tree)
         aliases = [f.replace("_", "-") for f, a in ALIASES.items() if a == name]
+        if summaries is not None:
+            sub.add_parser(name, aliases=aliases, help=preset)
+            continue
         s = sub.add_parser(name, aliases=aliases, help=preset.summary, description=preset.doc,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         _add_params(s, preset)
@@ -538,7 +569,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="overwrite files in the output folder that an earlier batch did not make")
     b.add_argument("--dry-run", action="store_true", help="list the tasks and whether they are done, run nothing")
     b.set_defaults(_preset=None)
+    w = sub.add_parser("warmup", help="compile every kernel module now (for later runs, notebooks, CI images), "
+                                      "printing the seconds each took")
+    w.add_argument("--device", default=None, metavar="DEV", help="Warp device (default: CUDA if present, else cpu)")
+    w.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="modules compiled at the same time (default: the number of CPUs)")
+    w.add_argument("--quiet", action="store_true", help="no progress bar")
+    w.set_defaults(_preset=None, _warmup=True)
     return p
+
+
+def _warmup(args) -> int:
+    """``wdendrite warmup``: every kernel module compiled (or found in Warp's cache) for the device."""
+    from .warmup import load_kernels
+
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    dev = pick_device(args.device)
+    t = time.perf_counter()
+    seconds = load_kernels(dev, workers=args.workers, progress=not args.quiet)
+    for name, s in seconds.items():
+        print(f"{name:<16}{s:8.2f} s")
+    print(f"{len(seconds)} kernel modules ready on {dev} in {time.perf_counter() - t:.2f} s")
+    return 0
 
 
 def _unknown(argv, parser, extras) -> UsageError:
@@ -589,6 +642,8 @@ def main(argv=None) -> int:
     preset = None
     sources = {}  # parameters the config file set
     try:
+        if not any(not a.startswith("-") for a in argv):  # no preset named: --help, --version or a usage error
+            build_parser(listing=True).parse_known_args(argv)
         import warp as wp
 
         wp.config.log_level = logging.WARNING  # no start-up banner, whatever initializes Warp first
@@ -596,6 +651,8 @@ def main(argv=None) -> int:
         args, extras = parser.parse_known_args(argv)
         if extras:
             raise _unknown(argv, parser, extras)
+        if getattr(args, "_warmup", False):
+            return _warmup(args)
         if args._preset is None:
             from .batch import run_file
 
@@ -749,6 +806,8 @@ def _tiled(preset, values: dict, outs: list, args, workers: int | None = None) -
 def _made(result) -> str:
     """What a result holds, in a few words: dendrite and mesh sizes, else the size and finite range
     of its field (a terrain's elevation, a Dendry image)."""
+    import numpy as np
+
     bits = []
     den, mesh = getattr(result, "dendrite", None), getattr(result, "mesh", None)
     if den is not None:

@@ -1181,3 +1181,7 @@ def _point_tiles(u: np.ndarray, params: DendryParams, output: str) -> tuple[np.n
     starts = np.flatnonzero(np.r_[True, sorted_keys[1:] != sorted_keys[:-1], True])
     return order, starts
 
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

@@ -478,3 +478,7 @@ def _band_advice(lattice: Lattice, structure: np.ndarray, plan, r: float, device
         return f"{span}, all below the last band: lower 'd' into that range (or grow on a larger lattice)"
     return f"{span}, between the bands: raise 'r' or choose 'd' so that a band meets them"
 
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

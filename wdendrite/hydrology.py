@@ -287,3 +287,8 @@ def ridged_terrain(shape, *, seed: int = 0, frequency: float = 4.0, octaves: int
     _control._grid_shape(shape, device)
     c = _control.ridged(seed=seed, frequency=frequency, octaves=octaves, domain=((0.0, 0.0), (1.0, 1.0)))
     return c.grid(shape, device=device)
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

@@ -354,3 +354,8 @@ def _sky(shape) -> np.ndarray:
     y = np.linspace(0.0, 1.0, shape[0], dtype=np.float32)[:, None, None]
     top, bottom = np.array([0.05, 0.05, 0.12], np.float32), np.array([0.01, 0.01, 0.03], np.float32)
     return np.broadcast_to(top * (1 - y) + bottom * y, (*shape, 3)).copy()
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

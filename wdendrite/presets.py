@@ -907,3 +907,8 @@ def moss(shape=(40, 96, 96), *, endpoints: int | None = None, image: np.ndarray 
     mesh, lines = _scenes.moss_body(den, _r.Taper(0.55, 0.3, along="path"), picture, voxel=0.4, sigma=_SIGMA)
     return Result(_geo.preview(mesh, elevation=40), den, mesh, parts={"lattice": lat, "skeleton": lines,
                                                                        "image": picture})
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

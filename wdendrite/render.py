@@ -911,3 +911,8 @@ def dendry_lines(shape, *, domain, params, control=None, widths=None, distance=N
 
         _parallel.each(cover_band, bands, workers)  # (NumPy's and SciPy's loops run without the interpreter lock)
     return cover
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

@@ -792,3 +792,8 @@ def _run(arrays, frontier: _Frontiers, launches: _Launches, delta: float) -> tup
         launches.split(near, far, frontier.threads(n_far), previous, threshold, generation)
         frontier.set_count(2 + far, 0)
         far = 1 - far
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means

@@ -640,3 +640,8 @@ class Biased(Distribution):
         return Biased(self.base, self.terms + ((other, _kw.ADD),))
 
     __radd__ = __add__
+
+
+from ._spec import document_fields as _document_fields  # noqa: E402  (the classes above are complete)
+
+_document_fields(__name__)  # help() shows what each dataclass field means
