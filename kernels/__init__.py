@@ -9,8 +9,8 @@ OPTIONS = {"enable_backward": False, "fuse_fp": False, "cpu_compiler_flags": "-m
 """Module options every kernel module sets: no gradients (none is ever needed, and the
 backward code would double the compile time); for the CPU, code for the host's own instruction
 set with LLVM's default inlining (Warp's default raises LLVM's inlining thresholds, which about
-doubles the compile time for no run-time gain measured here, but in the search module, which
-keeps Warp's: see BENCHMARKS.md, "Start-up and kernel compilation"), and no precompiled header
+doubles the compile time for no run-time gain measured here, but in the search module and the
+per-pixel Dendry kernels, which keep Warp's: see BENCHMARKS.md, "Start-up and kernel compilation"), and no precompiled header
 (a process builds one for each set of compiler flags it meets, about 2 s each, while parsing the
 header in each module costs a few tenths: a command loads three or four modules); and no fused
 multiply-add. CUDA compilers fuse

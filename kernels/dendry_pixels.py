@@ -17,8 +17,9 @@ from . import OPTIONS
 from .dendry import Setup, evaluate, pixel_centre, pixel_of
 from .noise import Control
 
-wp.set_module_options(OPTIONS)
-wp.set_module_options({"max_unroll": 1})
+# Warp's own CPU flags (its raised inlining thresholds): with LLVM's defaults the per-pixel kernels
+# ran at about half the speed (BENCHMARKS.md, "Start-up and kernel compilation")
+wp.set_module_options({**OPTIONS, "cpu_compiler_flags": None, "max_unroll": 1})
 
 
 @wp.kernel
