@@ -295,7 +295,7 @@ def queue_ends(
 def mark_lowered_kernel(
     flat_offsets: wp.array(dtype=wp.int32),
     mask: wp.array(dtype=wp.uint8),
-    old_aux: wp.array(dtype=wp.int32),
+    old_records: wp.array(dtype=wp.int32),
     stride: int,
     n_weights: int,
     far_id: int,
@@ -306,7 +306,7 @@ def mark_lowered_kernel(
     far_min: wp.array(dtype=float),
     far_out: wp.array(dtype=wp.int32),
 ):
-    """Queue both ends of every edge whose weight went down from ``old_aux`` to ``records`` (warm start).
+    """Queue both ends of every edge whose weight went down from ``old_records`` to ``records`` (warm start).
 
     Both record arrays have the same layout (the same lattice shape and connectivity).
     """
@@ -317,7 +317,7 @@ def mark_lowered_kernel(
     while k < flat_offsets.shape[0]:
         e = node * stride + WEIGHT0 + k
         other = node + flat_offsets[k]
-        if wp.cast(records[e], wp.float32) < wp.cast(old_aux[e], wp.float32) and mask[other] != wp.uint8(0):
+        if wp.cast(records[e], wp.float32) < wp.cast(old_records[e], wp.float32) and mask[other] != wp.uint8(0):
             queue_ends(node, other, far_id, far_slot, stride, n_weights, state, records, counts, far_min, far_out)
         k += 1
 

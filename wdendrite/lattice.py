@@ -580,8 +580,8 @@ class Lattice:
 
         For growth's own copy of a lattice only (lattices are otherwise never
         changed). The host records change here; records on ``device`` get the
-        new values from the next warm search (:func:`~wdendrite.sssp.shortest_paths`'
-        ``_lowered``), and records on any other device are dropped. Returns
+        new values from the next warm search (``lowered`` of
+        :func:`wdendrite.sssp._search`), and records on any other device are dropped. Returns
         ``(padded nodes, dirs, new weights, the records that hold them)`` for that search.
         """
         if self._weights is None or not self._stored:

@@ -427,11 +427,9 @@ def _search(
 
     The other arguments, the result and the errors are those of :func:`shortest_paths`.
     """
-    _fifo, _host_rounds, _max_threads, _consume_warm_start, _walked, _lowered = (
-        fifo, host_rounds, max_threads, consume_warm_start, walked, lowered)
     if not isinstance(lattice, Lattice):
         raise TypeError(f"Expected a wdendrite.Lattice for 'lattice', but got {type(lattice).__name__}")
-    trusted = _walked is not None and isinstance(warm_start, CostField)
+    trusted = walked is not None and isinstance(warm_start, CostField)
     gens = np.asarray(generators) if trusted else _generator_rows(generators, lattice, warm_start)
     if len(gens) >= 2**31:
         raise ValueError(f"'generators' has {len(gens)} rows; at most 2**31 - 1 are supported")
@@ -475,13 +473,13 @@ def _search(
             new_rows = np.arange(len(gens))
         else:
             load_state(warm_start, arrays)
-            release_records(arrays, consumed=warm_start if _consume_warm_start else None)
+            release_records(arrays, consumed=warm_start if consume_warm_start else None)
             new_rows = np.arange(len(warm_start.generators), len(gens))
             old_arrays = warm_start.lattice.device_arrays(device)
-            if _lowered is not None:
+            if lowered is not None:
                 if warm_start.lattice is not lattice:
                     raise ValueError("'lowered' edges belong to the warm start's own lattice")
-                nodes, dirs, values, held = _lowered
+                nodes, dirs, values, held = lowered
                 if len(nodes):
                     wp.launch(
                         _k.mark_listed_lowered_kernel,
@@ -499,7 +497,7 @@ def _search(
                     outputs=[arrays.state, arrays.records, frontier.counts, frontier.far_min, frontier.lists[2]],
                 )
         if len(new_rows):
-            flat = _walked.astype(np.int32) if trusted else lattice.padded_indices(gens[new_rows])
+            flat = walked.astype(np.int32) if trusted else lattice.padded_indices(gens[new_rows])
             wp.launch(
                 _k.seed_kernel,
                 dim=len(flat),
@@ -507,9 +505,9 @@ def _search(
                         arrays.stride, arrays.n_weights, far_id, 2],
                 outputs=[arrays.state, arrays.records, frontier.counts, frontier.far_min, frontier.lists[2]],
             )
-        fifo = device.is_cpu if _fifo is None else bool(_fifo)
-        frontier.max_threads = _max_threads
-        launches.begin(kernel_limit(limit_f), fifo, far_id, one_launch=fifo and not _host_rounds)
+        fifo = device.is_cpu if fifo is None else bool(fifo)
+        frontier.max_threads = max_threads
+        launches.begin(kernel_limit(limit_f), fifo, far_id, one_launch=fifo and not host_rounds)
         rounds, relaxed = _run(arrays, frontier, launches, delta_f)
         result = CostField(lattice, gens, limit_f, _Fields(arrays), rounds, relaxed)
         arrays.stamps.owner = weakref.ref(result)
