@@ -396,7 +396,8 @@ def run_preset(name: str, values: dict, outputs, *, device: str | None = None, f
                 lo, hi, clipped = _heightmap(field, value_range, option)
                 _check_raw(paths, field.shape)
         seconds = time.perf_counter() - t0
-        bar.set_description_str(f"{name}: writing {counted(len(paths), 'file')}")
+        # (shown by the ticker's next refresh: drawing it now would show a line for an instant write)
+        bar.set_description_str(f"{name}: writing {counted(len(paths), 'file')}", refresh=False)
         t1 = time.perf_counter()
         written = write_outputs(result, paths, force=force, heightmap=heightmap, preset=name,
                                 value_range=(lo, hi) if sixteen else None)
